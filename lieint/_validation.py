@@ -1,0 +1,117 @@
+"""Small named validators for user input.
+
+Every public entry point funnels its arguments through these helpers so that a bad
+argument raises a ``ValueError``/``TypeError`` that names the argument, states what was
+expected and shows what was received -- never a deep numpy traceback or a silent NaN.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+__all__ = [
+    "as_float_array",
+    "check_finite_positive",
+    "check_rotation",
+    "check_skew",
+    "check_square_trailing",
+    "describe",
+]
+
+
+def describe(x: np.ndarray, limit: int = 6) -> str:
+    """Short human-readable description of an array for error messages."""
+    x = np.asarray(x)
+    if x.size <= limit:
+        return np.array2string(x, precision=4, separator=", ").replace("\n", "")
+    return f"array of shape {x.shape}"
+
+
+def as_float_array(value, name: str, *, allow_nonfinite: bool = False) -> np.ndarray:
+    """Convert ``value`` to a float64 array, or raise naming ``name``.
+
+    Raises
+    ------
+    TypeError
+        If ``value`` is not numeric (strings, objects, complex numbers).
+    ValueError
+        If it holds NaN or inf (unless ``allow_nonfinite``).
+    """
+    if value is None:
+        raise TypeError(f"`{name}` must be an array of real numbers; got None.")
+    try:
+        arr = np.asarray(value)
+    except Exception as exc:  # ragged sequences and the like
+        raise TypeError(f"`{name}` must be an array of real numbers; got {type(value).__name__}.") from exc
+    if arr.dtype == object or not (
+        np.issubdtype(arr.dtype, np.floating)
+        or np.issubdtype(arr.dtype, np.integer)
+        or np.issubdtype(arr.dtype, np.bool_)
+    ):
+        raise TypeError(f"`{name}` must be an array of real numbers; got dtype {arr.dtype}.")
+    arr = arr.astype(np.float64, copy=False)
+    if not allow_nonfinite and not np.all(np.isfinite(arr)):
+        bad = np.argwhere(~np.isfinite(arr))[0]
+        raise ValueError(f"`{name}` must be finite; got {arr[tuple(bad)]} at index {tuple(int(i) for i in bad)}.")
+    return arr
+
+
+def check_square_trailing(arr: np.ndarray, name: str, n: int | None = None) -> int:
+    """Check that ``arr`` has shape ``(..., n, n)``; return n."""
+    if arr.ndim < 2 or arr.shape[-1] != arr.shape[-2]:
+        expected = "(..., n, n)" if n is None else f"(..., {n}, {n})"
+        raise ValueError(f"`{name}` must have shape {expected}; got shape {arr.shape}.")
+    if n is not None and arr.shape[-1] != n:
+        raise ValueError(
+            f"`{name}` must have shape (..., {n}, {n}) for this system of dimension n = {n}; got shape {arr.shape}."
+        )
+    return arr.shape[-1]
+
+
+def check_skew(arr: np.ndarray, name: str, rtol: float = 1e-10) -> np.ndarray:
+    """Check that ``arr`` is skew-symmetric (a bivector) to ``rtol``; return its skew part."""
+    sym = arr + np.swapaxes(arr, -1, -2)
+    scale = np.max(np.abs(arr), initial=0.0)
+    err = np.max(np.abs(sym), initial=0.0)
+    if err > rtol * max(scale, 1e-300) and err > 0:
+        raise ValueError(
+            f"`{name}` must be skew-symmetric (a bivector, X^T = -X); "
+            f"got max |X + X^T| = {err:.3g} for max |X| = {scale:.3g}."
+        )
+    return 0.5 * (arr - np.swapaxes(arr, -1, -2))
+
+
+def check_rotation(arr: np.ndarray, name: str, atol: float = 1e-10) -> None:
+    """Check that every matrix of ``arr`` lies in SO(n) (orthogonal, det = +1)."""
+    n = arr.shape[-1]
+    defect = np.linalg.norm(np.swapaxes(arr, -1, -2) @ arr - np.eye(n), axis=(-2, -1))
+    worst = float(np.max(defect, initial=0.0))
+    if worst > atol:
+        raise ValueError(
+            f"`{name}` must be a rotation in SO({n}) (R^T R = I, det R = +1); got ||R^T R - I|| = {worst:.3g}."
+        )
+    det = np.linalg.det(arr)
+    if np.any(det < 0):
+        raise ValueError(
+            f"`{name}` must be a rotation in SO({n}) with det R = +1; got det R = "
+            f"{float(np.min(det)):.6g} (a reflection)."
+        )
+
+
+def check_finite_positive(value, name: str) -> float:
+    """Check a scalar is a finite number > 0; return it as float."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise TypeError(f"`{name}` must be a positive finite number; got {value!r}.")
+    v = float(value)
+    if not np.isfinite(v) or v <= 0:
+        raise ValueError(f"`{name}` must be a positive finite number; got {v!r}.")
+    return v
+
+
+def check_choice(value, name: str, choices: Sequence[str]) -> str:
+    """Check ``value`` is one of ``choices``; list them in the message."""
+    if not isinstance(value, str) or value not in choices:
+        raise ValueError(f"`{name}` must be one of {list(choices)}; got {value!r}.")
+    return value

@@ -1,0 +1,212 @@
+"""The driver: :func:`integrate` steps a system with a method and saves the trajectory."""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+
+from ._validation import check_finite_positive
+from .methods.registry import _AUTO, get_method
+from .methods.scipy_ivp import ScipyMethod
+from .solution import Solution
+from .systems.base import LieGroupSystem
+
+__all__ = ["integrate"]
+
+# How often (in steps) a long stretch between saves is checked for non-finite values.
+_FINITE_CHECK_EVERY = 256
+
+
+def integrate(
+    system: LieGroupSystem,
+    y0: dict,
+    t_span: tuple[float, float],
+    h: float | None = None,
+    method="rkmk4",
+    *,
+    coordinates: str | None = None,
+    project: bool = False,
+    save_every: int = 1,
+    dexpinv_degree=_AUTO,
+    rtol: float = 1e-8,
+    atol: float = 1e-10,
+    t_eval=None,
+) -> Solution:
+    """Integrate ``system`` from ``y0`` over ``t_span``.
+
+    Parameters
+    ----------
+    system : LieGroupSystem
+        The system (e.g. :class:`lieint.EulerTop`).
+    y0 : dict
+        Initial state from ``system.initial_state(...)``; leading batch dimensions integrate
+        as one ensemble.
+    t_span : (float, float)
+        ``(t0, t1)`` with ``t1 > t0``.
+    h : float
+        Step size of fixed-step methods. The steps are ``t_k = t0 + k h``; a last, shorter
+        step lands exactly on ``t1`` when ``(t1 − t0)/h`` is not an integer. For scipy
+        methods ``h`` (if given) only sets the save grid.
+    method : str or method object
+        A name from :func:`lieint.methods` ("lie_euler", "rkmk2", "rkmk3", "rkmk4", "rkmk6",
+        "rk4", "scipy:DOP853", …) or a :class:`~lieint.methods.LieMethod` /
+        :class:`~lieint.methods.ClassicalRK` / :class:`~lieint.methods.ScipyMethod`.
+    coordinates : {"exp", "cayley"}, optional
+        Coordinate map of Lie-group methods (default "exp").
+    project : bool, default False
+        After every step (scipy: at every save point) project the state onto its manifold
+        exactly (R onto SO(n) by the polar factor).
+    save_every : int, default 1
+        Keep every k-th step (and always the last one).
+    dexpinv_degree : int, None or "auto"
+        dexp⁻¹ truncation of Lie-group methods ("auto": degree p − 2; None: exact).
+    rtol, atol : float
+        Tolerances of scipy methods.
+    t_eval : array_like, optional
+        Save times of scipy methods (default: the grid of ``h`` and ``save_every``, else
+        101 evenly spaced points).
+
+    Returns
+    -------
+    Solution
+        ``t``, ``states`` (``(m, *batch, ...)`` per field), lazy ``invariants``, counts.
+
+    Raises
+    ------
+    lieint.groups.DexpinvRangeError
+        When a Lie step is too large for the dexp⁻¹ series (exp coordinates).
+    """
+    if not isinstance(system, LieGroupSystem):
+        raise TypeError(f"`system` must be a lieint system (e.g. lieint.EulerTop); got {type(system).__name__}.")
+    stepper = get_method(method, coordinates=coordinates, dexpinv_degree=dexpinv_degree)
+    y = system.validate_state(y0, "y0")
+    t0, t1 = _check_t_span(t_span)
+    if isinstance(save_every, bool) or not isinstance(save_every, (int, np.integer)) or save_every < 1:
+        raise ValueError(f"`save_every` must be a positive integer; got {save_every!r}.")
+    if not isinstance(project, (bool, np.bool_)):
+        raise TypeError(f"`project` must be True or False; got {project!r}.")
+    if isinstance(stepper, ScipyMethod):
+        return _integrate_scipy(system, y, t0, t1, h, stepper, project, save_every, rtol, atol, t_eval)
+    if h is None:
+        raise ValueError(f"`h` (the step size) is required for the fixed-step method {stepper.name!r}.")
+    h = check_finite_positive(h, "h")
+    if t_eval is not None:
+        raise ValueError("`t_eval` applies to scipy methods only; fixed-step methods save every `save_every` steps.")
+    return _integrate_fixed(system, y, t0, t1, h, stepper, bool(project), int(save_every))
+
+
+def _check_t_span(t_span) -> tuple[float, float]:
+    try:
+        t0, t1 = (float(v) for v in t_span)
+    except (TypeError, ValueError):
+        raise ValueError(f"`t_span` must be a pair (t0, t1) of numbers; got {t_span!r}.") from None
+    if not (math.isfinite(t0) and math.isfinite(t1)):
+        raise ValueError(f"`t_span` must be finite; got {t_span!r}.")
+    if not t1 > t0:
+        raise ValueError(f"`t_span` = (t0, t1) must have t1 > t0 (nonempty, forward in time); got {t_span!r}.")
+    return t0, t1
+
+
+def _step_count(t0: float, t1: float, h: float) -> int:
+    ratio = (t1 - t0) / h
+    # A ratio within round-off of an integer is that integer (no sliver of a last step).
+    nearest = round(ratio)
+    return max(1, int(nearest) if abs(ratio - nearest) <= 1e-9 * max(1.0, ratio) else math.ceil(ratio))
+
+
+def _integrate_fixed(system, y, t0, t1, h, stepper, project, save_every) -> Solution:
+    nsteps = _step_count(t0, t1, h)
+    save_steps = list(range(0, nsteps + 1, save_every))
+    if save_steps[-1] != nsteps:
+        save_steps.append(nsteps)
+    m = len(save_steps)
+    t_saved = np.array([t0 + k * h for k in save_steps])
+    t_saved[-1] = t1
+    if project:
+        y = system.project(y)
+    states = {name: np.empty((m,) + arr.shape) for name, arr in y.items()}
+    for name, arr in y.items():
+        states[name][0] = arr
+    slot, nfev = 1, 0
+    success, message = True, f"Reached t1 = {t1} in {nsteps} steps."
+    cpu0 = time.process_time()
+    for k in range(nsteps):
+        tk = t0 + k * h
+        hk = h if k < nsteps - 1 else t1 - tk
+        y, evals = stepper.step(system, tk, y, hk)
+        nfev += evals
+        if project:
+            y = system.project(y)
+        done = k + 1
+        saving = slot < m and save_steps[slot] == done
+        if (saving or done % _FINITE_CHECK_EVERY == 0) and not _all_finite(y):
+            success = False
+            message = (
+                f"The state became non-finite (NaN or inf) by step {done} (t = {t0 + done * h:.6g}); "
+                f"the run stopped there. Reduce the step `h` = {h:g} or check the initial state."
+            )
+            break
+        if saving:
+            for name, arr in y.items():
+                states[name][slot] = arr
+            slot += 1
+    cpu = time.process_time() - cpu0
+    if slot < m:
+        states = {name: arr[:slot] for name, arr in states.items()}
+        t_saved = t_saved[:slot]
+    stats = {
+        "h": h,
+        "project": project,
+        "cpu_time": cpu,
+        "save_every": save_every,
+        "order": stepper.order,
+        "coordinates": stepper.coordinates,
+    }
+    return Solution(
+        t_saved, states, system, stepper.name, done if not success else nsteps, nfev, success, message, stats
+    )
+
+
+def _all_finite(y: dict) -> bool:
+    return all(bool(np.isfinite(arr).all()) for arr in y.values())
+
+
+def _integrate_scipy(system, y, t0, t1, h, stepper, project, save_every, rtol, atol, t_eval) -> Solution:
+    rtol = check_finite_positive(rtol, "rtol")
+    atol = check_finite_positive(atol, "atol")
+    if t_eval is not None:
+        t_save = np.asarray(t_eval, dtype=float)
+        if t_save.ndim != 1 or t_save.size < 2 or not np.all(np.isfinite(t_save)):
+            raise ValueError(f"`t_eval` must be a 1-D array of at least two finite times; got {t_eval!r}.")
+        if t_save[0] != t0 or t_save[-1] != t1 or np.any(np.diff(t_save) <= 0):
+            raise ValueError(
+                f"`t_eval` must increase strictly from t0 = {t0} to t1 = {t1}; "
+                f"got first {t_save[0]}, last {t_save[-1]}."
+            )
+    elif h is not None:
+        h = check_finite_positive(h, "h")
+        n = _step_count(t0, t1, h)
+        ks = list(range(0, n + 1, save_every))
+        if ks[-1] != n:
+            ks.append(n)
+        t_save = np.array([t0 + k * h for k in ks])
+        t_save[-1] = t1
+    else:
+        t_save = np.linspace(t0, t1, 101)
+    if project:
+        y = system.project(y)
+    cpu0 = time.process_time()
+    states, nfev, success, message = stepper.solve(system, y, t_save, rtol, atol, bool(project))
+    cpu = time.process_time() - cpu0
+    m = next(iter(states.values())).shape[0]
+    stats = {
+        "rtol": rtol,
+        "atol": atol,
+        "project": bool(project),
+        "cpu_time": cpu,
+        "order": stepper.order,
+        "coordinates": None,
+    }
+    return Solution(t_save[:m], states, system, stepper.name, 0, int(nfev), bool(success), str(message), stats)

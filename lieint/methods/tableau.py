@@ -1,0 +1,80 @@
+"""Explicit Butcher tableaux as checked data."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .order_conditions import order_residuals, tree_string
+
+__all__ = ["ButcherTableau"]
+
+
+@dataclass(frozen=True, eq=False)
+class ButcherTableau:
+    """An explicit Runge–Kutta tableau ``(A, b, c)`` of a declared order.
+
+    Checked on creation: ``A`` strictly lower triangular (explicit), ``Σ_j a_ij = c_i``,
+    and every rooted-tree order condition up to ``order`` holds to 1e-13.
+
+    Parameters
+    ----------
+    name : str
+        Human-readable name ("classical RK4", "Butcher 6(7)").
+    A : array_like, shape (s, s)
+        Stage coefficients (strictly lower triangular).
+    b : array_like, shape (s,)
+        Weights.
+    c : array_like, shape (s,)
+        Nodes; stage i is evaluated at ``t + c_i h``.
+    order : int
+        The order the tableau is claimed to have.
+    """
+
+    name: str
+    A: np.ndarray
+    b: np.ndarray
+    c: np.ndarray
+    order: int
+    stages: int = field(init=False)
+
+    def __post_init__(self):
+        A = np.atleast_2d(np.asarray(self.A, dtype=float))
+        b = np.atleast_1d(np.asarray(self.b, dtype=float))
+        c = np.atleast_1d(np.asarray(self.c, dtype=float))
+        s = b.shape[0]
+        if A.shape != (s, s) or c.shape != (s,) or b.ndim != 1:
+            raise ValueError(
+                f"Tableau {self.name!r}: `A` must be ({s}, {s}) and `c` ({s},) for {s} weights `b`; "
+                f"got A {A.shape}, b {b.shape}, c {c.shape}."
+            )
+        if not (np.all(np.isfinite(A)) and np.all(np.isfinite(b)) and np.all(np.isfinite(c))):
+            raise ValueError(f"Tableau {self.name!r}: coefficients must be finite.")
+        if np.any(np.triu(A) != 0):
+            raise ValueError(
+                f"Tableau {self.name!r}: `A` must be strictly lower triangular (explicit method); "
+                f"got nonzero entries on or above the diagonal."
+            )
+        if not np.allclose(A.sum(axis=1), c, rtol=0, atol=1e-14):
+            raise ValueError(f"Tableau {self.name!r}: row sums of `A` must equal `c`; got {A.sum(axis=1)} vs {c}.")
+        if isinstance(self.order, bool) or not isinstance(self.order, (int, np.integer)) or self.order < 1:
+            raise ValueError(f"Tableau {self.name!r}: `order` must be an integer >= 1; got {self.order!r}.")
+        for tree, residual in order_residuals(A, b, int(self.order)):
+            if abs(residual) > 1e-13:
+                raise ValueError(
+                    f"Tableau {self.name!r} does not have order {self.order}: the condition for the "
+                    f"tree {tree_string(tree)} (order {_size(tree)}) fails by {residual:.3g}."
+                )
+        for key, val in (("A", A), ("b", b), ("c", c)):
+            val.setflags(write=False)
+            object.__setattr__(self, key, val)
+        object.__setattr__(self, "order", int(self.order))
+        object.__setattr__(self, "stages", s)
+
+    def __repr__(self) -> str:
+        return f"ButcherTableau({self.name!r}, stages={self.stages}, order={self.order})"
+
+
+def _size(tree) -> int:
+    return 1 + sum(_size(c) for c in tree)

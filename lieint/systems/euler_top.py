@@ -1,0 +1,287 @@
+"""The n-dimensional Euler top: a rigid body with a fixed point, no forces (MATH.md §2)."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import numpy as np
+
+from .._validation import as_float_array, check_rotation, check_skew, check_square_trailing, describe
+from ..groups.bivectors import hat, inner, skew_part, vee
+from ..groups.so import SO, project_to_so
+from .base import LieGroupSystem, State
+from .euler_top_exact import euler_top_angular_velocity
+from .invariants import manakov_integrals, manakov_labels, orthogonality_defect, skew_spectrum
+
+__all__ = ["EulerTop", "check_mass_tensor"]
+
+# A pair sum b_i + b_j below this fraction of the largest eigenvalue is treated as zero:
+# the body is (numerically) a rod and Ω(A) is undefined.
+_ROD_TOLERANCE = 1e-13
+
+
+def check_mass_tensor(B, name: str = "B") -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Validate a body mass tensor ``B = ∫ m X Xᵀ``; return ``(B, b, P)`` with ``B = P diag(b) Pᵀ``.
+
+    B must be a real symmetric positive semi-definite ``(n, n)`` matrix, n ≥ 2, with at most
+    one zero eigenvalue (``b_i + b_j > 0`` for i ≠ j): a flat body is fine, a rod is not.
+    """
+    B = as_float_array(B, name)
+    if B.ndim != 2:
+        raise ValueError(f"`{name}` must be one (n, n) mass tensor; got shape {B.shape}.")
+    n = check_square_trailing(B, name)
+    if n < 2:
+        raise ValueError(f"`{name}` must be (n, n) with n >= 2; got shape {B.shape}.")
+    scale = float(np.max(np.abs(B)))
+    if scale == 0.0:
+        raise ValueError(f"`{name}` must be a nonzero mass tensor; got the zero matrix.")
+    asym = float(np.max(np.abs(B - B.T)))
+    if asym > 1e-12 * scale:
+        raise ValueError(
+            f"`{name}` must be symmetric (a mass tensor ∫ m X Xᵀ); got max |B - Bᵀ| = {asym:.3g} "
+            f"for max |B| = {scale:.3g}."
+        )
+    B = 0.5 * (B + B.T)
+    b, P = np.linalg.eigh(B)
+    if b[0] < -1e-12 * b[-1]:
+        raise ValueError(
+            f"`{name}` must be positive semi-definite (a mass tensor ∫ m X Xᵀ); got eigenvalues {describe(b)}."
+        )
+    b = np.maximum(b, 0.0)
+    if b[0] + b[1] <= _ROD_TOLERANCE * b[-1]:
+        raise ValueError(
+            f"`{name}` must be symmetric positive semi-definite with at most one zero eigenvalue; got "
+            f"eigenvalues {describe(b)} (a rod: b_i + b_j = 0 for some i != j, so rotation about its "
+            "axis is undefined)."
+        )
+    return B, b, P
+
+
+class EulerTop(LieGroupSystem):
+    """The free rigid body with a fixed point in any dimension n ≥ 2.
+
+    State ``{"A": (..., n, n), "R": (..., n, n)}``: body angular momentum bivector A and
+    orientation R ∈ SO(n). Equations (Euler–Poisson)::
+
+        Ȧ = [A, Ω],   Ṙ = R Ω,   A = −(BΩ + ΩB),
+
+    with Ω recovered in the eigenbasis of B by ``Ω_ij = −A_ij / (b_i + b_j)``. SO(n) acts on
+    the right, ``Q · (A, R) = (QᵀAQ, RQ)``, with generator ``ξ = Ω(A)``.
+
+    Parameters
+    ----------
+    B : array_like, shape (n, n)
+        Body mass tensor ``∫ m X Xᵀ`` (symmetric, PSD, at most one zero eigenvalue).
+    orientation : bool, default True
+        Integrate R as well. Without it the state is A alone (cheaper), and the invariants
+        that need R (``momentum``, ``orthogonality``) are not available.
+
+    Invariants
+    ----------
+    ``energy``: ``T = ¼ tr(ΩA) = −½ tr(ΩBΩ)``. ``casimirs``: the rotation "angles" of A,
+    ``θ₁ ≥ θ₂ ≥ …`` (eigenvalues ``±iθ_k``), i.e. the spectrum. ``manakov``: coefficients
+    of ``tr((A − λB²)^k)`` in λ (see :func:`~lieint.systems.invariants.manakov_integrals`).
+    ``momentum``: space momentum ``a = R A Rᵀ``. ``orthogonality``: ``‖RᵀR − I‖_F``.
+
+    Examples
+    --------
+    >>> import numpy as np, lieint
+    >>> top = lieint.EulerTop.from_principal_moments([1.0, 2.0, 3.0])
+    >>> y0 = top.initial_state(angular_velocity=[0.01, 1.0, 0.01])
+    >>> sol = lieint.integrate(top, y0, t_span=(0.0, 1.0), h=0.01, method="rkmk4")
+    >>> bool(sol.drift("casimirs") < 1e-13)
+    True
+    """
+
+    def __init__(self, B, *, orientation: bool = True):
+        self.B, self.b, self.P = check_mass_tensor(B, "B")
+        self.n = self.B.shape[0]
+        self.group = SO(self.n)
+        if not isinstance(orientation, (bool, np.bool_)):
+            raise TypeError(f"`orientation` must be True or False; got {orientation!r}.")
+        self.orientation = bool(orientation)
+        self.fields = {"A": (self.n, self.n)}
+        if self.orientation:
+            self.fields["R"] = (self.n, self.n)
+        # A diagonal B needs no change of basis: skip two matrix products per evaluation.
+        self._diagonal = bool(np.all(self.B == np.diag(np.diag(self.B))))
+        if self._diagonal:
+            self.b = np.diag(self.B).copy()
+            self.P = np.eye(self.n)
+        pair = self.b[:, None] + self.b[None, :]
+        np.fill_diagonal(pair, 1.0)  # the diagonal of a bivector is zero anyway
+        self._minus_inv_pair = -1.0 / pair
+        self._B2 = self.B @ self.B
+
+    @classmethod
+    def from_principal_moments(cls, moments, *, orientation: bool = True) -> EulerTop:
+        """3D top from its principal moments of inertia ``I₁, I₂, I₃`` (n = 3 only).
+
+        ``B = diag(b)`` with ``b_i = (I_j + I_k − I_i)/2``; a physical body needs
+        ``I_i ≤ I_j + I_k`` (equality: a flat plate).
+        """
+        I = as_float_array(moments, "moments")
+        if I.shape != (3,):
+            raise ValueError(f"`moments` must be three principal moments (shape (3,)); got shape {I.shape}.")
+        if np.any(I <= 0):
+            raise ValueError(f"`moments` must be positive; got {describe(I)}.")
+        b = (I.sum() - 2.0 * I) / 2.0
+        if np.any(b < -1e-12 * I.max()):
+            raise ValueError(
+                f"`moments` must satisfy the triangle inequality I_i <= I_j + I_k of a physical body; "
+                f"got {describe(I)}."
+            )
+        return cls(np.diag(np.maximum(b, 0.0)), orientation=orientation)
+
+    # -- physics -----------------------------------------------------------------------
+    @property
+    def principal_moments(self) -> np.ndarray:
+        """n = 3: ``I = tr(B) − b`` in the order of the eigenvalues ``b``."""
+        return self.b.sum() - self.b
+
+    def momentum(self, Omega: np.ndarray) -> np.ndarray:
+        """Body angular momentum ``A = −(BΩ + ΩB)``."""
+        return -(self.B @ Omega + Omega @ self.B)
+
+    def angular_velocity(self, A: np.ndarray) -> np.ndarray:
+        """Inertia operator: Ω with ``A = −(BΩ + ΩB)``, via ``Ω_ij = −A_ij/(b_i + b_j)``."""
+        if self._diagonal:
+            return A * self._minus_inv_pair
+        P = self.P
+        return P @ ((P.T @ A @ P) * self._minus_inv_pair) @ P.T
+
+    def energy(self, A: np.ndarray) -> np.ndarray:
+        """Kinetic energy ``T = ¼ tr(ΩA) = −¼ ⟨Ω, A⟩``."""
+        return -0.25 * inner(self.angular_velocity(A), A)
+
+    # -- the LieGroupSystem contract ---------------------------------------------------
+    def generator(self, t, y: State) -> np.ndarray:
+        return self.angular_velocity(y["A"])
+
+    def act(self, g: np.ndarray, y: State) -> State:
+        gt = np.swapaxes(g, -1, -2)
+        out = {"A": gt @ y["A"] @ g}
+        if self.orientation:
+            out["R"] = y["R"] @ g
+        return out
+
+    def infinitesimal_action(self, xi: np.ndarray, y: State) -> State:
+        A = y["A"]
+        out = {"A": A @ xi - xi @ A}
+        if self.orientation:
+            out["R"] = y["R"] @ xi
+        return out
+
+    def project(self, y: State) -> State:
+        out = {"A": skew_part(y["A"])}
+        if self.orientation:
+            out["R"] = project_to_so(y["R"])
+        return out
+
+    @property
+    def invariant_functions(self):
+        funcs = {
+            "energy": lambda t, y: self.energy(y["A"]),
+            "casimirs": lambda t, y: skew_spectrum(y["A"]),
+            "manakov": lambda t, y: manakov_integrals(y["A"], self._B2),
+        }
+        if self.orientation:
+            funcs["momentum"] = lambda t, y: y["R"] @ y["A"] @ np.swapaxes(y["R"], -1, -2)
+            funcs["orthogonality"] = lambda t, y: orthogonality_defect(y["R"])
+        return funcs
+
+    @property
+    def manakov_labels(self) -> list[tuple[int, int]]:
+        """``(k, j)`` of each entry of the ``manakov`` invariant: coefficient of λʲ in ``tr((A − λB²)^k)``."""
+        return manakov_labels(self.n)
+
+    # -- states ------------------------------------------------------------------------
+    def initial_state(self, *, Omega=None, A=None, R=None, angular_velocity=None) -> State:
+        """Build a state from physical inputs, broadcasting leading batch dimensions.
+
+        Give exactly one of ``Omega`` (body angular velocity bivector, ``(..., n, n)``),
+        ``A`` (body angular momentum bivector) or, for n = 3, ``angular_velocity``
+        (the vector w with ``Ω = ŵ``, ``(..., 3)``). ``R`` (``(..., n, n)`` in SO(n)) defaults
+        to the identity.
+        """
+        given = {k: v for k, v in (("Omega", Omega), ("A", A), ("angular_velocity", angular_velocity)) if v is not None}
+        if len(given) != 1:
+            raise ValueError(
+                "Give exactly one of `Omega`, `A` or `angular_velocity` to `initial_state`; "
+                f"got {sorted(given) or 'none'}."
+            )
+        ((key, value),) = given.items()
+        n = self.n
+        arr = as_float_array(value, key)
+        if key == "angular_velocity":
+            if n != 3:
+                raise ValueError(f"`angular_velocity` (a vector w with Ω = ŵ) needs n = 3; this top has n = {n}.")
+            if arr.shape[-1:] != (3,):
+                raise ValueError(f"`angular_velocity` must have shape (..., 3); got shape {arr.shape}.")
+            Am = self.momentum(hat(arr))
+        else:
+            check_square_trailing(arr, key, n)
+            arr = check_skew(arr, key)
+            Am = self.momentum(arr) if key == "Omega" else arr
+        state = {"A": Am}
+        if self.orientation:
+            if R is None:
+                Rm = np.broadcast_to(np.eye(n), Am.shape).copy()
+            else:
+                Rm = as_float_array(R, "R")
+                check_square_trailing(Rm, "R", n)
+                check_rotation(Rm, "R")
+            batch = _broadcast_batch(Am.shape[:-2], Rm.shape[:-2], "R", key)
+            state = {"A": np.broadcast_to(Am, batch + (n, n)).copy(), "R": np.broadcast_to(Rm, batch + (n, n)).copy()}
+        elif R is not None:
+            raise ValueError("`R` was given but this EulerTop was built with orientation=False.")
+        return state
+
+    def validate_state(self, y: Mapping[str, np.ndarray], name: str = "y0") -> State:
+        out = super().validate_state(y, name)
+        out["A"] = check_skew(out["A"], f"{name}['A']")
+        if self.orientation:
+            check_rotation(out["R"], f"{name}['R']", atol=1e-9)
+        return out
+
+    # -- exact solution ----------------------------------------------------------------
+    def exact_solution(self, t, y0: State) -> State:
+        """Exact body momentum ``A(t)`` for n = 3 (Jacobi elliptic functions).
+
+        Parameters
+        ----------
+        t : array_like, shape (m,)
+            Times since the initial state.
+        y0 : dict
+            Initial state (any batch shape).
+
+        Returns
+        -------
+        dict
+            ``{"A": (m, *batch, 3, 3), "Omega": (m, *batch, 3, 3)}``. The orientation has no
+            elliptic closed form here; compare it through the invariant space momentum.
+        """
+        if self.n != 3:
+            raise ValueError(f"The exact solution is implemented for n = 3; this top has n = {self.n}.")
+        A0 = self.validate_state(y0, "y0")["A"]
+        t = np.atleast_1d(as_float_array(t, "t"))
+        batch = A0.shape[:-2]
+        P = self.P
+        # Principal frame: Ã = PᵀAP, w = vee(Ω̃); I_k = b_i + b_j.
+        w0 = vee((P.T @ A0 @ P) * self._minus_inv_pair)
+        I = self.principal_moments
+        flat = w0.reshape(-1, 3)
+        w = np.stack([euler_top_angular_velocity(I, wi, t) for wi in flat], axis=1)
+        Om_principal = hat(w).reshape((t.size,) + batch + (3, 3))
+        Om = Om_principal if self._diagonal else P @ Om_principal @ P.T
+        return {"A": self.momentum(Om), "Omega": Om}
+
+    def __repr__(self) -> str:
+        return f"EulerTop(n={self.n}, b={describe(self.b)}, orientation={self.orientation})"
+
+
+def _broadcast_batch(shape_a, shape_b, name_b, name_a) -> tuple[int, ...]:
+    try:
+        return np.broadcast_shapes(shape_a, shape_b)
+    except ValueError:
+        raise ValueError(f"Batch shapes of `{name_a}` {shape_a} and `{name_b}` {shape_b} do not broadcast.") from None
