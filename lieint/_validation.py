@@ -25,7 +25,7 @@ def describe(x: np.ndarray, limit: int = 6) -> str:
     """Short human-readable description of an array for error messages."""
     x = np.asarray(x)
     if x.size <= limit:
-        return np.array2string(x, precision=4, separator=", ").replace("\n", "")
+        return np.array2string(x, separator=", ", formatter={"float_kind": lambda v: f"{v:.6g}"}).replace("\n", "")
     return f"array of shape {x.shape}"
 
 

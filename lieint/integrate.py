@@ -132,26 +132,37 @@ def _integrate_fixed(system, y, t0, t1, h, stepper, project, save_every) -> Solu
     slot, nfev = 1, 0
     success, message = True, f"Reached t1 = {t1} in {nsteps} steps."
     cpu0 = time.process_time()
-    for k in range(nsteps):
-        tk = t0 + k * h
-        hk = h if k < nsteps - 1 else t1 - tk
-        y, evals = stepper.step(system, tk, y, hk)
-        nfev += evals
-        if project:
-            y = system.project(y)
-        done = k + 1
-        saving = slot < m and save_steps[slot] == done
-        if (saving or done % _FINITE_CHECK_EVERY == 0) and not _all_finite(y):
-            success = False
-            message = (
-                f"The state became non-finite (NaN or inf) by step {done} (t = {t0 + done * h:.6g}); "
-                f"the run stopped there. Reduce the step `h` = {h:g} or check the initial state."
-            )
-            break
-        if saving:
-            for name, arr in y.items():
-                states[name][slot] = arr
-            slot += 1
+    done = 0
+    # Overflow is detected and reported below (success=False), not warned about per operation.
+    with np.errstate(over="ignore", invalid="ignore"):
+        for k in range(nsteps):
+            tk = t0 + k * h
+            hk = h if k < nsteps - 1 else t1 - tk
+            try:
+                y, evals = stepper.step(system, tk, y, hk)
+            except np.linalg.LinAlgError as exc:  # a linear solve met a non-finite stage
+                success = False
+                message = (
+                    f"Step {k + 1} (t = {tk:.6g}) failed in a linear solve ({exc}): the stages became "
+                    f"non-finite, the step `h` = {h:g} is far too large for this motion. Reduce `h`."
+                )
+                break
+            nfev += evals
+            if project:
+                y = system.project(y)
+            done = k + 1
+            saving = slot < m and save_steps[slot] == done
+            if (saving or done % _FINITE_CHECK_EVERY == 0) and not _all_finite(y):
+                success = False
+                message = (
+                    f"The state became non-finite (NaN or inf) by step {done} (t = {t0 + done * h:.6g}); "
+                    f"the run stopped there. Reduce the step `h` = {h:g} or check the initial state."
+                )
+                break
+            if saving:
+                for name, arr in y.items():
+                    states[name][slot] = arr
+                slot += 1
     cpu = time.process_time() - cpu0
     if slot < m:
         states = {name: arr[:slot] for name, arr in states.items()}

@@ -161,8 +161,10 @@ class MatrixLieGroup(ABC):
 
     def check_dexpinv_range(self, u: np.ndarray) -> None:
         """Raise :class:`DexpinvRangeError` if the dexp⁻¹ series diverges at ``u``."""
-        rho = self.ad_spectral_radius(u)
-        worst = float(np.max(rho, initial=0.0))
+        with np.errstate(invalid="ignore"):
+            rho = self.ad_spectral_radius(u)
+        # A non-finite stage is not a "too large step": it propagates and the driver reports it.
+        worst = float(np.max(np.where(np.isfinite(rho), rho, 0.0), initial=0.0))
         if worst >= 2.0 * np.pi:
             raise DexpinvRangeError(
                 f"Lie step too large for exponential coordinates on {self.name}: the spectral "

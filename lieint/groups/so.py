@@ -207,6 +207,14 @@ class SO(MatrixLieGroup):
     def inverse(self, g: np.ndarray) -> np.ndarray:
         return np.swapaxes(g, -1, -2)
 
+    def cay(self, X: np.ndarray) -> np.ndarray:
+        if self.n == 3:
+            # Closed form cay(ŵ) = I + 4/(4 + θ²) (ŵ + ŵ²/2): orthogonal to round-off at any θ,
+            # where the linear solve loses digits as cond(I − X/2) = √(1 + θ²/4) grows.
+            t2 = np.sum(vee(X) ** 2, axis=-1)[..., None, None]
+            return np.eye(3) + (4.0 / (4.0 + t2)) * (X + 0.5 * (X @ X))
+        return super().cay(X)
+
     def project(self, g: np.ndarray) -> np.ndarray:
         return project_to_so(g)
 
