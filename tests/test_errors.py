@@ -52,10 +52,15 @@ def test_flat_body_is_fine_but_not_a_physical_violation():
         ({"angular_velocity": [1.0, np.inf, 0.0]}, r"`angular_velocity` must be finite; got inf at index \(1,\)"),
         ({"angular_velocity": [1.0, 0.0, 0.0], "R": np.diag([1.0, 1.0, -1.0])}, r"det R = \+1; got det R = -1"),
         ({"angular_velocity": [1.0, 0.0, 0.0], "R": 2 * np.eye(3)}, r"`R` must be a rotation in SO\(3\)"),
-        ({"angular_velocity": [1, 0, 0], "Omega": hat([1, 0, 0])}, r"exactly one of `Omega`, `A` or `angular_velocity`"),
+        (
+            {"angular_velocity": [1, 0, 0], "Omega": hat([1, 0, 0])},
+            r"exactly one of `Omega`, `A` or `angular_velocity`",
+        ),
         ({}, r"exactly one of .* got none"),
-        ({"angular_velocity": np.zeros((2, 3)), "R": np.broadcast_to(np.eye(3), (3, 3, 3))},
-         r"Batch shapes of `angular_velocity` \(2,\) and `R` \(3,\) do not broadcast"),
+        (
+            {"angular_velocity": np.zeros((2, 3)), "R": np.broadcast_to(np.eye(3), (3, 3, 3))},
+            r"Batch shapes of `angular_velocity` \(2,\) and `R` \(3,\) do not broadcast",
+        ),
     ],
 )
 def test_bad_initial_state(top, kwargs, match):

@@ -53,4 +53,6 @@ def test_exact_solution_of_a_non_diagonal_top_and_batches():
 
 def test_exact_solution_is_for_n3_only():
     with pytest.raises(ValueError, match="n = 3"):
-        lieint.EulerTop(np.eye(4)).exact_solution([1.0], lieint.EulerTop(np.eye(4)).initial_state(Omega=np.zeros((4, 4))))
+        lieint.EulerTop(np.eye(4)).exact_solution(
+            [1.0], lieint.EulerTop(np.eye(4)).initial_state(Omega=np.zeros((4, 4)))
+        )

@@ -23,7 +23,11 @@ def test_batch_integrates_as_one_ensemble_equal_to_a_loop(rng, top3):
     for i in range(2):
         for j in range(3):
             single = lieint.integrate(
-                top3, top3.initial_state(angular_velocity=w[i, j], R=R[i, j]), (0, 1), h=0.05, method="rkmk4",
+                top3,
+                top3.initial_state(angular_velocity=w[i, j], R=R[i, j]),
+                (0, 1),
+                h=0.05,
+                method="rkmk4",
                 project=True,
             )
             np.testing.assert_allclose(sol.states["A"][:, i, j], single.states["A"], atol=1e-14)
@@ -60,8 +64,9 @@ def test_n2_top_keeps_omega_constant(rng):
     sol = lieint.integrate(top, top.initial_state(Omega=Om), (0, 10), h=0.1, method="rkmk4")
     np.testing.assert_allclose(sol.states["A"], np.broadcast_to(top.momentum(Om), sol.states["A"].shape), atol=1e-14)
     theta = Om[1, 0] * 10
-    np.testing.assert_allclose(sol.states["R"][-1], [[np.cos(theta), -np.sin(theta)], [np.sin(theta), np.cos(theta)]],
-                               atol=1e-12)
+    np.testing.assert_allclose(
+        sol.states["R"][-1], [[np.cos(theta), -np.sin(theta)], [np.sin(theta), np.cos(theta)]], atol=1e-12
+    )
 
 
 @pytest.mark.parametrize("solver", ["RK45", "DOP853", "Radau", "LSODA"])

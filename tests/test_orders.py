@@ -45,9 +45,9 @@ def test_rkmk6_order_with_exact_and_truncated_dexpinv(top_problem, degree):
     hs = STEPS[6]
     errs = [
         np.linalg.norm(
-            lieint.integrate(top, y0, (0, T), h=h, method="rkmk6", dexpinv_degree=degree, save_every=10**9).states[
-                "A"
-            ][-1]
+            lieint.integrate(top, y0, (0, T), h=h, method="rkmk6", dexpinv_degree=degree, save_every=10**9).states["A"][
+                -1
+            ]
             - exact
         )
         for h in hs
@@ -105,8 +105,9 @@ def test_orders_on_an_explicitly_time_dependent_generator(rng, method, coordinat
     hs = [0.05, 0.025, 0.0125, 0.00625] if p < 6 else [0.2, 0.1, 0.05, 0.025]
     errs = [
         np.linalg.norm(
-            lieint.integrate(sys_, {"R": R0}, (0, T), h=h, method=method, coordinates=coordinates,
-                             save_every=10**9).states["R"][-1]
+            lieint.integrate(
+                sys_, {"R": R0}, (0, T), h=h, method=method, coordinates=coordinates, save_every=10**9
+            ).states["R"][-1]
             - exact
         )
         for h in hs
