@@ -159,3 +159,19 @@ def test_se_exp_log_inverse_project(rng, n, batch):
 def test_bad_group_dimension():
     with pytest.raises(ValueError, match="`n` must be an integer >= 2; got 1"):
         SO(1)
+
+
+@pytest.mark.parametrize("n", [3, 4, 5])
+def test_dcayinv_inverts_the_differential_of_cayley(rng, n):
+    # dcay_X(v) = (d/dε cay(X + εv)) cay(X)⁻¹, by central differences (an independent truth)
+    G = SO(n)
+    X, v = random_skew(rng, n, (), 1.5), random_skew(rng, n)
+    eps = 1e-6
+    d = (G.cay(X + eps * v) - G.cay(X - eps * v)) / (2 * eps) @ G.cay(X).T
+    np.testing.assert_allclose(G.dcayinv(X, d), v, atol=1e-8)
+
+
+def test_so3_cayley_closed_form_matches_the_linear_solve(rng):
+    X = random_skew(rng, 3, (5,), 4.0)
+    eye = np.eye(3)
+    np.testing.assert_allclose(SO(3).cay(X), np.linalg.solve(eye - X / 2, eye + X / 2), atol=1e-14)
