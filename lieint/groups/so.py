@@ -17,6 +17,7 @@ __all__ = [
     "dexpinv_so3",
     "dexpinv_spectral",
     "project_to_so",
+    "so3_angle_squared",
     "so3_exp",
     "so3_log",
     "so_ad_spectral_radius",
@@ -29,13 +30,18 @@ __all__ = [
 _SMALL_ANGLE = 1e-3
 
 
+def so3_angle_squared(X: np.ndarray) -> np.ndarray:
+    """``θ² = |vee X|²`` of skew 3×3 matrices, read off the lower triangle (cheap, no copy)."""
+    return X[..., 2, 1] ** 2 + X[..., 0, 2] ** 2 + X[..., 1, 0] ** 2
+
+
 def so_norm(X: np.ndarray) -> np.ndarray:
     """Spectral norm ``‖X‖₂`` of skew matrices = the largest rotation angle ``θ_max``."""
     n = X.shape[-1]
     if n == 2:
         return np.abs(X[..., 1, 0])
     if n == 3:
-        return np.linalg.norm(vee(X), axis=-1)
+        return np.sqrt(so3_angle_squared(X))
     return np.linalg.svd(X, compute_uv=False)[..., 0]
 
 
@@ -52,16 +58,16 @@ def so_ad_spectral_radius(X: np.ndarray) -> np.ndarray:
     if n == 2:
         return np.zeros(X.shape[:-2])
     if n == 3:
-        return np.linalg.norm(vee(X), axis=-1)
+        return np.sqrt(so3_angle_squared(X))
     s = np.linalg.svd(X, compute_uv=False)  # θ₁, θ₁, θ₂, θ₂, …
     return s[..., 0] + s[..., 2]
 
 
 def so3_exp(X: np.ndarray) -> np.ndarray:
     """Rodrigues' formula ``exp X = I + (sin θ/θ) X + ((1 − cos θ)/θ²) X²``, θ = |vee X|."""
-    theta = np.linalg.norm(vee(X), axis=-1)[..., None, None]
+    t2 = so3_angle_squared(X)[..., None, None]
+    theta = np.sqrt(t2)
     small = theta < _SMALL_ANGLE
-    t2 = theta * theta
     safe = np.where(small, 1.0, theta)
     a = np.where(small, 1.0 - t2 / 6.0 + t2 * t2 / 120.0, np.sin(safe) / safe)
     b = np.where(small, 0.5 - t2 / 24.0 + t2 * t2 / 720.0, (1.0 - np.cos(safe)) / (safe * safe))
@@ -139,9 +145,9 @@ def project_to_so(R: np.ndarray) -> np.ndarray:
 def dexpinv_so3(u: np.ndarray, v: np.ndarray) -> np.ndarray:
     """Closed form on so(3): ``dexp⁻¹_u(v) = v − ½[u, v] + α [u, [u, v]]`` with
     ``α = (1 − (θ/2) cot(θ/2)) / θ²``, ``θ = |vee u|`` (exact; singular at θ = 2π)."""
-    theta = np.linalg.norm(vee(u), axis=-1)[..., None, None]
+    t2 = so3_angle_squared(u)[..., None, None]
+    theta = np.sqrt(t2)
     small = theta < 1e-2
-    t2 = theta * theta
     safe = np.where(small, 1.0, theta)
     alpha = np.where(
         small,
@@ -211,7 +217,7 @@ class SO(MatrixLieGroup):
         if self.n == 3:
             # Closed form cay(ŵ) = I + 4/(4 + θ²) (ŵ + ŵ²/2): orthogonal to round-off at any θ,
             # where the linear solve loses digits as cond(I − X/2) = √(1 + θ²/4) grows.
-            t2 = np.sum(vee(X) ** 2, axis=-1)[..., None, None]
+            t2 = so3_angle_squared(X)[..., None, None]
             return np.eye(3) + (4.0 / (4.0 + t2)) * (X + 0.5 * (X @ X))
         return super().cay(X)
 
