@@ -16,7 +16,7 @@ from .groups import SE, SO, DexpinvRangeError
 from .integrate import integrate
 from .methods import ButcherTableau, ClassicalRK, LieMethod, ScipyMethod, get_method, methods
 from .solution import Solution
-from .systems import EulerTop, LieGroupSystem
+from .systems import ChaplyginBall, EulerTop, FreeBody, HeavyTop, LieGroupSystem, RollingBall
 
 __version__ = "0.1.0"
 
@@ -24,11 +24,15 @@ __all__ = [
     "SE",
     "SO",
     "ButcherTableau",
+    "ChaplyginBall",
     "ClassicalRK",
     "DexpinvRangeError",
     "EulerTop",
+    "FreeBody",
+    "HeavyTop",
     "LieGroupSystem",
     "LieMethod",
+    "RollingBall",
     "ScipyMethod",
     "Solution",
     "__version__",

@@ -115,3 +115,13 @@ def check_choice(value, name: str, choices: Sequence[str]) -> str:
     if not isinstance(value, str) or value not in choices:
         raise ValueError(f"`{name}` must be one of {list(choices)}; got {value!r}.")
     return value
+
+
+def check_vector(value, name: str, n: int, *, batch: bool = False) -> np.ndarray:
+    """A finite vector of dimension n (shape ``(n,)``, or ``(..., n)`` with ``batch``)."""
+    arr = as_float_array(value, name)
+    ok = arr.shape[-1:] == (n,) and (batch or arr.ndim == 1)
+    if not ok:
+        expected = f"(..., {n})" if batch else f"({n},)"
+        raise ValueError(f"`{name}` must be a vector of dimension n = {n} (shape {expected}); got shape {arr.shape}.")
+    return arr

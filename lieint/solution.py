@@ -90,12 +90,15 @@ class Solution:
         """Largest deviation of an invariant from its initial value, per batch member.
 
         ``max_t ‖I(t) − I(0)‖ / ‖I(0)‖`` (norms over the invariant's own axes); absolute when
-        ``relative=False`` or when ``I(0) = 0``. For ``orthogonality`` (a defect, zero
-        initially) this is the largest defect reached.
+        ``relative=False`` or when ``I(0) = 0``. For a defect (``system.defects``, e.g.
+        ``orthogonality``, zero for the exact flow) this is the largest defect reached.
         """
         values = self.invariants[name]
         batch_ndim = len(self.system.batch_shape({k: v[0] for k, v in self.states.items()}))
         extra = tuple(range(1 + batch_ndim, values.ndim))
+        if name in getattr(self.system, "defects", ()):
+            size = np.sqrt(np.sum(values * values, axis=extra)) if extra else np.abs(values)
+            return np.max(size, axis=0)
         dev = values - values[:1]
         err = np.sqrt(np.sum(dev * dev, axis=extra)) if extra else np.abs(dev)
         err = np.max(err, axis=0)

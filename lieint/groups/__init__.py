@@ -1,6 +1,6 @@
 """Matrix Lie groups SO(n), SE(n) and bivector algebra (batched, any n ≥ 2)."""
 
-from .base import DexpinvRangeError, MatrixLieGroup, bernoulli_dexpinv_coefficients
+from .base import DexpinvRangeError, LieGroup, MatrixLieGroup, bernoulli_dexpinv_coefficients
 from .bivectors import (
     bivector_coordinates,
     bivector_dimension,
@@ -25,12 +25,16 @@ from .so import (
     so_log,
     so_norm,
 )
+from .vector import ProductGroup, VectorSpace
 
 __all__ = [
     "SE",
     "SO",
     "DexpinvRangeError",
+    "LieGroup",
     "MatrixLieGroup",
+    "ProductGroup",
+    "VectorSpace",
     "bernoulli_dexpinv_coefficients",
     "bivector_coordinates",
     "bivector_dimension",

@@ -21,7 +21,7 @@ import numpy as np
 
 from .bivectors import commutator
 
-__all__ = ["DexpinvRangeError", "MatrixLieGroup", "bernoulli_dexpinv_coefficients"]
+__all__ = ["DexpinvRangeError", "LieGroup", "MatrixLieGroup", "bernoulli_dexpinv_coefficients"]
 
 
 class DexpinvRangeError(ValueError):
@@ -58,7 +58,50 @@ def bernoulli_dexpinv_coefficients(degree: int) -> tuple[float, ...]:
     return tuple(coeffs)
 
 
-class MatrixLieGroup(ABC):
+class LieGroup(ABC):
+    """What a Lie-group integrator needs of a group: coordinate maps, their inverse
+    differentials, and linear combinations of algebra elements.
+
+    Algebra and group elements are arrays with leading batch dimensions (matrices for
+    :class:`MatrixLieGroup`, vectors for a vector space, tuples for a product group).
+    """
+
+    name: str
+    dim: int
+
+    @abstractmethod
+    def exp(self, X):
+        """Exponential map of the algebra into the group."""
+
+    @abstractmethod
+    def cay(self, X):
+        """Cayley map of the algebra into the group."""
+
+    @abstractmethod
+    def dexpinv(self, u, v, degree: int | None = None):
+        """``dexp⁻¹_u(v)``, truncated after ``ad_u^degree`` (None: exact)."""
+
+    @abstractmethod
+    def dcayinv(self, X, v):
+        """``dcay⁻¹_X(v)``."""
+
+    @abstractmethod
+    def ad_spectral_radius(self, X) -> np.ndarray:
+        """Spectral radius of ``ad_X`` (shape: the batch shape of ``X``)."""
+
+    def lincomb(self, weights, elements):
+        """``Σ_j w_j X_j`` of algebra elements (weights are Python floats)."""
+        out = None
+        for w, X in zip(weights, elements, strict=True):
+            out = w * X if out is None else out + w * X
+        return out
+
+    def negate(self, X):
+        """``−X``."""
+        return -X
+
+
+class MatrixLieGroup(LieGroup):
     """A matrix Lie group acting in the integrators.
 
     Subclasses declare ``n`` (the dimension of the space the group moves), ``matrix_size``
@@ -97,10 +140,6 @@ class MatrixLieGroup(ABC):
     @abstractmethod
     def project(self, g: np.ndarray) -> np.ndarray:
         """Nearest group element (exact projection removing round-off drift)."""
-
-    @abstractmethod
-    def ad_spectral_radius(self, X: np.ndarray) -> np.ndarray:
-        """Spectral radius of ``ad_X`` (shape: the batch shape of ``X``)."""
 
     # -- algebra structure -------------------------------------------------------------
     @staticmethod

@@ -93,32 +93,29 @@ class LieMethod:
     def _inverse_differential(self, group, u, v):
         # Right action: k = dφ⁻¹_{−u}(ξ).
         if self.coordinates == "exp":
-            return group.dexpinv(-u, v, self.dexpinv_degree)
-        return group.dcayinv(-u, v)
+            return group.dexpinv(group.negate(u), v, self.dexpinv_degree)
+        return group.dcayinv(group.negate(u), v)
 
     def step(self, system, t: float, y: dict, h: float) -> tuple[dict, int]:
         """One step from ``(t, y)`` of size ``h``; returns ``(y₁, generator evaluations)``."""
         group = system.group
         A, b, c = self.tableau.A, self.tableau.b, self.tableau.c
-        ks: list[np.ndarray] = []
+        ks: list = []
         for i in range(self.tableau.stages):
-            u = _combine(A[i, :i], ks, h)
+            u = _combine(group, A[i, :i], ks, h)
             if u is None:
                 ks.append(system.generator(t + c[i] * h, y))
             else:
                 yi = system.act(self._coordinate_map(group, u), y)
                 xi = system.generator(t + c[i] * h, yi)
                 ks.append(self._inverse_differential(group, u, xi))
-        U = _combine(b, ks, h)
-        if U is None:  # all weights zero is impossible for a consistent tableau
-            return dict(y), self.tableau.stages
+        U = _combine(group, b, ks, h)
         return system.act(self._coordinate_map(group, U), y), self.tableau.stages
 
 
-def _combine(coeffs: np.ndarray, ks: list[np.ndarray], h: float):
+def _combine(group, coeffs: np.ndarray, ks: list, h: float):
     """``h Σ_j coeffs_j k_j`` skipping zero coefficients; None when all are zero."""
-    out = None
-    for a, k in zip(coeffs, ks, strict=True):
-        if a != 0.0:
-            out = (a * h) * k if out is None else out + (a * h) * k
-    return out
+    pairs = [(float(a) * h, k) for a, k in zip(coeffs, ks, strict=True) if a != 0.0]
+    if not pairs:
+        return None
+    return group.lincomb([w for w, _ in pairs], [k for _, k in pairs])

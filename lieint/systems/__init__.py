@@ -1,7 +1,22 @@
 """Mechanical systems: a state, a group action on it, a generator, invariants."""
 
 from .base import LieGroupSystem, State
-from .euler_top import EulerTop, check_mass_tensor
+from .chaplygin import ChaplyginBall
+from .euler_top import EulerTop
 from .euler_top_exact import euler_top_angular_velocity
+from .free_body import FreeBody
+from .heavy_top import HeavyTop
+from .mass import check_mass_tensor
+from .rolling_ball import RollingBall
 
-__all__ = ["EulerTop", "LieGroupSystem", "State", "check_mass_tensor", "euler_top_angular_velocity"]
+__all__ = [
+    "ChaplyginBall",
+    "EulerTop",
+    "FreeBody",
+    "HeavyTop",
+    "LieGroupSystem",
+    "RollingBall",
+    "State",
+    "check_mass_tensor",
+    "euler_top_angular_velocity",
+]

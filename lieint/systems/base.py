@@ -26,7 +26,7 @@ from collections.abc import Callable, Mapping
 import numpy as np
 
 from .._validation import as_float_array
-from ..groups.base import MatrixLieGroup
+from ..groups.base import LieGroup
 
 __all__ = ["LieGroupSystem", "State"]
 
@@ -37,8 +37,10 @@ InvariantFunction = Callable[[np.ndarray, State], np.ndarray]
 class LieGroupSystem(ABC):
     """Base class of systems stepped by Lie-group methods (see the module docstring)."""
 
-    group: MatrixLieGroup
+    group: LieGroup
     fields: dict[str, tuple[int, ...]]
+    #: invariants that measure a defect (zero for the exact flow): their drift is their size
+    defects: frozenset[str] = frozenset({"orthogonality"})
 
     @abstractmethod
     def generator(self, t: float | np.ndarray, y: State) -> np.ndarray:

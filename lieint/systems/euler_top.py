@@ -12,49 +12,9 @@ from ..groups.so import SO, project_to_so
 from .base import LieGroupSystem, State
 from .euler_top_exact import euler_top_angular_velocity
 from .invariants import manakov_integrals, manakov_labels, orthogonality_defect, skew_spectrum
+from .mass import check_mass_tensor
 
 __all__ = ["EulerTop", "check_mass_tensor"]
-
-# A pair sum b_i + b_j below this fraction of the largest eigenvalue is treated as zero:
-# the body is (numerically) a rod and Ω(A) is undefined.
-_ROD_TOLERANCE = 1e-13
-
-
-def check_mass_tensor(B, name: str = "B") -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Validate a body mass tensor ``B = ∫ m X Xᵀ``; return ``(B, b, P)`` with ``B = P diag(b) Pᵀ``.
-
-    B must be a real symmetric positive semi-definite ``(n, n)`` matrix, n ≥ 2, with at most
-    one zero eigenvalue (``b_i + b_j > 0`` for i ≠ j): a flat body is fine, a rod is not.
-    """
-    B = as_float_array(B, name)
-    if B.ndim != 2:
-        raise ValueError(f"`{name}` must be one (n, n) mass tensor; got shape {B.shape}.")
-    n = check_square_trailing(B, name)
-    if n < 2:
-        raise ValueError(f"`{name}` must be (n, n) with n >= 2; got shape {B.shape}.")
-    scale = float(np.max(np.abs(B)))
-    if scale == 0.0:
-        raise ValueError(f"`{name}` must be a nonzero mass tensor; got the zero matrix.")
-    asym = float(np.max(np.abs(B - B.T)))
-    if asym > 1e-12 * scale:
-        raise ValueError(
-            f"`{name}` must be symmetric (a mass tensor ∫ m X Xᵀ); got max |B - Bᵀ| = {asym:.3g} "
-            f"for max |B| = {scale:.3g}."
-        )
-    B = 0.5 * (B + B.T)
-    b, P = np.linalg.eigh(B)
-    if b[0] < -1e-12 * b[-1]:
-        raise ValueError(
-            f"`{name}` must be positive semi-definite (a mass tensor ∫ m X Xᵀ); got eigenvalues {describe(b)}."
-        )
-    b = np.maximum(b, 0.0)
-    if b[0] + b[1] <= _ROD_TOLERANCE * b[-1]:
-        raise ValueError(
-            f"`{name}` must be symmetric positive semi-definite with at most one zero eigenvalue; got "
-            f"eigenvalues {describe(b)} (a rod: b_i + b_j = 0 for some i != j, so rotation about its "
-            "axis is undefined)."
-        )
-    return B, b, P
 
 
 class EulerTop(LieGroupSystem):

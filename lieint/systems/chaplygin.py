@@ -1,0 +1,185 @@
+"""The Chaplygin ball: centre of mass at the geometric centre, gravity along the normal.
+
+With ``X_G = 0`` and g ∥ ν, the momentum about the contact point ``a = −(b_K ω + ω b_K)`` is
+constant in space (MATH.md §4), so the body momentum ``A_K = Rᵀ a R`` is isospectral::
+
+    Ȧ_K = [A_K, Ω],   Γ̇ = −ΩΓ,   A_K = −(B_K Ω + Ω B_K),   B_K(Γ) = B_C + M r² ΓΓᵀ,
+
+with Ω recovered from A_K in the eigenbasis of ``B_K(Γ)`` at every evaluation. SO(n) acts by
+``Q·(A_K, Γ, R) = (QᵀA_K Q, QᵀΓ, RQ)`` (SE(n) with the centre ``p + Rv``, twist ``(Ω, rΩΓ)``),
+so spec(A_K), |Γ| and ``ΓᵀA_K²Γ`` are kept to round-off; the energy is kept by the flow only.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import numpy as np
+
+from .._validation import as_float_array, check_rotation, check_skew, check_vector, describe
+from ..groups.bivectors import hat, inner, skew_part
+from ..groups.se import SE, se_join, se_split
+from ..groups.so import SO, project_to_so
+from .base import LieGroupSystem, State
+from .invariants import orthogonality_defect, skew_spectrum
+from .mass import solve_lyapunov_sym
+from .rolling_ball import check_ball
+
+__all__ = ["ChaplyginBall"]
+
+
+class ChaplyginBall(LieGroupSystem):
+    """Chaplygin's ball: a ball with centre of mass at its centre rolling on a plane.
+
+    Parameters
+    ----------
+    mass_tensor : array_like, shape (n, n)
+        ``B_C = ∫ m X Xᵀ`` about the centre.
+    mass, radius : float
+        M > 0 and r > 0.
+    normal : array_like, shape (n,), optional
+        Upward unit normal ν of the plane (default ``e_n``).
+    orientation, track_center : bool, default True
+        Integrate R / the centre (the centre needs R and brings it along).
+
+    Invariants: ``energy`` ``T = ¼ tr(Ω A_K)``, ``casimirs`` (rotation angles of A_K),
+    ``gamma_norm`` ``|Γ|``, ``gamma_A2_gamma`` ``ΓᵀA_K²Γ``, ``momentum`` ``a = R A_K Rᵀ``
+    and ``orthogonality`` (with R).
+    """
+
+    def __init__(self, mass_tensor, mass, radius, normal=None, *, orientation: bool = True, track_center: bool = True):
+        self.B_C, self.mass, self.radius, _, self.normal = check_ball(mass_tensor, mass, radius, None, normal)
+        n = self.n = self.B_C.shape[0]
+        for flag, label in ((orientation, "orientation"), (track_center, "track_center")):
+            if not isinstance(flag, (bool, np.bool_)):
+                raise TypeError(f"`{label}` must be True or False; got {flag!r}.")
+        self.orientation, self.track_center = bool(orientation), bool(track_center)
+        self.fields = {"A": (n, n), "Gamma": (n,)}
+        if self.orientation or self.track_center:
+            self.fields["R"] = (n, n)
+        if self.track_center:
+            self.fields["center"] = (n,)
+        self.group = SE(n) if self.track_center else SO(n)
+        self._Mr2 = self.mass * self.radius**2
+
+    # -- physics -----------------------------------------------------------------------
+    def contact_mass_tensor(self, Gamma: np.ndarray) -> np.ndarray:
+        """``B_K(Γ) = B_C + M r² ΓΓᵀ``."""
+        return self.B_C + self._Mr2 * Gamma[..., :, None] * Gamma[..., None, :]
+
+    def momentum(self, Omega: np.ndarray, Gamma: np.ndarray) -> np.ndarray:
+        """``A_K = −(B_K Ω + Ω B_K)``."""
+        BK = self.contact_mass_tensor(Gamma)
+        return -(BK @ Omega + Omega @ BK)
+
+    def angular_velocity(self, A: np.ndarray, Gamma: np.ndarray) -> np.ndarray:
+        """Ω from ``A_K = −(B_K Ω + Ω B_K)`` in the eigenbasis of ``B_K(Γ)``."""
+        b, P = np.linalg.eigh(self.contact_mass_tensor(Gamma))
+        return solve_lyapunov_sym(b, P, -A)
+
+    def energy(self, y: State) -> np.ndarray:
+        """``T = ¼ tr(Ω A_K) = −¼⟨Ω, A_K⟩`` (gravity does no work: the centre stays at height r)."""
+        return -0.25 * inner(self.angular_velocity(y["A"], y["Gamma"]), y["A"])
+
+    def contact_point(self, center: np.ndarray) -> np.ndarray:
+        """Contact point ``K = q_C − rν``."""
+        return center - self.radius * self.normal
+
+    # -- the LieGroupSystem contract ---------------------------------------------------
+    def generator(self, t, y: State) -> np.ndarray:
+        Om = self.angular_velocity(y["A"], y["Gamma"])
+        if not self.track_center:
+            return Om
+        return se_join(Om, self.radius * (Om @ y["Gamma"][..., None])[..., 0], algebra=True)
+
+    def act(self, g: np.ndarray, y: State) -> State:
+        Q, v = se_split(g) if self.track_center else (g, None)
+        Qt = np.swapaxes(Q, -1, -2)
+        out = {"A": Qt @ y["A"] @ Q, "Gamma": (Qt @ y["Gamma"][..., None])[..., 0]}
+        if "R" in self.fields:
+            out["R"] = y["R"] @ Q
+        if self.track_center:
+            out["center"] = y["center"] + (y["R"] @ v[..., None])[..., 0]
+        return out
+
+    def infinitesimal_action(self, xi: np.ndarray, y: State) -> State:
+        Om, V = se_split(xi) if self.track_center else (xi, None)
+        A = y["A"]
+        out = {"A": A @ Om - Om @ A, "Gamma": -(Om @ y["Gamma"][..., None])[..., 0]}
+        if "R" in self.fields:
+            out["R"] = y["R"] @ Om
+        if self.track_center:
+            out["center"] = (y["R"] @ V[..., None])[..., 0]
+        return out
+
+    def project(self, y: State) -> State:
+        out = dict(y)
+        out["A"] = skew_part(y["A"])
+        out["Gamma"] = y["Gamma"] / np.linalg.norm(y["Gamma"], axis=-1, keepdims=True)
+        if "R" in self.fields:
+            out["R"] = project_to_so(y["R"])
+        return out
+
+    @property
+    def invariant_functions(self):
+        funcs = {
+            "energy": lambda t, y: self.energy(y),
+            "casimirs": lambda t, y: skew_spectrum(y["A"]),
+            "gamma_norm": lambda t, y: np.linalg.norm(y["Gamma"], axis=-1),
+            # ΓᵀA²Γ = −|AΓ|² for skew A
+            "gamma_A2_gamma": lambda t, y: -np.sum(((y["A"] @ y["Gamma"][..., None])[..., 0]) ** 2, axis=-1),
+        }
+        if "R" in self.fields:
+            funcs["momentum"] = lambda t, y: y["R"] @ y["A"] @ np.swapaxes(y["R"], -1, -2)
+            funcs["orthogonality"] = lambda t, y: orthogonality_defect(y["R"])
+        return funcs
+
+    # -- states ------------------------------------------------------------------------
+    def initial_state(self, *, R=None, Omega=None, angular_velocity=None, center=None) -> State:
+        """State from the orientation R (default identity), the body angular velocity
+        (``Omega``, or ``angular_velocity`` for n = 3) and the centre (default ``rν``)."""
+        n = self.n
+        if (Omega is None) == (angular_velocity is None):
+            raise ValueError("Give exactly one of `Omega` or `angular_velocity` to `initial_state`.")
+        if angular_velocity is not None:
+            if n != 3:
+                raise ValueError(f"`angular_velocity` (a vector w with Ω = ŵ) needs n = 3; this ball has n = {n}.")
+            Om = hat(check_vector(angular_velocity, "angular_velocity", 3, batch=True))
+        else:
+            Om = as_float_array(Omega, "Omega")
+            if Om.shape[-2:] != (n, n):
+                raise ValueError(f"`Omega` must have shape (..., {n}, {n}); got shape {Om.shape}.")
+            Om = check_skew(Om, "Omega")
+        Rm = np.eye(n) if R is None else as_float_array(R, "R")
+        if Rm.shape[-2:] != (n, n):
+            raise ValueError(f"`R` must have shape (..., {n}, {n}); got shape {Rm.shape}.")
+        check_rotation(Rm, "R")
+        p = self.radius * self.normal if center is None else check_vector(center, "center", n, batch=True)
+        height = p @ self.normal
+        if np.max(np.abs(height - self.radius)) > 1e-9 * self.radius:
+            raise ValueError(
+                "`center` violates the rolling constraint: the centre must be at height r = "
+                f"{self.radius:g} above the plane (⟨center, ν⟩ = r); got heights {describe(np.asarray(height))}."
+            )
+        batch = np.broadcast_shapes(Om.shape[:-2], Rm.shape[:-2], p.shape[:-1])
+        Rm = np.broadcast_to(Rm, batch + (n, n)).copy()
+        Gam = np.swapaxes(Rm, -1, -2) @ self.normal
+        state = {"A": np.broadcast_to(self.momentum(Om, Gam), batch + (n, n)).copy(), "Gamma": Gam}
+        if "R" in self.fields:
+            state["R"] = Rm
+        if self.track_center:
+            state["center"] = np.broadcast_to(p, batch + (n,)).copy()
+        return state
+
+    def validate_state(self, y: Mapping[str, np.ndarray], name: str = "y0") -> State:
+        out = super().validate_state(y, name)
+        out["A"] = check_skew(out["A"], f"{name}['A']")
+        if "R" in self.fields:
+            check_rotation(out["R"], f"{name}['R']", atol=1e-9)
+        return out
+
+    def __repr__(self) -> str:
+        return (
+            f"ChaplyginBall(n={self.n}, mass={self.mass:g}, radius={self.radius:g}, "
+            f"normal={describe(self.normal)}, fields={list(self.fields)})"
+        )

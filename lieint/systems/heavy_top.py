@@ -1,0 +1,185 @@
+"""The heavy top: a rigid body with a fixed point under constant gravity (MATH.md §3)."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import numpy as np
+
+from .._validation import check_finite_positive, check_rotation, check_vector, describe
+from ..groups.bivectors import skew_part, vee, wedge
+from ..groups.se import SE, se_join, se_split
+from ..groups.so import project_to_so
+from .base import LieGroupSystem, State
+from .euler_top import EulerTop
+from .invariants import orthogonality_defect, skew_spectrum
+
+__all__ = ["HeavyTop"]
+
+
+class HeavyTop(LieGroupSystem):
+    """A rigid body with a fixed point and centre of mass ``X_G`` under gravity g, any n ≥ 2.
+
+    State ``{"A", "Gamma", "R"}``: body momentum bivector A, body gravity ``Γ = Rᵀg`` and
+    orientation R. Equations::
+
+        Ȧ = [A, Ω] + M X_G ∧ Γ,   Γ̇ = −ΩΓ,   Ṙ = RΩ,   A = −(BΩ + ΩB).
+
+    SE(n) acts on the right, ``(Q, v) · (A, Γ, R) = (Qᵀ(A + v ∧ Γ)Q, QᵀΓ, RQ)``, with generator
+    ``(Ω(A), M X_G)``: a Lie-group method keeps |Γ| and the Casimirs to round-off.
+
+    Parameters
+    ----------
+    mass_tensor : array_like, shape (n, n)
+        Body mass tensor ``B = ∫ m X Xᵀ`` about the fixed point.
+    mass : float
+        Total mass M > 0.
+    center_of_mass : array_like, shape (n,)
+        Centre of mass ``X_G`` in the body frame, relative to the fixed point.
+    gravity : array_like, shape (n,)
+        Gravity g in space (e.g. ``(0, 0, −9.81)``).
+    orientation : bool, default True
+        Integrate R too; without it the state is (A, Γ), which is all the dynamics needs.
+
+    Invariants
+    ----------
+    ``energy`` ``T − U`` with ``U = M⟨Γ, X_G⟩``; ``casimirs``: n = 3 ``⟨Π, Γ⟩`` (``A = −Π̂``),
+    n ≥ 4 the rotation angles of ``P_Γ A P_Γ`` (A restricted to ``Γ^⊥``, which ``v ∧ Γ`` cannot
+    change); ``gamma_norm`` ``|Γ|``; ``orthogonality``. Named constructors add the extra
+    integral of their case (``spin`` for Lagrange, ``kovalevskaya``).
+    """
+
+    def __init__(self, mass_tensor, mass, center_of_mass, gravity, *, orientation: bool = True):
+        self.top = EulerTop(mass_tensor, orientation=False)
+        self.B, self.n = self.top.B, self.top.n
+        n = self.n
+        self.mass = check_finite_positive(mass, "mass")
+        self.center_of_mass = check_vector(center_of_mass, "center_of_mass", n)
+        if gravity is None:
+            raise ValueError("`gravity` must be a vector of dimension n; a top without gravity is lieint.EulerTop.")
+        self.gravity = check_vector(gravity, "gravity", n)
+        if not isinstance(orientation, (bool, np.bool_)):
+            raise TypeError(f"`orientation` must be True or False; got {orientation!r}.")
+        self.orientation = bool(orientation)
+        self.group = SE(n)
+        self.fields = {"A": (n, n), "Gamma": (n,)}
+        if self.orientation:
+            self.fields["R"] = (n, n)
+        self._MXG = self.mass * self.center_of_mass
+        self._extra: dict = {}
+
+    # -- named cases (n = 3) -----------------------------------------------------------
+    @classmethod
+    def lagrange(cls, I1: float, I3: float, mass: float, length: float, g: float = 9.81, **kw) -> HeavyTop:
+        """Lagrange top: symmetric ``I₁ = I₂``, centre of mass on the axis, ``X_G = (0, 0, ℓ)``.
+
+        Extra first integral ``spin``: the body angular velocity ``w₃`` about the axis.
+        """
+        top = cls._principal([I1, I1, I3], mass, [0.0, 0.0, length], g, **kw)
+        top._extra["spin"] = lambda t, y: vee(top.top.angular_velocity(y["A"]))[..., 2]
+        return top
+
+    @classmethod
+    def kovalevskaya(cls, I3: float, mass: float, length: float, g: float = 9.81, **kw) -> HeavyTop:
+        """Kovalevskaya top: ``I₁ = I₂ = 2 I₃``, centre of mass in the equatorial plane, ``X_G = (ℓ, 0, 0)``.
+
+        Extra first integral ``kovalevskaya``: ``(p² − q² + c Γ₁)² + (2pq + c Γ₂)²`` with
+        ``w = (p, q, r)`` and ``c = M ℓ / I₃`` (Γ = Rᵀg points down).
+        """
+        top = cls._principal([2 * I3, 2 * I3, I3], mass, [length, 0.0, 0.0], g, **kw)
+        c = mass * length / I3
+
+        def kovalevskaya(t, y):
+            w = vee(top.top.angular_velocity(y["A"]))
+            p, q = w[..., 0], w[..., 1]
+            G = y["Gamma"]
+            return (p * p - q * q + c * G[..., 0]) ** 2 + (2 * p * q + c * G[..., 1]) ** 2
+
+        top._extra["kovalevskaya"] = kovalevskaya
+        return top
+
+    @classmethod
+    def _principal(cls, moments, mass, center, g, **kw) -> HeavyTop:
+        g = check_finite_positive(g, "g")
+        B = EulerTop.from_principal_moments(moments).B
+        return cls(B, mass, center, [0.0, 0.0, -g], **kw)
+
+    # -- the LieGroupSystem contract ---------------------------------------------------
+    def generator(self, t, y: State) -> np.ndarray:
+        Om = self.top.angular_velocity(y["A"])
+        return se_join(Om, np.broadcast_to(self._MXG, Om.shape[:-1]), algebra=True)
+
+    def act(self, g: np.ndarray, y: State) -> State:
+        Q, v = se_split(g)
+        Qt = np.swapaxes(Q, -1, -2)
+        Gam = y["Gamma"]
+        out = {"A": Qt @ (y["A"] + wedge(v, Gam)) @ Q, "Gamma": (Qt @ Gam[..., None])[..., 0]}
+        if self.orientation:
+            out["R"] = y["R"] @ Q
+        return out
+
+    def infinitesimal_action(self, xi: np.ndarray, y: State) -> State:
+        Om, V = se_split(xi)
+        A, Gam = y["A"], y["Gamma"]
+        out = {"A": A @ Om - Om @ A + wedge(V, Gam), "Gamma": -(Om @ Gam[..., None])[..., 0]}
+        if self.orientation:
+            out["R"] = y["R"] @ Om
+        return out
+
+    def project(self, y: State) -> State:
+        Gam = y["Gamma"]
+        scale = np.linalg.norm(self.gravity) / np.linalg.norm(Gam, axis=-1, keepdims=True)
+        out = {"A": skew_part(y["A"]), "Gamma": Gam * scale}
+        if self.orientation:
+            out["R"] = project_to_so(y["R"])
+        return out
+
+    # -- physics -----------------------------------------------------------------------
+    def energy(self, A: np.ndarray, Gamma: np.ndarray) -> np.ndarray:
+        """``H = T − U``: ``T = ¼ tr(ΩA)``, ``U = M⟨Γ, X_G⟩``."""
+        return self.top.energy(A) - Gamma @ self._MXG
+
+    def casimirs(self, A: np.ndarray, Gamma: np.ndarray) -> np.ndarray:
+        """n = 3: ``⟨Π, Γ⟩`` (shape ``(..., 1)``); n ≥ 4: rotation angles of ``P_Γ A P_Γ``."""
+        if self.n == 3:
+            return np.sum(-vee(A) * Gamma, axis=-1, keepdims=True)
+        u = Gamma / np.linalg.norm(Gamma, axis=-1, keepdims=True)
+        P = np.eye(self.n) - u[..., :, None] * u[..., None, :]
+        return skew_spectrum(P @ A @ P)[..., : (self.n - 1) // 2]
+
+    @property
+    def invariant_functions(self):
+        funcs = {
+            "energy": lambda t, y: self.energy(y["A"], y["Gamma"]),
+            "casimirs": lambda t, y: self.casimirs(y["A"], y["Gamma"]),
+            "gamma_norm": lambda t, y: np.linalg.norm(y["Gamma"], axis=-1),
+        }
+        if self.orientation:
+            funcs["orthogonality"] = lambda t, y: orthogonality_defect(y["R"])
+        funcs.update(self._extra)
+        return funcs
+
+    # -- states ------------------------------------------------------------------------
+    def initial_state(self, *, R=None, Omega=None, A=None, angular_velocity=None) -> State:
+        """State from the orientation R (default identity) and one of ``Omega``, ``A`` or,
+        for n = 3, ``angular_velocity``; ``Γ = Rᵀ g``. Leading batch dimensions broadcast."""
+        top = EulerTop(self.B, orientation=True)
+        s = top.initial_state(Omega=Omega, A=A, R=R, angular_velocity=angular_velocity)
+        Rm = s["R"]
+        out = {"A": s["A"], "Gamma": np.swapaxes(Rm, -1, -2) @ self.gravity}
+        if self.orientation:
+            out["R"] = Rm
+        return out
+
+    def validate_state(self, y: Mapping[str, np.ndarray], name: str = "y0") -> State:
+        out = super().validate_state(y, name)
+        out["A"] = self.top.validate_state({"A": out["A"]}, name)["A"]
+        if self.orientation:
+            check_rotation(out["R"], f"{name}['R']", atol=1e-9)
+        return out
+
+    def __repr__(self) -> str:
+        return (
+            f"HeavyTop(n={self.n}, b={describe(self.top.b)}, mass={self.mass:g}, "
+            f"center_of_mass={describe(self.center_of_mass)}, gravity={describe(self.gravity)})"
+        )

@@ -1,0 +1,317 @@
+"""A ball rolling without sliding on a fixed plane, any n ≥ 2 (MATH.md §4).
+
+Body frame (what is integrated), with ``Γ = Rᵀν``, ``G = Rᵀg``, ``κ = rΓ``::
+
+    B_K Ω̇ + Ω̇ B_K = B_K Ω² − Ω² B_K − M (X_G + κ) ∧ (G + Ω²κ),
+    B_K = B_C + M (X_G κᵀ + κ X_Gᵀ) + M κκᵀ,   Γ̇ = −ΩΓ,   Ġ = −ΩG,
+
+and the pose on SE(n): ``Ṙ = RΩ``, centre ``ṗ = r RΩΓ`` (body twist ``(Ω, rΩΓ)``). The
+Lyapunov equation is solved in the eigenbasis of ``B_K`` at each evaluation.
+
+The group is ``SE(n) × so(n)``: the pose part moves (Γ, G, R, centre) by
+``(Q, v)·(Γ, G, R, p) = (QᵀΓ, QᵀG, RQ, p + Rv)`` and the vector-space part adds to Ω. So a
+Lie-group method keeps ``|Γ|`` and R on SO(n), and the rolling constraint ``ṗ = ω k`` holds
+along the computed path by construction.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import numpy as np
+
+from .._validation import as_float_array, check_finite_positive, check_rotation, check_skew, check_vector, describe
+from ..groups.bivectors import hat, inner, skew_part, wedge
+from ..groups.se import SE, se_join, se_split
+from ..groups.so import SO, project_to_so
+from ..groups.vector import ProductGroup, VectorSpace
+from .base import LieGroupSystem, State
+from .invariants import orthogonality_defect
+from .mass import check_mass_tensor, solve_lyapunov_sym
+
+__all__ = ["RollingBall", "check_ball"]
+
+
+def check_ball(mass_tensor, mass, radius, center_of_mass=None, normal=None):
+    """Validate the physical data of a ball; return ``(B_C, M, r, X_G, ν)``.
+
+    Checks: r > 0, M > 0, ``|X_G| < r``, ν nonzero (normalised), and that ``B_C`` is the mass
+    tensor of a body inside the ball: symmetric, ``B_C − M X_G X_Gᵀ ⪰ 0`` (a covariance) and
+    ``tr B_C ≤ M r²`` (every particle within distance r of the centre).
+    """
+    B, _, _ = check_mass_tensor(mass_tensor, "mass_tensor")
+    n = B.shape[0]
+    M = check_finite_positive(mass, "mass")
+    r = check_finite_positive(radius, "radius")
+    XG = np.zeros(n) if center_of_mass is None else check_vector(center_of_mass, "center_of_mass", n)
+    if np.linalg.norm(XG) >= r:
+        raise ValueError(
+            f"`center_of_mass` must lie inside the ball (|X_G| < radius = {r:g}); got |X_G| = {np.linalg.norm(XG):.6g}."
+        )
+    if normal is None:
+        nu = np.eye(n)[-1]
+    else:
+        nu = check_vector(normal, "normal", n)
+        norm = np.linalg.norm(nu)
+        if norm == 0.0:
+            raise ValueError("`normal` must be a nonzero vector (the plane's upward normal); got the zero vector.")
+        nu = nu / norm
+    cov = B - M * np.outer(XG, XG)
+    lam = np.linalg.eigvalsh(cov)
+    scale = max(np.max(np.abs(B)), M * r * r)
+    if lam[0] < -1e-12 * scale:
+        raise ValueError(
+            "`mass_tensor` is not the mass tensor of a body with this centre of mass: B_C − M X_G X_Gᵀ "
+            f"must be positive semi-definite; its eigenvalues are {describe(lam)}."
+        )
+    if np.trace(B) > M * r * r * (1 + 1e-12):
+        raise ValueError(
+            f"`mass_tensor` is not the mass tensor of a body inside the ball: tr B_C = ∫ m|X|² must be "
+            f"<= M r² = {M * r * r:.6g}; got {np.trace(B):.6g}."
+        )
+    return B, M, r, XG, nu
+
+
+class RollingBall(LieGroupSystem):
+    """A ball of radius r rolling without sliding on the plane ``⟨q, ν⟩ = 0``.
+
+    Parameters
+    ----------
+    mass_tensor : array_like, shape (n, n)
+        ``B_C = ∫ m X Xᵀ`` about the geometric centre C (the body origin).
+    mass : float
+        Total mass M.
+    radius : float
+        Radius r.
+    center_of_mass : array_like, shape (n,), optional
+        ``X_G`` relative to C in the body frame (default 0).
+    gravity : array_like, shape (n,), optional
+        Gravity g in space; None (default) means no gravity. A g not parallel to ν is an
+        incline.
+    normal : array_like, shape (n,), optional
+        Upward unit normal ν of the plane (default ``e_n``).
+    orientation : bool, default True
+        Integrate R (needed for the orientation output; always integrated with the centre).
+    track_center : bool, default True
+        Integrate the centre (needed for the centre, the contact path, and the energy on an
+        incline).
+
+    State fields: ``"Omega"`` (body angular velocity), ``"Gamma"`` (``Rᵀν``), ``"G"`` (``Rᵀg``,
+    only for a tilted gravity), ``"R"``, ``"center"`` (as requested).
+
+    Invariants: ``energy`` ``T − U`` (``T = −½ tr(Ω B_K Ω)``, ``U = M⟨g, q_C + R X_G⟩``),
+    ``gamma_norm`` ``|Γ|``, ``orthogonality``.
+    """
+
+    def __init__(
+        self,
+        mass_tensor,
+        mass,
+        radius,
+        center_of_mass=None,
+        gravity=None,
+        normal=None,
+        *,
+        orientation: bool = True,
+        track_center: bool = True,
+    ):
+        self.B_C, self.mass, self.radius, self.center_of_mass, self.normal = check_ball(
+            mass_tensor, mass, radius, center_of_mass, normal
+        )
+        n = self.n = self.B_C.shape[0]
+        self.gravity = None if gravity is None else check_vector(gravity, "gravity", n)
+        for flag, label in ((orientation, "orientation"), (track_center, "track_center")):
+            if not isinstance(flag, (bool, np.bool_)):
+                raise TypeError(f"`{label}` must be True or False; got {flag!r}.")
+        self.orientation, self.track_center = bool(orientation), bool(track_center)
+        # Gravity along ν needs no field of its own: G = c Γ with c = ⟨g, ν⟩.
+        self._tilted = self.gravity is not None and np.linalg.norm(
+            self.gravity - (self.gravity @ self.normal) * self.normal
+        ) > 1e-14 * np.linalg.norm(self.gravity)
+        self._g_normal = 0.0 if self.gravity is None else float(self.gravity @ self.normal)
+        self._offset = bool(np.any(self.center_of_mass != 0))
+        self.fields = {"Omega": (n, n), "Gamma": (n,)}
+        if self._tilted:
+            self.fields["G"] = (n,)
+        # The centre moves by p + R v: tracking it needs R even when no output asks for R.
+        if self.orientation or self.track_center:
+            self.fields["R"] = (n, n)
+        if self.track_center:
+            self.fields["center"] = (n,)
+        pose = SE(n) if self.track_center else SO(n)
+        self.group = ProductGroup(pose, VectorSpace((n, n)))
+
+    # -- physics -----------------------------------------------------------------------
+    def contact_mass_tensor(self, Gamma: np.ndarray) -> np.ndarray:
+        """``B_K = B_C + M (X_G κᵀ + κ X_Gᵀ) + M κκᵀ`` with ``κ = rΓ``."""
+        k = self.radius * Gamma
+        M = self.mass
+        BK = self.B_C + M * k[..., :, None] * k[..., None, :]
+        if self._offset:
+            XG = self.center_of_mass
+            BK = BK + M * (XG[:, None] * k[..., None, :] + k[..., :, None] * XG[None, :])
+        return BK
+
+    def body_gravity(self, y: State):
+        """``G = Rᵀg`` (None without gravity)."""
+        if self.gravity is None:
+            return None
+        return y["G"] if self._tilted else self._g_normal * y["Gamma"]
+
+    def angular_acceleration(self, y: State) -> np.ndarray:
+        """``Ω̇`` from equation (*) in the body frame (Lyapunov solve in the eigenbasis of B_K)."""
+        Om, Gam = y["Omega"], y["Gamma"]
+        k = self.radius * Gam
+        BK = self.contact_mass_tensor(Gam)
+        Om2 = Om @ Om
+        Om2k = (Om2 @ k[..., None])[..., 0]
+        G = self.body_gravity(y)
+        force = Om2k if G is None else G + Om2k
+        lever = k + self.center_of_mass if self._offset else k
+        C = BK @ Om2 - Om2 @ BK - self.mass * wedge(lever, force)
+        b, P = np.linalg.eigh(BK)
+        return solve_lyapunov_sym(b, P, C)
+
+    def kinetic_energy(self, y: State) -> np.ndarray:
+        """``T = −½ tr(Ω B_K Ω) = ½⟨Ω, B_K Ω⟩``."""
+        Om = y["Omega"]
+        return 0.5 * inner(Om, self.contact_mass_tensor(y["Gamma"]) @ Om)
+
+    def energy(self, y: State) -> np.ndarray:
+        """``H = T − U``, ``U = M⟨g, q_C + R X_G⟩ = M(⟨g, p⟩ + ⟨G, X_G⟩)``."""
+        T = self.kinetic_energy(y)
+        if self.gravity is None:
+            return T
+        G = self.body_gravity(y)
+        U = self.mass * (G @ self.center_of_mass)
+        if self._tilted:
+            U = U + self.mass * (y["center"] @ self.gravity)
+        else:  # ⟨g, p⟩ = c⟨ν, p⟩ = c r on the plane
+            U = U + self.mass * self._g_normal * self.radius
+        return T - U
+
+    def contact_point(self, center: np.ndarray) -> np.ndarray:
+        """Contact point ``K = q_C − rν`` on the plane."""
+        return center - self.radius * self.normal
+
+    # -- the LieGroupSystem contract ---------------------------------------------------
+    def generator(self, t, y: State):
+        Om = y["Omega"]
+        if self.track_center:
+            V = self.radius * (Om @ y["Gamma"][..., None])[..., 0]
+            pose = se_join(Om, V, algebra=True)
+        else:
+            pose = Om
+        return (pose, self.angular_acceleration(y))
+
+    def act(self, g, y: State) -> State:
+        pose, dOm = g
+        Q, v = se_split(pose) if self.track_center else (pose, None)
+        Qt = np.swapaxes(Q, -1, -2)
+        out = {"Omega": y["Omega"] + dOm, "Gamma": (Qt @ y["Gamma"][..., None])[..., 0]}
+        if self._tilted:
+            out["G"] = (Qt @ y["G"][..., None])[..., 0]
+        if "R" in self.fields:
+            out["R"] = y["R"] @ Q
+        if self.track_center:
+            out["center"] = y["center"] + (y["R"] @ v[..., None])[..., 0]
+        return out
+
+    def infinitesimal_action(self, xi, y: State) -> State:
+        pose, dOm = xi
+        Om, V = se_split(pose) if self.track_center else (pose, None)
+        out = {"Omega": dOm, "Gamma": -(Om @ y["Gamma"][..., None])[..., 0]}
+        if self._tilted:
+            out["G"] = -(Om @ y["G"][..., None])[..., 0]
+        if "R" in self.fields:
+            out["R"] = y["R"] @ Om
+        if self.track_center:
+            out["center"] = (y["R"] @ V[..., None])[..., 0]
+        return out
+
+    def project(self, y: State) -> State:
+        out = dict(y)
+        out["Omega"] = skew_part(y["Omega"])
+        out["Gamma"] = y["Gamma"] / np.linalg.norm(y["Gamma"], axis=-1, keepdims=True)
+        if self._tilted:
+            out["G"] = y["G"] * (np.linalg.norm(self.gravity) / np.linalg.norm(y["G"], axis=-1, keepdims=True))
+        if "R" in self.fields:
+            out["R"] = project_to_so(y["R"])
+        return out
+
+    @property
+    def invariant_functions(self):
+        funcs = {"gamma_norm": lambda t, y: np.linalg.norm(y["Gamma"], axis=-1)}
+        if not self._tilted or self.track_center:
+            funcs["energy"] = lambda t, y: self.energy(y)
+        if "R" in self.fields:
+            funcs["orthogonality"] = lambda t, y: orthogonality_defect(y["R"])
+        return funcs
+
+    # -- states ------------------------------------------------------------------------
+    def initial_state(self, *, R=None, Omega=None, angular_velocity=None, center=None, velocity=None) -> State:
+        """State from the orientation R (default identity), the body angular velocity
+        (``Omega`` bivector, or ``angular_velocity`` vector for n = 3) and the centre
+        (default ``rν``, touching the plane at the origin).
+
+        ``velocity`` (the centre's space velocity), if given, is checked against the rolling
+        constraint ``q̇_C = ω k = r R Ω Rᵀ ν``.
+        """
+        n = self.n
+        if (Omega is None) == (angular_velocity is None):
+            raise ValueError("Give exactly one of `Omega` or `angular_velocity` to `initial_state`.")
+        if angular_velocity is not None:
+            if n != 3:
+                raise ValueError(f"`angular_velocity` (a vector w with Ω = ŵ) needs n = 3; this ball has n = {n}.")
+            Om = hat(check_vector(angular_velocity, "angular_velocity", 3, batch=True))
+        else:
+            Om = as_float_array(Omega, "Omega")
+            if Om.shape[-2:] != (n, n):
+                raise ValueError(f"`Omega` must have shape (..., {n}, {n}); got shape {Om.shape}.")
+            Om = check_skew(Om, "Omega")
+        Rm = np.eye(n) if R is None else as_float_array(R, "R")
+        if Rm.shape[-2:] != (n, n):
+            raise ValueError(f"`R` must have shape (..., {n}, {n}); got shape {Rm.shape}.")
+        check_rotation(Rm, "R")
+        p = self.radius * self.normal if center is None else check_vector(center, "center", n, batch=True)
+        height = p @ self.normal
+        if np.max(np.abs(height - self.radius)) > 1e-9 * self.radius:
+            raise ValueError(
+                "`center` violates the rolling constraint: the centre must be at height r = "
+                f"{self.radius:g} above the plane (⟨center, ν⟩ = r); got heights {describe(np.asarray(height))}."
+            )
+        batch = np.broadcast_shapes(Om.shape[:-2], Rm.shape[:-2], p.shape[:-1])
+        Om = np.broadcast_to(Om, batch + (n, n)).copy()
+        Rm = np.broadcast_to(Rm, batch + (n, n)).copy()
+        Rt = np.swapaxes(Rm, -1, -2)
+        state = {"Omega": Om, "Gamma": Rt @ self.normal}
+        if velocity is not None:
+            vel = check_vector(velocity, "velocity", n, batch=True)
+            expected = self.radius * (Rm @ Om @ Rt @ self.normal)
+            if np.max(np.abs(vel - expected)) > 1e-9 * max(1.0, np.max(np.abs(expected))):
+                raise ValueError(
+                    "`velocity` violates the rolling constraint q̇_C = ω k (no sliding): with this Ω and R "
+                    f"the centre moves with {describe(expected)}; got {describe(vel)}."
+                )
+        if self._tilted:
+            state["G"] = Rt @ self.gravity
+        if "R" in self.fields:
+            state["R"] = Rm
+        if self.track_center:
+            state["center"] = np.broadcast_to(p, batch + (n,)).copy()
+        return state
+
+    def validate_state(self, y: Mapping[str, np.ndarray], name: str = "y0") -> State:
+        out = super().validate_state(y, name)
+        out["Omega"] = check_skew(out["Omega"], f"{name}['Omega']")
+        if "R" in self.fields:
+            check_rotation(out["R"], f"{name}['R']", atol=1e-9)
+        return out
+
+    def __repr__(self) -> str:
+        return (
+            f"{type(self).__name__}(n={self.n}, mass={self.mass:g}, radius={self.radius:g}, "
+            f"center_of_mass={describe(self.center_of_mass)}, gravity="
+            f"{None if self.gravity is None else describe(self.gravity)}, normal={describe(self.normal)}, "
+            f"fields={list(self.fields)})"
+        )
