@@ -157,7 +157,7 @@ def test_offset_ball_matches_the_space_frame_equation(rng):
         ),
         (
             {"gravity": [0.0, -9.81]},
-            r"`gravity` must be a vector of dimension n = 3 \(shape \(3,\)\); got shape \(2,\)",
+            r"`gravity` must be a vector of dimension n = 3 .*got shape \(2,\)",
         ),
     ],
 )
@@ -170,7 +170,7 @@ def test_bad_ball_input(kwargs, match):
 def test_initial_state_that_violates_the_rolling_constraint():
     ball = lieint.RollingBall(np.diag([0.1, 0.12, 0.14]), 1.0, 2.0, gravity=[0, 0, -9.81])
     with pytest.raises(
-        ValueError, match=r"`center` violates the rolling constraint: the centre must be at height r = 2"
+        ValueError, match=r"`center` violates the rolling constraint: .* height r = 2"
     ):
         ball.initial_state(angular_velocity=[0, 0, 1], center=[0, 0, 1.0])
     with pytest.raises(ValueError, match=r"`velocity` violates the rolling constraint q̇_C = ω k \(no sliding\)"):
