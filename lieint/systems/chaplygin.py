@@ -16,14 +16,14 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from .._validation import as_float_array, check_rotation, check_skew, check_vector, describe
-from ..groups.bivectors import hat, inner, skew_part
+from .._validation import check_rotation, check_skew, describe
+from ..groups.bivectors import inner, skew_part
 from ..groups.se import SE, se_join, se_split
 from ..groups.so import SO, project_to_so
 from .base import LieGroupSystem, State
 from .invariants import orthogonality_defect, skew_spectrum
 from .mass import solve_lyapunov_sym
-from .rolling_ball import check_ball
+from .rolling_ball import check_ball, rolling_initial_kinematics
 
 __all__ = ["ChaplyginBall"]
 
@@ -135,40 +135,17 @@ class ChaplyginBall(LieGroupSystem):
         return funcs
 
     # -- states ------------------------------------------------------------------------
-    def initial_state(self, *, R=None, Omega=None, angular_velocity=None, center=None) -> State:
+    def initial_state(self, *, R=None, Omega=None, angular_velocity=None, center=None, velocity=None) -> State:
         """State from the orientation R (default identity), the body angular velocity
-        (``Omega``, or ``angular_velocity`` for n = 3) and the centre (default ``rν``)."""
-        n = self.n
-        if (Omega is None) == (angular_velocity is None):
-            raise ValueError("Give exactly one of `Omega` or `angular_velocity` to `initial_state`.")
-        if angular_velocity is not None:
-            if n != 3:
-                raise ValueError(f"`angular_velocity` (a vector w with Ω = ŵ) needs n = 3; this ball has n = {n}.")
-            Om = hat(check_vector(angular_velocity, "angular_velocity", 3, batch=True))
-        else:
-            Om = as_float_array(Omega, "Omega")
-            if Om.shape[-2:] != (n, n):
-                raise ValueError(f"`Omega` must have shape (..., {n}, {n}); got shape {Om.shape}.")
-            Om = check_skew(Om, "Omega")
-        Rm = np.eye(n) if R is None else as_float_array(R, "R")
-        if Rm.shape[-2:] != (n, n):
-            raise ValueError(f"`R` must have shape (..., {n}, {n}); got shape {Rm.shape}.")
-        check_rotation(Rm, "R")
-        p = self.radius * self.normal if center is None else check_vector(center, "center", n, batch=True)
-        height = p @ self.normal
-        if np.max(np.abs(height - self.radius)) > 1e-9 * self.radius:
-            raise ValueError(
-                "`center` violates the rolling constraint: the centre must be at height r = "
-                f"{self.radius:g} above the plane (⟨center, ν⟩ = r); got heights {describe(np.asarray(height))}."
-            )
-        batch = np.broadcast_shapes(Om.shape[:-2], Rm.shape[:-2], p.shape[:-1])
-        Rm = np.broadcast_to(Rm, batch + (n, n)).copy()
+        (``Omega``, or ``angular_velocity`` for n = 3) and the centre (default ``rν``); a given
+        centre ``velocity`` is checked against the rolling constraint."""
+        Om, Rm, p = rolling_initial_kinematics(self, R, Omega, angular_velocity, center, velocity)
         Gam = np.swapaxes(Rm, -1, -2) @ self.normal
-        state = {"A": np.broadcast_to(self.momentum(Om, Gam), batch + (n, n)).copy(), "Gamma": Gam}
+        state = {"A": self.momentum(Om, Gam), "Gamma": Gam}
         if "R" in self.fields:
             state["R"] = Rm
         if self.track_center:
-            state["center"] = np.broadcast_to(p, batch + (n,)).copy()
+            state["center"] = p
         return state
 
     def validate_state(self, y: Mapping[str, np.ndarray], name: str = "y0") -> State:

@@ -29,7 +29,7 @@ from .base import LieGroupSystem, State
 from .invariants import orthogonality_defect
 from .mass import check_mass_tensor, solve_lyapunov_sym
 
-__all__ = ["RollingBall", "check_ball"]
+__all__ = ["RollingBall", "check_ball", "rolling_initial_kinematics"]
 
 
 def check_ball(mass_tensor, mass, radius, center_of_mass=None, normal=None):
@@ -257,48 +257,15 @@ class RollingBall(LieGroupSystem):
         ``velocity`` (the centre's space velocity), if given, is checked against the rolling
         constraint ``q̇_C = ω k = r R Ω Rᵀ ν``.
         """
-        n = self.n
-        if (Omega is None) == (angular_velocity is None):
-            raise ValueError("Give exactly one of `Omega` or `angular_velocity` to `initial_state`.")
-        if angular_velocity is not None:
-            if n != 3:
-                raise ValueError(f"`angular_velocity` (a vector w with Ω = ŵ) needs n = 3; this ball has n = {n}.")
-            Om = hat(check_vector(angular_velocity, "angular_velocity", 3, batch=True))
-        else:
-            Om = as_float_array(Omega, "Omega")
-            if Om.shape[-2:] != (n, n):
-                raise ValueError(f"`Omega` must have shape (..., {n}, {n}); got shape {Om.shape}.")
-            Om = check_skew(Om, "Omega")
-        Rm = np.eye(n) if R is None else as_float_array(R, "R")
-        if Rm.shape[-2:] != (n, n):
-            raise ValueError(f"`R` must have shape (..., {n}, {n}); got shape {Rm.shape}.")
-        check_rotation(Rm, "R")
-        p = self.radius * self.normal if center is None else check_vector(center, "center", n, batch=True)
-        height = p @ self.normal
-        if np.max(np.abs(height - self.radius)) > 1e-9 * self.radius:
-            raise ValueError(
-                "`center` violates the rolling constraint: the centre must be at height r = "
-                f"{self.radius:g} above the plane (⟨center, ν⟩ = r); got heights {describe(np.asarray(height))}."
-            )
-        batch = np.broadcast_shapes(Om.shape[:-2], Rm.shape[:-2], p.shape[:-1])
-        Om = np.broadcast_to(Om, batch + (n, n)).copy()
-        Rm = np.broadcast_to(Rm, batch + (n, n)).copy()
+        Om, Rm, p = rolling_initial_kinematics(self, R, Omega, angular_velocity, center, velocity)
         Rt = np.swapaxes(Rm, -1, -2)
         state = {"Omega": Om, "Gamma": Rt @ self.normal}
-        if velocity is not None:
-            vel = check_vector(velocity, "velocity", n, batch=True)
-            expected = self.radius * (Rm @ Om @ Rt @ self.normal)
-            if np.max(np.abs(vel - expected)) > 1e-9 * max(1.0, np.max(np.abs(expected))):
-                raise ValueError(
-                    "`velocity` violates the rolling constraint q̇_C = ω k (no sliding): with this Ω and R "
-                    f"the centre moves with {describe(expected)}; got {describe(vel)}."
-                )
         if self._tilted:
             state["G"] = Rt @ self.gravity
         if "R" in self.fields:
             state["R"] = Rm
         if self.track_center:
-            state["center"] = np.broadcast_to(p, batch + (n,)).copy()
+            state["center"] = p
         return state
 
     def validate_state(self, y: Mapping[str, np.ndarray], name: str = "y0") -> State:
@@ -315,3 +282,47 @@ class RollingBall(LieGroupSystem):
             f"{None if self.gravity is None else describe(self.gravity)}, normal={describe(self.normal)}, "
             f"fields={list(self.fields)})"
         )
+
+
+def rolling_initial_kinematics(ball, R, Omega, angular_velocity, center, velocity):
+    """Validated, broadcast ``(Ω, R, centre)`` of a ball's initial state.
+
+    The centre (default ``rν``, touching the plane at the origin) must be at height r; a
+    given centre ``velocity`` must satisfy the rolling constraint ``q̇_C = ω k = r R Ω Rᵀ ν``.
+    """
+    n = ball.n
+    if (Omega is None) == (angular_velocity is None):
+        raise ValueError("Give exactly one of `Omega` or `angular_velocity` to `initial_state`.")
+    if angular_velocity is not None:
+        if n != 3:
+            raise ValueError(f"`angular_velocity` (a vector w with Ω = ŵ) needs n = 3; this ball has n = {n}.")
+        Om = hat(check_vector(angular_velocity, "angular_velocity", 3, batch=True))
+    else:
+        Om = as_float_array(Omega, "Omega")
+        if Om.shape[-2:] != (n, n):
+            raise ValueError(f"`Omega` must have shape (..., {n}, {n}); got shape {Om.shape}.")
+        Om = check_skew(Om, "Omega")
+    Rm = np.eye(n) if R is None else as_float_array(R, "R")
+    if Rm.shape[-2:] != (n, n):
+        raise ValueError(f"`R` must have shape (..., {n}, {n}); got shape {Rm.shape}.")
+    check_rotation(Rm, "R")
+    r, nu = ball.radius, ball.normal
+    p = r * nu if center is None else check_vector(center, "center", n, batch=True)
+    height = p @ nu
+    if np.max(np.abs(height - r)) > 1e-9 * r:
+        raise ValueError(
+            "`center` violates the rolling constraint: the centre must be at height r = "
+            f"{r:g} above the plane (⟨center, ν⟩ = r); got heights {describe(np.asarray(height))}."
+        )
+    batch = np.broadcast_shapes(Om.shape[:-2], Rm.shape[:-2], p.shape[:-1])
+    Om = np.broadcast_to(Om, batch + (n, n)).copy()
+    Rm = np.broadcast_to(Rm, batch + (n, n)).copy()
+    if velocity is not None:
+        vel = check_vector(velocity, "velocity", n, batch=True)
+        expected = r * (Rm @ Om @ np.swapaxes(Rm, -1, -2) @ nu)
+        if np.max(np.abs(vel - expected)) > 1e-9 * max(1.0, np.max(np.abs(expected))):
+            raise ValueError(
+                "`velocity` violates the rolling constraint q̇_C = ω k (no sliding): with this Ω and R "
+                f"the centre moves with {describe(expected)}; got {describe(vel)}."
+            )
+    return Om, Rm, np.broadcast_to(p, batch + (n,)).copy()

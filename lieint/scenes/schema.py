@@ -1,0 +1,363 @@
+"""Scenes as data: the TOML schema, its Python object, and errors that point at the file line.
+
+A scene declares the body, the support (``fixed_point`` | ``rolling`` | ``free``), the forces
+(gravity or none), the initial state, the integrator and the outputs wanted::
+
+    [scene]       name, description
+    [body]        mass_tensor | principal_moments | uniform = true (+ dimension),
+                  mass, center_of_mass, radius
+    [support]     type, normal
+    [forces]      gravity = [gx, gy, gz] | {magnitude = 9.81, incline = "pi/6"}
+    [initial]     angular_velocity (n = 3) | omega (bivector) | momentum (bivector),
+                  orientation, center, velocity
+    [integrator]  method, step, t_end, t_start, coordinates, project, save_every
+    [output]      quantities = ["energy", "orientation", "contact_path", ...]
+
+Every number may be written as a string in a small safe grammar (``"pi/4"``), see
+:mod:`lieint.scenes.expressions`; nothing in a scene is evaluated as code.
+"""
+
+from __future__ import annotations
+
+import re
+import sys
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .expressions import ExpressionError, evaluate
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover
+    import tomli as tomllib
+
+__all__ = ["SUPPORTS", "Scene", "SceneError", "load_scene", "parse_scene"]
+
+SUPPORTS = ("fixed_point", "rolling", "free")
+
+_TABLES: dict[str, set[str]] = {
+    "scene": {"name", "description"},
+    "body": {"mass_tensor", "principal_moments", "uniform", "dimension", "mass", "center_of_mass", "radius"},
+    "support": {"type", "normal"},
+    "forces": {"gravity"},
+    "initial": {"angular_velocity", "omega", "momentum", "orientation", "center", "velocity"},
+    "integrator": {"method", "step", "t_end", "t_start", "coordinates", "project", "save_every"},
+    "output": {"quantities"},
+}
+_REQUIRED_TABLES = ("scene", "body", "support", "initial", "integrator", "output")
+
+
+class SceneError(ValueError):
+    """A scene that cannot be used; the message names the file, table, key and line."""
+
+
+@dataclass(frozen=True)
+class Scene:
+    """A validated scene (see the module docstring for the keys).
+
+    Build one from a TOML file with :func:`load_scene`, from a dict with :func:`parse_scene`,
+    or directly; :func:`lieint.scenes.build_system` assembles the system it calls for.
+    """
+
+    name: str
+    dimension: int
+    support: str
+    mass_tensor: np.ndarray
+    mass: float | None = None
+    center_of_mass: np.ndarray | None = None
+    radius: float | None = None
+    normal: np.ndarray | None = None
+    gravity: np.ndarray | None = None
+    initial: dict[str, np.ndarray] = field(default_factory=dict)
+    method: str = "rkmk4"
+    step: float = 0.01
+    t_end: float = 10.0
+    t_start: float = 0.0
+    coordinates: str = "exp"
+    project: bool = False
+    save_every: int = 1
+    outputs: tuple[str, ...] = ("energy",)
+    description: str = ""
+    source: str | None = None
+    text: str | None = field(default=None, repr=False)
+
+
+def load_scene(path) -> Scene:
+    """Read and validate a scene TOML file."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise SceneError(f"cannot read scene file {str(path)!r}: {exc.strerror or exc}") from None
+    return parse_scene(text, source=str(path))
+
+
+def parse_scene(text_or_dict, source: str | None = None) -> Scene:
+    """Validate a scene given as TOML text or as the equivalent dict."""
+    if isinstance(text_or_dict, str):
+        text = text_or_dict
+        try:
+            data = tomllib.loads(text)
+        except tomllib.TOMLDecodeError as exc:
+            raise SceneError(f"{source or '<scene>'}: not valid TOML: {exc}") from None
+    elif isinstance(text_or_dict, dict):
+        text, data = None, text_or_dict
+    else:
+        raise TypeError(f"`scene` must be TOML text or a dict; got {type(text_or_dict).__name__}.")
+    return _Reader(data, text, source).scene()
+
+
+class _Reader:
+    def __init__(self, data: dict, text: str | None, source: str | None):
+        self.data, self.text, self.source = data, text, source or "<scene>"
+        self.n: int | None = None
+
+    # -- error reporting ---------------------------------------------------------------
+    def line_of(self, table: str, key: str | None = None) -> int | None:
+        """1-based line of ``key`` in ``[table]`` (or of the table header) in the TOML text."""
+        if self.text is None:
+            return None
+        current = None
+        for number, raw in enumerate(self.text.splitlines(), start=1):
+            line = raw.strip()
+            header = re.match(r"^\[\s*([A-Za-z0-9_.\-]+)\s*\]", line)
+            if header:
+                current = header.group(1).split(".")[0]
+                if key is None and current == table:
+                    return number
+                continue
+            if current == table and key is not None and re.match(rf"^{re.escape(key)}\s*[=.]", line):
+                return number
+        return None
+
+    def fail(self, table: str, key: str | None, message: str) -> SceneError:
+        where = f"[{table}]" + (f" {key}" if key else "")
+        line = self.line_of(table, key)
+        at = f" (line {line})" if line else ""
+        return SceneError(f"{self.source}: {where}{at}: {message}")
+
+    # -- typed readers -----------------------------------------------------------------
+    def table(self, name: str) -> dict:
+        value = self.data.get(name, {})
+        if not isinstance(value, dict):
+            raise self.fail(name, None, f"must be a table; got {type(value).__name__}")
+        unknown = sorted(set(value) - _TABLES[name])
+        if unknown:
+            raise self.fail(name, unknown[0], f"unknown key {unknown[0]!r}; allowed keys are {sorted(_TABLES[name])}")
+        return value
+
+    def number(self, table: str, key: str, value: Any) -> float:
+        if isinstance(value, bool):
+            raise self.fail(table, key, f"expected a number; got {value!r}")
+        if isinstance(value, (int, float)):
+            v = float(value)
+            if not np.isfinite(v):
+                raise self.fail(table, key, f"expected a finite number; got {value!r}")
+            return v
+        if isinstance(value, str):
+            try:
+                return evaluate(value)
+            except ExpressionError as exc:
+                raise self.fail(table, key, str(exc)) from None
+        raise self.fail(table, key, f'expected a number or an expression string such as "pi/4"; got {value!r}')
+
+    def array(self, table: str, key: str, value: Any, shape: tuple[int, ...]) -> np.ndarray:
+        def convert(v, depth):
+            if isinstance(v, list):
+                return [convert(x, depth + 1) for x in v]
+            return self.number(table, key, v)
+
+        if not isinstance(value, list):
+            raise self.fail(table, key, f"expected an array of shape {shape}; got {value!r}")
+        try:
+            arr = np.array(convert(value, 0), dtype=float)
+        except ValueError:
+            raise self.fail(table, key, f"expected an array of shape {shape}; got a ragged array") from None
+        if arr.shape != shape:
+            raise self.fail(
+                table, key, f"expected an array of shape {shape} (dimension n = {self.n}); got shape {arr.shape}"
+            )
+        return arr
+
+    def string(self, table: str, key: str, value: Any, choices=None) -> str:
+        if not isinstance(value, str):
+            raise self.fail(table, key, f"expected a string; got {value!r}")
+        if choices is not None and value not in choices:
+            raise self.fail(table, key, f"must be one of {list(choices)}; got {value!r}")
+        return value
+
+    def positive(self, table: str, key: str, value: Any) -> float:
+        v = self.number(table, key, value)
+        if v <= 0:
+            raise self.fail(table, key, f"must be > 0; got {v:g}")
+        return v
+
+    # -- the scene ---------------------------------------------------------------------
+    def scene(self) -> Scene:
+        unknown = sorted(set(self.data) - set(_TABLES))
+        if unknown:
+            raise self.fail(unknown[0], None, f"unknown table; allowed tables are {sorted(_TABLES)}")
+        for name in _REQUIRED_TABLES:
+            if name not in self.data:
+                raise SceneError(f"{self.source}: missing required table [{name}]")
+        meta, body, support = self.table("scene"), self.table("body"), self.table("support")
+        forces, initial, integ, output = (self.table(t) for t in ("forces", "initial", "integrator", "output"))
+
+        name = self.string("scene", "name", self.required(meta, "scene", "name"))
+        description = self.string("scene", "description", meta.get("description", ""))
+        kind = self.string("support", "type", self.required(support, "support", "type"), SUPPORTS)
+
+        mass = self.positive("body", "mass", body["mass"]) if "mass" in body else None
+        radius = self.positive("body", "radius", body["radius"]) if "radius" in body else None
+        B = self.mass_tensor(body, mass, radius)
+        n = self.n
+        XG = self.array("body", "center_of_mass", body["center_of_mass"], (n,)) if "center_of_mass" in body else None
+        if kind in ("rolling", "free") and mass is None:
+            raise self.fail("body", None, f"missing key 'mass' (required for support type {kind!r})")
+        if kind == "rolling" and radius is None:
+            raise self.fail("body", None, "missing key 'radius' (required for a rolling ball)")
+        if kind != "rolling" and radius is not None:
+            raise self.fail("body", "radius", f"applies to rolling balls only; support type is {kind!r}")
+        if XG is not None and np.any(XG != 0) and kind == "fixed_point" and mass is None:
+            raise self.fail("body", None, "missing key 'mass' (required with an offset centre of mass under gravity)")
+        normal = self.array("support", "normal", support["normal"], (n,)) if "normal" in support else None
+        if normal is not None and kind != "rolling":
+            raise self.fail("support", "normal", f"applies to rolling supports only; support type is {kind!r}")
+        gravity = self.gravity(forces) if "gravity" in forces else None
+
+        init = self.initial(initial, kind)
+        method = self.string("integrator", "method", self.required(integ, "integrator", "method"))
+        from ..methods.registry import methods
+
+        if method not in methods():
+            raise self.fail("integrator", "method", f"unknown method {method!r}; valid names are {methods()}")
+        step = self.positive("integrator", "step", self.required(integ, "integrator", "step"))
+        t_end = self.number("integrator", "t_end", self.required(integ, "integrator", "t_end"))
+        t_start = self.number("integrator", "t_start", integ.get("t_start", 0.0))
+        if not t_end > t_start:
+            raise self.fail("integrator", "t_end", f"must be greater than t_start = {t_start:g}; got {t_end:g}")
+        coordinates = self.string("integrator", "coordinates", integ.get("coordinates", "exp"), ("exp", "cayley"))
+        project = integ.get("project", False)
+        if not isinstance(project, bool):
+            raise self.fail("integrator", "project", f"expected true or false; got {project!r}")
+        save_every = integ.get("save_every", 1)
+        if isinstance(save_every, bool) or not isinstance(save_every, int) or save_every < 1:
+            raise self.fail("integrator", "save_every", f"expected a positive integer; got {save_every!r}")
+        quantities = self.required(output, "output", "quantities")
+        if not isinstance(quantities, list) or not quantities or not all(isinstance(q, str) for q in quantities):
+            raise self.fail("output", "quantities", f"expected a nonempty list of names; got {quantities!r}")
+        return Scene(
+            name=name,
+            dimension=n,
+            support=kind,
+            mass_tensor=B,
+            mass=mass,
+            center_of_mass=XG,
+            radius=radius,
+            normal=normal,
+            gravity=gravity,
+            initial=init,
+            method=method,
+            step=step,
+            t_end=t_end,
+            t_start=t_start,
+            coordinates=coordinates,
+            project=project,
+            save_every=save_every,
+            outputs=tuple(quantities),
+            description=description,
+            source=self.source,
+            text=self.text,
+        )
+
+    def required(self, table_data: dict, table: str, key: str):
+        if key not in table_data:
+            raise self.fail(table, None, f"missing required key {key!r}")
+        return table_data[key]
+
+    def mass_tensor(self, body: dict, mass, radius) -> np.ndarray:
+        given = [k for k in ("mass_tensor", "principal_moments", "uniform") if k in body]
+        if len(given) != 1:
+            raise self.fail(
+                "body",
+                given[1] if len(given) > 1 else None,
+                f"give exactly one of 'mass_tensor', 'principal_moments' or 'uniform = true'; got {given or 'none'}",
+            )
+        key = given[0]
+        if key == "principal_moments":
+            self.n = 3
+            I = self.array("body", key, body[key], (3,))
+            if np.any(I <= 0) or np.any(I.sum() - 2 * I < -1e-12 * I.max()):
+                raise self.fail("body", key, f"must be positive and satisfy I_i <= I_j + I_k; got {I.tolist()}")
+            return np.diag((I.sum() - 2 * I) / 2)
+        if key == "uniform":
+            if body[key] is not True:
+                raise self.fail("body", key, f"expected true; got {body[key]!r}")
+            if "dimension" not in body:
+                raise self.fail("body", None, "missing key 'dimension' (required with 'uniform = true')")
+            dim = body["dimension"]
+            if isinstance(dim, bool) or not isinstance(dim, int) or dim < 2:
+                raise self.fail("body", "dimension", f"expected an integer >= 2; got {dim!r}")
+            self.n = dim
+            if mass is None or radius is None:
+                raise self.fail("body", key, "a uniform solid ball needs 'mass' and 'radius'")
+            return mass * radius**2 / (dim + 2) * np.eye(dim)
+        value = body[key]
+        if not isinstance(value, list) or not value or not isinstance(value[0], list):
+            raise self.fail("body", key, f"expected an (n, n) array; got {value!r}")
+        self.n = len(value)
+        B = self.array("body", key, value, (self.n, self.n))
+        if "dimension" in body and body["dimension"] != self.n:
+            raise self.fail("body", "dimension", f"is {body['dimension']!r} but mass_tensor is {self.n} x {self.n}")
+        return B
+
+    def gravity(self, forces: dict) -> np.ndarray:
+        g = forces["gravity"]
+        n = self.n
+        if isinstance(g, dict):
+            unknown = sorted(set(g) - {"magnitude", "incline"})
+            if unknown or "magnitude" not in g:
+                raise self.fail(
+                    "forces",
+                    "gravity",
+                    f"as a table takes 'magnitude' and optionally 'incline' (an angle); got keys {sorted(g)}",
+                )
+            mag = self.number("forces", "gravity", g["magnitude"])
+            theta = self.number("forces", "gravity", g.get("incline", 0.0))
+            e = np.eye(n)
+            # a plane tilted by θ about e_2: gravity gains a component along e_1
+            return mag * (np.sin(theta) * e[0] - np.cos(theta) * e[-1])
+        return self.array("forces", "gravity", g, (n,))
+
+    def initial(self, initial: dict, kind: str) -> dict[str, np.ndarray]:
+        n = self.n
+        given = [k for k in ("angular_velocity", "omega", "momentum") if k in initial]
+        if len(given) != 1:
+            raise self.fail(
+                "initial",
+                given[1] if len(given) > 1 else None,
+                f"give exactly one of 'angular_velocity' (n = 3), 'omega' or 'momentum'; got {given or 'none'}",
+            )
+        out: dict[str, np.ndarray] = {}
+        if "angular_velocity" in initial:
+            if n != 3:
+                raise self.fail(
+                    "initial",
+                    "angular_velocity",
+                    f"is a 3-vector (n = 3 only); this scene has n = {n}, use 'omega' (a bivector matrix)",
+                )
+            out["angular_velocity"] = self.array("initial", "angular_velocity", initial["angular_velocity"], (3,))
+        for key in ("omega", "momentum", "orientation"):
+            if key in initial:
+                out[key] = self.array("initial", key, initial[key], (n, n))
+        for key in ("center", "velocity"):
+            if key in initial:
+                if kind == "fixed_point":
+                    raise self.fail("initial", key, "does not apply to a body with a fixed point")
+                out[key] = self.array("initial", key, initial[key], (n,))
+        if "momentum" in initial and kind == "rolling":
+            raise self.fail("initial", "momentum", "a rolling ball starts from 'omega' or 'angular_velocity'")
+        return out
