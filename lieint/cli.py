@@ -58,6 +58,29 @@ def _build_parser() -> argparse.ArgumentParser:
         help="list the method names lieint.integrate accepts",
         description="List the method names lieint.integrate accepts.",
     )
+    run = sub.add_parser(
+        "run",
+        help="integrate a scene (a TOML file, or the name of an embedded scene)",
+        description=(
+            "Integrate a scene: a TOML file declaring body, support, forces, initial state, integrator "
+            "and outputs (see `lieint scenes` for the embedded examples, `lieint scenes --show NAME` for "
+            "their text). Only the effects the scene calls for are simulated. Prints the system that was "
+            "assembled, the run's cost, and for each requested output its drift (invariants) or its final "
+            "value (states)."
+        ),
+    )
+    run.add_argument("scene", help="path of a scene TOML file, or the name of an embedded scene")
+    run.add_argument(
+        "--save",
+        metavar="FILE.npz",
+        help="also save the saved times and the requested outputs to a NumPy .npz file (plain arrays)",
+    )
+    scenes = sub.add_parser(
+        "scenes",
+        help="list the embedded example scenes",
+        description="List the embedded example scenes, or print one with --show.",
+    )
+    scenes.add_argument("--show", metavar="NAME", help="print the TOML text of one embedded scene")
     return parser
 
 
@@ -98,8 +121,74 @@ def main(argv: list[str] | None = None) -> int:
             )
         print(format_rows(rows, args.format))
         return 0
+    if args.command == "scenes":
+        return _scenes(args)
+    if args.command == "run":
+        return _run(args)
     parser.print_help()
     return 0
+
+
+def _scenes(args) -> int:
+    from .scenes import SceneError, embedded_scene, embedded_scenes
+
+    if args.show:
+        try:
+            print(embedded_scene(args.show).text, end="")
+        except SceneError as exc:
+            print(f"lieint scenes: {exc}", file=sys.stderr)
+            return 2
+        return 0
+    for name, scene in embedded_scenes().items():
+        print(f"{name:16s} {scene.name}: {scene.description}")
+    return 0
+
+
+def _run(args) -> int:
+    from pathlib import Path
+
+    import numpy as np
+
+    from .scenes import SceneError, embedded_scenes, load_scene, run_scene
+
+    try:
+        if Path(args.scene).exists() or args.scene.endswith(".toml"):
+            scene = load_scene(args.scene)
+        else:
+            known = embedded_scenes()
+            if args.scene not in known:
+                raise SceneError(
+                    f"no scene file {args.scene!r} and no embedded scene of that name (embedded: {sorted(known)})"
+                )
+            scene = known[args.scene]
+        result = run_scene(scene)
+    except SceneError as exc:
+        print(f"lieint run: {exc}", file=sys.stderr)
+        return 2
+    sol, system = result.solution, result.system
+    print(f"{scene.name} — {system!r}")
+    print(
+        f"integrated: {', '.join(system.fields)} with {sol.method}, h = {scene.step:g}, "
+        f"{sol.nsteps} steps, {sol.nfev} evaluations, CPU {sol.stats['cpu_time']:.3f} s"
+        f"{'' if sol.success else ' — STOPPED: ' + sol.message}"
+    )
+    for name, values in result.outputs.items():
+        if name in sol.invariants:
+            drift = np.max(sol.drift(name))
+            kind = "max size" if name in system.defects else "max relative drift"
+            print(f"  {name:16s} {kind} {drift:.3e}")
+        else:
+            final = np.asarray(values[-1])
+            text = np.array2string(final, precision=6, suppress_small=True).replace("\n", "")
+            print(f"  {name:16s} final {text if final.size <= 9 else f'array {final.shape}'}")
+    if args.save:
+        try:
+            np.savez(args.save, t=sol.t, **result.outputs)
+        except OSError as exc:
+            print(f"lieint run: cannot write {args.save!r}: {exc.strerror or exc}", file=sys.stderr)
+            return 2
+        print(f"saved t and {', '.join(result.outputs)} to {args.save}")
+    return 0 if sol.success else 1
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -169,9 +169,7 @@ def test_bad_ball_input(kwargs, match):
 
 def test_initial_state_that_violates_the_rolling_constraint():
     ball = lieint.RollingBall(np.diag([0.1, 0.12, 0.14]), 1.0, 2.0, gravity=[0, 0, -9.81])
-    with pytest.raises(
-        ValueError, match=r"`center` violates the rolling constraint: .* height r = 2"
-    ):
+    with pytest.raises(ValueError, match=r"`center` violates the rolling constraint: .* height r = 2"):
         ball.initial_state(angular_velocity=[0, 0, 1], center=[0, 0, 1.0])
     with pytest.raises(ValueError, match=r"`velocity` violates the rolling constraint q̇_C = ω k \(no sliding\)"):
         ball.initial_state(angular_velocity=[1.0, 0, 0], velocity=[0, 0, 0])

@@ -118,6 +118,10 @@ class ChaplyginBall(LieGroupSystem):
         out["Gamma"] = y["Gamma"] / np.linalg.norm(y["Gamma"], axis=-1, keepdims=True)
         if "R" in self.fields:
             out["R"] = project_to_so(y["R"])
+        if self.track_center:
+            # back onto the constraint ⟨p, ν⟩ = r (the SE(n) step keeps it to truncation error)
+            height = y["center"] @ self.normal - self.radius
+            out["center"] = y["center"] - height[..., None] * self.normal
         return out
 
     @property
