@@ -29,6 +29,30 @@ def describe(x: np.ndarray, limit: int = 6) -> str:
     return f"array of shape {x.shape}"
 
 
+def is_clifford(value) -> bool:
+    """True for clifford MultiVectors and arrays of them (without importing clifford)."""
+    if type(value).__module__.startswith("clifford"):
+        return True
+    return (
+        isinstance(value, np.ndarray)
+        and value.dtype == object
+        and value.size > 0
+        and (type(value.ravel()[0]).__module__.startswith("clifford"))
+    )
+
+
+def as_bivector_array(value, name: str) -> np.ndarray:
+    """A bivector argument as a float array: clifford bivectors become skew matrices."""
+    if is_clifford(value):
+        from .ga.algebra import bivector_to_skew
+
+        try:
+            return bivector_to_skew(value)
+        except ValueError as exc:
+            raise ValueError(f"`{name}`: {exc}") from None
+    return as_float_array(value, name)
+
+
 def as_float_array(value, name: str, *, allow_nonfinite: bool = False) -> np.ndarray:
     """Convert ``value`` to a float64 array, or raise naming ``name``.
 

@@ -6,7 +6,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from .._validation import as_float_array, check_rotation, check_skew, check_square_trailing, describe
+from .._validation import as_bivector_array, as_float_array, check_rotation, check_skew, check_square_trailing, describe
 from ..groups.bivectors import hat, inner, skew_part, vee
 from ..groups.so import SO, project_to_so
 from .base import LieGroupSystem, State
@@ -172,7 +172,8 @@ class EulerTop(LieGroupSystem):
             )
         ((key, value),) = given.items()
         n = self.n
-        arr = as_float_array(value, key)
+        # Ω and A may be clifford bivectors (converted to skew matrices); w is a vector
+        arr = as_float_array(value, key) if key == "angular_velocity" else as_bivector_array(value, key)
         if key == "angular_velocity":
             if n != 3:
                 raise ValueError(f"`angular_velocity` (a vector w with Ω = ŵ) needs n = 3; this top has n = {n}.")

@@ -20,7 +20,15 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from .._validation import as_float_array, check_finite_positive, check_rotation, check_skew, check_vector, describe
+from .._validation import (
+    as_bivector_array,
+    as_float_array,
+    check_finite_positive,
+    check_rotation,
+    check_skew,
+    check_vector,
+    describe,
+)
 from ..groups.bivectors import hat, inner, skew_part, wedge
 from ..groups.se import SE, se_join, se_split
 from ..groups.so import SO, project_to_so
@@ -302,7 +310,7 @@ def rolling_initial_kinematics(ball, R, Omega, angular_velocity, center, velocit
             raise ValueError(f"`angular_velocity` (a vector w with Ω = ŵ) needs n = 3; this ball has n = {n}.")
         Om = hat(check_vector(angular_velocity, "angular_velocity", 3, batch=True))
     else:
-        Om = as_float_array(Omega, "Omega")
+        Om = as_bivector_array(Omega, "Omega")
         if Om.shape[-2:] != (n, n):
             raise ValueError(f"`Omega` must have shape (..., {n}, {n}); got shape {Om.shape}.")
         Om = check_skew(Om, "Omega")
