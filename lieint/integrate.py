@@ -33,6 +33,7 @@ def integrate(
     rtol: float = 1e-8,
     atol: float = 1e-10,
     t_eval=None,
+    backend: str = "auto",
 ) -> Solution:
     """Integrate ``system`` from ``y0`` over ``t_span``.
 
@@ -67,6 +68,10 @@ def integrate(
     t_eval : array_like, optional
         Save times of scipy methods (default: the grid of ``h`` and ``save_every``, else
         101 evenly spaced points).
+    backend : {"auto", "numpy", "numba"}
+        "auto" runs a compiled kernel where one covers the system and method (the 3D Euler
+        top with RKMK in exponential coordinates or classical RK), else the generic numpy path;
+        "numpy" forces the generic path (the reference); "numba" requires the kernel.
 
     Returns
     -------
@@ -87,6 +92,8 @@ def integrate(
         raise ValueError(f"`save_every` must be a positive integer; got {save_every!r}.")
     if not isinstance(project, (bool, np.bool_)):
         raise TypeError(f"`project` must be True or False; got {project!r}.")
+    if backend not in ("auto", "numpy", "numba"):
+        raise ValueError(f"`backend` must be one of ['auto', 'numpy', 'numba']; got {backend!r}.")
     if isinstance(stepper, ScipyMethod):
         return _integrate_scipy(system, y, t0, t1, h, stepper, project, save_every, rtol, atol, t_eval)
     if h is None:
@@ -94,7 +101,7 @@ def integrate(
     h = check_finite_positive(h, "h")
     if t_eval is not None:
         raise ValueError("`t_eval` applies to scipy methods only; fixed-step methods save every `save_every` steps.")
-    return _integrate_fixed(system, y, t0, t1, h, stepper, bool(project), int(save_every))
+    return _integrate_fixed(system, y, t0, t1, h, stepper, bool(project), int(save_every), backend)
 
 
 def _check_t_span(t_span) -> tuple[float, float]:
@@ -116,7 +123,7 @@ def _step_count(t0: float, t1: float, h: float) -> int:
     return max(1, int(nearest) if abs(ratio - nearest) <= 1e-9 * max(1.0, ratio) else math.ceil(ratio))
 
 
-def _integrate_fixed(system, y, t0, t1, h, stepper, project, save_every) -> Solution:
+def _integrate_fixed(system, y, t0, t1, h, stepper, project, save_every, backend="numpy") -> Solution:
     nsteps = _step_count(t0, t1, h)
     save_steps = list(range(0, nsteps + 1, save_every))
     if save_steps[-1] != nsteps:
@@ -126,6 +133,10 @@ def _integrate_fixed(system, y, t0, t1, h, stepper, project, save_every) -> Solu
     t_saved[-1] = t1
     if project:
         y = system.project(y)
+    if backend != "numpy":
+        fast = _try_fast(system, stepper, y, t0, t1, h, nsteps, save_steps, t_saved, project, save_every, backend)
+        if fast is not None:
+            return fast
     states = {name: np.empty((m,) + arr.shape) for name, arr in y.items()}
     for name, arr in y.items():
         states[name][0] = arr
@@ -174,10 +185,52 @@ def _integrate_fixed(system, y, t0, t1, h, stepper, project, save_every) -> Solu
         "save_every": save_every,
         "order": stepper.order,
         "coordinates": stepper.coordinates,
+        "backend": "numpy",
     }
     return Solution(
         t_saved, states, system, stepper.name, done if not success else nsteps, nfev, success, message, stats
     )
+
+
+def _try_fast(system, stepper, y, t0, t1, h, nsteps, save_steps, t_saved, project, save_every, backend):
+    from . import fast
+
+    if not fast.supports(system, stepper) or not fast.within_range(system, stepper, y, h):
+        if backend == "numba":
+            raise ValueError(
+                f"`backend='numba'`: no compiled kernel covers {type(system).__name__} "
+                f"(n = {getattr(system, 'n', '?')}) "
+                f"with {stepper.name!r} at h = {h:g}; kernels exist for the 3D EulerTop with RKMK in exponential "
+                "coordinates (truncated dexp⁻¹, stages within the series radius) or classical RK. Use "
+                "backend='auto' or 'numpy'."
+            )
+        return None
+    h_last = t1 - (t0 + (nsteps - 1) * h)
+    cpu0 = time.process_time()
+    states = fast.run_fast(system, stepper, y, h, h_last, nsteps, np.array(save_steps), project)
+    cpu = time.process_time() - cpu0
+    success, message, done = True, f"Reached t1 = {t1} in {nsteps} steps.", nsteps
+    finite = np.array([all(np.isfinite(v[i]).all() for v in states.values()) for i in range(len(save_steps))])
+    if not finite.all():
+        bad = int(np.argmin(finite))
+        done = save_steps[bad]
+        states = {k: v[:bad] for k, v in states.items()}
+        t_saved = t_saved[:bad]
+        success = False
+        message = (
+            f"The state became non-finite (NaN or inf) by step {done} (t = {t0 + done * h:.6g}); "
+            f"the run stopped there. Reduce the step `h` = {h:g} or check the initial state."
+        )
+    stats = {
+        "h": h,
+        "project": project,
+        "cpu_time": cpu,
+        "save_every": save_every,
+        "order": stepper.order,
+        "coordinates": stepper.coordinates,
+        "backend": "numba",
+    }
+    return Solution(t_saved, states, system, stepper.name, done, stepper.stages * done, success, message, stats)
 
 
 def _all_finite(y: dict) -> bool:

@@ -89,6 +89,10 @@ class LieGroup(ABC):
     def ad_spectral_radius(self, X) -> np.ndarray:
         """Spectral radius of ``ad_X`` (shape: the batch shape of ``X``)."""
 
+    def ad_radius_upper_bound(self, X) -> np.ndarray:
+        """A cheap upper bound of :meth:`ad_spectral_radius` (default: the radius itself)."""
+        return self.ad_spectral_radius(X)
+
     def lincomb(self, weights, elements):
         """``Σ_j w_j X_j`` of algebra elements (weights are Python floats)."""
         out = None
@@ -201,6 +205,10 @@ class MatrixLieGroup(LieGroup):
     def check_dexpinv_range(self, u: np.ndarray) -> None:
         """Raise :class:`DexpinvRangeError` if the dexp⁻¹ series diverges at ``u``."""
         with np.errstate(invalid="ignore"):
+            # a cheap upper bound settles the usual case without the exact (SVD) radius
+            bound = self.ad_radius_upper_bound(u)
+            if np.all(bound < 2.0 * np.pi):
+                return
             rho = self.ad_spectral_radius(u)
         # A non-finite stage is not a "too large step": it propagates and the driver reports it.
         worst = float(np.max(np.where(np.isfinite(rho), rho, 0.0), initial=0.0))

@@ -102,3 +102,10 @@ class SE(MatrixLieGroup):
         if self.n == 2:
             return np.abs(Om[..., 1, 0])
         return so_ad_spectral_radius(Om)
+
+    def ad_radius_upper_bound(self, X: np.ndarray) -> np.ndarray:
+        return (
+            self.rotations.ad_radius_upper_bound(X[..., : self.n, : self.n])
+            if self.n > 2
+            else (self.ad_spectral_radius(X))
+        )

@@ -227,6 +227,12 @@ class SO(MatrixLieGroup):
     def ad_spectral_radius(self, X: np.ndarray) -> np.ndarray:
         return so_ad_spectral_radius(X)
 
+    def ad_radius_upper_bound(self, X: np.ndarray) -> np.ndarray:
+        # ‖X‖_F² = 2 Σ θ_k² ≥ (θ₁ + θ₂)²: the Frobenius norm bounds the radius without an SVD
+        if self.n <= 3:
+            return so_ad_spectral_radius(X)
+        return np.sqrt(np.sum(X * X, axis=(-2, -1)))
+
     def dexpinv(self, u: np.ndarray, v: np.ndarray, degree: int | None = None) -> np.ndarray:
         if self.n == 2:
             return v.copy()  # so(2) is abelian: dexp⁻¹ is the identity

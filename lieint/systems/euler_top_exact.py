@@ -74,7 +74,6 @@ def _initial_argument(w, a1, a2, a3, m, p) -> float:
     return float(np.copysign(ellipkm1(p) - v0, w[1]))
 
 
-
 def _parity(perm) -> float:
     return float(np.linalg.det(np.eye(3)[:, perm]))
 

@@ -1,0 +1,64 @@
+"""The compiled path must match the generic numpy path (the reference) to round-off."""
+
+import numpy as np
+import pytest
+from conftest import random_rotation
+
+import lieint
+
+
+def well_conditioned_top(rng, diagonal=True):
+    I = np.array([1.1, 1.7, 2.3])
+    b = (I.sum() - 2 * I) / 2
+    if diagonal:
+        return lieint.EulerTop(np.diag(b))
+    Q = random_rotation(rng, 3)
+    Q[:, 0] *= -1  # an improper eigenbasis on purpose: the kernel must fix its orientation
+    return lieint.EulerTop(Q @ np.diag(b) @ Q.T)
+
+
+@pytest.mark.parametrize("method", ["lie_euler", "rkmk2", "rkmk3", "rkmk4", "rkmk6", "rk4"])
+@pytest.mark.parametrize("project", [False, True])
+@pytest.mark.parametrize("diagonal", [True, False])
+def test_fast_path_matches_the_generic_path(rng, method, project, diagonal):
+    top = well_conditioned_top(rng, diagonal)
+    y0 = top.initial_state(angular_velocity=rng.normal(size=(3, 3)), R=random_rotation(rng, 3, (3,)))
+    kw = dict(t_span=(0.0, 5.0), h=0.01, method=method, project=project, save_every=50)
+    fast = lieint.integrate(top, y0, backend="numba", **kw)
+    ref = lieint.integrate(top, y0, backend="numpy", **kw)
+    assert fast.stats["backend"] == "numba" and ref.stats["backend"] == "numpy"
+    np.testing.assert_allclose(fast.t, ref.t)
+    scale = np.abs(ref.states["A"]).max()
+    np.testing.assert_allclose(fast.states["A"], ref.states["A"], atol=1e-13 * scale)
+    np.testing.assert_allclose(fast.states["R"], ref.states["R"], atol=1e-13)
+    assert fast.nsteps == ref.nsteps and fast.nfev == ref.nfev
+
+
+def test_auto_uses_the_kernel_only_where_it_applies(rng):
+    top = well_conditioned_top(rng)
+    y0 = top.initial_state(angular_velocity=[0.3, 1.0, 0.4])
+    assert lieint.integrate(top, y0, (0, 1), h=0.1).stats["backend"] == "numba"
+    assert lieint.integrate(top, y0, (0, 1), h=0.1, coordinates="cayley").stats["backend"] == "numpy"
+    assert lieint.integrate(top, y0, (0, 1), h=0.1, dexpinv_degree=None).stats["backend"] == "numpy"
+    four = lieint.EulerTop(np.eye(4))
+    with pytest.raises(ValueError, match=r"`backend='numba'`: no compiled kernel covers EulerTop \(n = 4\)"):
+        lieint.integrate(four, four.initial_state(Omega=np.zeros((4, 4))), (0, 1), h=0.1, backend="numba")
+    with pytest.raises(ValueError, match=r"`backend` must be one of"):
+        lieint.integrate(top, y0, (0, 1), h=0.1, backend="gpu")
+
+
+def test_fast_path_top_without_orientation_and_a_partial_last_step(rng):
+    top = lieint.EulerTop(well_conditioned_top(rng).B, orientation=False)
+    y0 = top.initial_state(angular_velocity=[0.3, 1.0, 0.4])
+    a = lieint.integrate(top, y0, (0, 1.05), h=0.1, backend="numba")
+    b = lieint.integrate(top, y0, (0, 1.05), h=0.1, backend="numpy")
+    assert list(a.states) == ["A"] and a.t[-1] == 1.05
+    np.testing.assert_allclose(a.states["A"], b.states["A"], atol=1e-14)
+
+
+def test_fast_path_keeps_the_invariants(rng):
+    top = well_conditioned_top(rng)
+    y0 = top.initial_state(angular_velocity=rng.normal(size=(100, 3)))
+    sol = lieint.integrate(top, y0, (0, 100), h=0.01, method="rkmk4", project=True, save_every=1000)
+    assert np.max(sol.drift("casimirs")) < 1e-12
+    assert np.max(sol.invariants["orthogonality"]) < 1e-14
