@@ -13,7 +13,7 @@ equations while keeping the invariants of the group action to round-off.
 """
 
 from .groups import SE, SO, DexpinvRangeError
-from .integrate import integrate
+from .integrate import LieStepWarning, integrate
 from .methods import ButcherTableau, ClassicalRK, LieMethod, ScipyMethod, get_method, methods
 from .solution import Solution
 from .systems import ChaplyginBall, EulerTop, FreeBody, HeavyTop, LieGroupSystem, RollingBall
@@ -32,6 +32,7 @@ __all__ = [
     "HeavyTop",
     "LieGroupSystem",
     "LieMethod",
+    "LieStepWarning",
     "RollingBall",
     "ScipyMethod",
     "Solution",

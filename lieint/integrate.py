@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 import time
+import warnings
 
 import numpy as np
 
@@ -13,7 +14,19 @@ from .methods.scipy_ivp import ScipyMethod
 from .solution import Solution
 from .systems.base import LieGroupSystem
 
-__all__ = ["integrate"]
+__all__ = ["LieStepWarning", "integrate"]
+
+
+class LieStepWarning(RuntimeWarning):
+    """The step is too large for the fastest rotation of the motion.
+
+    Raised (as a warning) when ``h ξ(y)`` at a saved state has an ``ad`` spectral radius
+    above π -- fewer than two steps per turn of the fastest relative rotation: the method
+    stays on the group (Cayley and exponential coordinates alike) but its result is not an
+    accurate solution. Exponential coordinates refuse the step outright beyond 2π
+    (:class:`lieint.DexpinvRangeError`).
+    """
+
 
 # How often (in steps) a long stretch between saves is checked for non-finite values.
 _FINITE_CHECK_EVERY = 256
@@ -101,7 +114,37 @@ def integrate(
     h = check_finite_positive(h, "h")
     if t_eval is not None:
         raise ValueError("`t_eval` applies to scipy methods only; fixed-step methods save every `save_every` steps.")
-    return _integrate_fixed(system, y, t0, t1, h, stepper, bool(project), int(save_every), backend)
+    sol = _integrate_fixed(system, y, t0, t1, h, stepper, bool(project), int(save_every), backend)
+    _warn_if_unresolved(system, sol, h)
+    return sol
+
+
+def _warn_if_unresolved(system, sol: Solution, h: float) -> None:
+    """Warn when ``h ξ`` at the saved states exceeds π in ad spectral radius (see LieStepWarning)."""
+    if sol.t.size == 0:
+        return
+    # generators take one time (scalar logic such as `if t > …` is allowed): sample up to 200 saves
+    picks = np.unique(np.linspace(0, sol.t.size - 1, min(sol.t.size, 200)).astype(int))
+    worst_rho = []
+    with np.errstate(all="ignore"):
+        for i in picks:
+            y = {k: v[i] for k, v in sol.states.items()}
+            scaled = system.group.lincomb([h], [system.generator(float(sol.t[i]), y)])
+            rho = system.group.ad_radius_upper_bound(scaled)
+            if np.any(rho >= np.pi):
+                rho = system.group.ad_spectral_radius(scaled)
+            worst_rho.append(np.max(np.where(np.isfinite(rho), rho, 0.0), initial=0.0))
+    rho = np.array(worst_rho)
+    worst = float(np.max(np.where(np.isfinite(rho), rho, 0.0), initial=0.0))
+    if worst >= np.pi:
+        warnings.warn(
+            LieStepWarning(
+                f"h = {h:g} is too large for this motion: ‖h ξ‖ reaches {worst:.3g} >= pi (ad spectral radius) at the "
+                "saved states, fewer than two steps per turn of the fastest rotation. The state stays on its "
+                "manifold but is not an accurate solution; reduce `h`."
+            ),
+            stacklevel=3,
+        )
 
 
 def _check_t_span(t_span) -> tuple[float, float]:

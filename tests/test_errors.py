@@ -114,7 +114,8 @@ def test_a_step_too_large_for_the_dexpinv_series_is_refused(top):
     with pytest.raises(lieint.DexpinvRangeError, match=r"Reduce the step `h`, or use `coordinates='cayley'`"):
         lieint.integrate(top, y0, (0, 10), h=0.5, method="rkmk4")
     # Cayley coordinates have an exact dcay⁻¹ and stay orthogonal at such a step (‖hΩ‖ ≈ 10)
-    sol = lieint.integrate(top, y0, (0, 10), h=0.5, method="rkmk4", coordinates="cayley")
+    with pytest.warns(lieint.LieStepWarning, match=r"h = 0.5 is too large for this motion"):
+        sol = lieint.integrate(top, y0, (0, 10), h=0.5, method="rkmk4", coordinates="cayley")
     assert sol.success and np.max(sol.invariants["orthogonality"]) < 1e-13
 
 
@@ -122,9 +123,16 @@ def test_a_far_too_large_cayley_step_stays_orthogonal_and_shows_its_error(top):
     # ‖hΩ‖ ≈ 20: far out of any method's range. Cayley stays on SO(3) (closed form), and the
     # garbage shows in the energy instead of hiding.
     y0 = top.initial_state(angular_velocity=[0.0, 0.3, 20.0])
-    sol = lieint.integrate(top, y0, (0, 10), h=1.0, method="rkmk4", coordinates="cayley")
+    with pytest.warns(lieint.LieStepWarning, match="not an accurate solution; reduce `h`"):
+        sol = lieint.integrate(top, y0, (0, 10), h=1.0, method="rkmk4", coordinates="cayley")
     assert sol.success and np.max(sol.invariants["orthogonality"]) < 1e-13
     assert sol.drift("energy") > 0.1
+
+
+def test_a_resolved_step_gives_no_warning(top, recwarn):
+    y0 = top.initial_state(angular_velocity=[0.0, 0.3, 20.0])
+    lieint.integrate(top, y0, (0, 1), h=0.01, method="rkmk4", coordinates="cayley")
+    assert not [w for w in recwarn if issubclass(w.category, lieint.LieStepWarning)]
 
 
 class _Exploding(lieint.EulerTop):

@@ -90,7 +90,8 @@ def test_scipy_adapter_with_projection_at_save_points(top3):
 def test_a_blow_up_is_reported_not_silent():
     top = lieint.EulerTop(np.diag([1e-12, 1.0, 1.0]))
     y0 = top.initial_state(angular_velocity=[10.0, 10.0, 10.0])
-    sol = lieint.integrate(top, y0, (0, 100), h=1.0, method="rk4")
+    with pytest.warns(lieint.LieStepWarning):
+        sol = lieint.integrate(top, y0, (0, 100), h=1.0, method="rk4")
     assert not sol.success
     assert "non-finite" in sol.message and "Reduce the step" in sol.message
     assert np.all(np.isfinite(sol.states["A"]))

@@ -64,4 +64,5 @@ def solve_lyapunov_sym(b: np.ndarray, P: np.ndarray, C: np.ndarray) -> np.ndarra
     pair = b[..., :, None] + b[..., None, :]
     n = b.shape[-1]
     pair = pair + np.eye(n)  # diagonal: (2 b_i + 1), harmless since C̃_ii = 0
-    return P @ ((Pt @ C @ P) / pair) @ Pt
+    X = P @ ((Pt @ C @ P) / pair) @ Pt
+    return 0.5 * (X - np.swapaxes(X, -1, -2))  # exactly skew (see EulerTop.angular_velocity)
