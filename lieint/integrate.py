@@ -140,8 +140,8 @@ def _warn_if_unresolved(system, sol: Solution, h: float) -> None:
         warnings.warn(
             LieStepWarning(
                 f"h = {h:g} is too large for this motion: ‖h ξ‖ reaches {worst:.3g} >= pi (ad spectral radius) at the "
-                "saved states, fewer than two steps per turn of the fastest rotation. The state stays on its "
-                "manifold but is not an accurate solution; reduce `h`."
+                "saved states, fewer than two steps per turn of the fastest rotation: the result is not an accurate "
+                "solution (a Lie-group method still keeps it on its manifold); reduce `h`."
             ),
             stacklevel=3,
         )

@@ -25,3 +25,35 @@ def fitted_slope(hs, errors):
 @pytest.fixture
 def rng():
     return np.random.default_rng(20261122)
+
+
+# -- figures of the hard-case suite (tests/hard) -------------------------------------------
+HARD_FIGURES: list[tuple[str, str, str, str]] = []
+
+
+@pytest.fixture
+def record(request):
+    """``record(figure, value, truth)``: keep a figure of a hard case for the summary table."""
+
+    def _record(figure: str, value, truth: str = ""):
+        text = f"{value:.3g}" if isinstance(value, (float, np.floating)) else str(value)
+        HARD_FIGURES.append((request.node.name, figure, text, truth))
+        print(f"[hard] {request.node.name}: {figure} = {text}   ({truth})")
+
+    return _record
+
+
+def pytest_terminal_summary(terminalreporter):
+    if not HARD_FIGURES:
+        return
+    terminalreporter.section("hard cases: how close to the edge")
+    for case, figure, value, truth in HARD_FIGURES:
+        terminalreporter.write_line(f"{case:60.60s} {figure:45.45s} {value:>12s}  {truth}")
+    import os
+
+    path = os.environ.get("LIEINT_HARD_REPORT")
+    if path:
+        with open(path, "w", encoding="utf-8") as fh:
+            fh.write("| case | figure | value | checked against |\n|---|---|---|---|\n")
+            for case, figure, value, truth in HARD_FIGURES:
+                fh.write(f"| `{case}` | {figure} | {value} | {truth} |\n")

@@ -80,7 +80,7 @@ def test_bad_initial_state(top, kwargs, match):
         ({"t_span": (0.0, 0.0)}, ValueError, r"must have t1 > t0"),
         ({"t_span": (0.0, np.inf)}, ValueError, r"`t_span` must be finite"),
         ({"t_span": 5.0}, ValueError, r"`t_span` must be a pair \(t0, t1\)"),
-        ({"method": "rk5"}, ValueError, r"Unknown method 'rk5'; valid names are \['lie_euler', 'rkmk2'"),
+        ({"method": "rk5"}, ValueError, r"`method`: unknown method 'rk5'; valid names are \['lie_euler', 'rkmk2'"),
         ({"method": 4}, TypeError, r"`method` must be a method name or a method object; got int"),
         ({"coordinates": "quat"}, ValueError, r"`coordinates` must be one of \['exp', 'cayley'\]; got 'quat'"),
         ({"method": "rk4", "coordinates": "cayley"}, ValueError, r"`coordinates` applies to Lie-group methods only"),
@@ -123,7 +123,7 @@ def test_a_far_too_large_cayley_step_stays_orthogonal_and_shows_its_error(top):
     # ‖hΩ‖ ≈ 20: far out of any method's range. Cayley stays on SO(3) (closed form), and the
     # garbage shows in the energy instead of hiding.
     y0 = top.initial_state(angular_velocity=[0.0, 0.3, 20.0])
-    with pytest.warns(lieint.LieStepWarning, match="not an accurate solution; reduce `h`"):
+    with pytest.warns(lieint.LieStepWarning, match="not an accurate solution"):
         sol = lieint.integrate(top, y0, (0, 10), h=1.0, method="rkmk4", coordinates="cayley")
     assert sol.success and np.max(sol.invariants["orthogonality"]) < 1e-13
     assert sol.drift("energy") > 0.1

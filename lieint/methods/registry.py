@@ -75,4 +75,4 @@ def get_method(method="rkmk4", coordinates: str | None = None, dexpinv_degree=_A
         return ClassicalRK(method, CLASSICAL_TABLEAUX[method])
     if method.startswith("scipy:") and method[6:] in SCIPY_SOLVERS:
         return ScipyMethod(method[6:])
-    raise ValueError(f"Unknown method {method!r}; valid names are {methods()}.")
+    raise ValueError(f"`method`: unknown method {method!r}; valid names are {methods()}.")
