@@ -9,6 +9,7 @@ import warnings
 import numpy as np
 
 from ._validation import check_finite_positive
+from .engine import Plan, make_engine
 from .methods.registry import _AUTO, get_method
 from .methods.scipy_ivp import ScipyMethod
 from .solution import Solution
@@ -26,10 +27,6 @@ class LieStepWarning(RuntimeWarning):
     accurate solution. Exponential coordinates refuse the step outright beyond 2π
     (:class:`lieint.DexpinvRangeError`).
     """
-
-
-# How often (in steps) a long stretch between saves is checked for non-finite values.
-_FINITE_CHECK_EVERY = 256
 
 
 def integrate(
@@ -159,68 +156,20 @@ def _check_t_span(t_span) -> tuple[float, float]:
     return t0, t1
 
 
-def _step_count(t0: float, t1: float, h: float) -> int:
-    ratio = (t1 - t0) / h
-    # A ratio within round-off of an integer is that integer (no sliver of a last step).
-    nearest = round(ratio)
-    return max(1, int(nearest) if abs(ratio - nearest) <= 1e-9 * max(1.0, ratio) else math.ceil(ratio))
-
-
 def _integrate_fixed(system, y, t0, t1, h, stepper, project, save_every, backend="numpy") -> Solution:
-    nsteps = _step_count(t0, t1, h)
-    save_steps = list(range(0, nsteps + 1, save_every))
-    if save_steps[-1] != nsteps:
-        save_steps.append(nsteps)
-    m = len(save_steps)
-    t_saved = np.array([t0 + k * h for k in save_steps])
-    t_saved[-1] = t1
+    plan = Plan.make(t0, t1, h)
+    save_steps = plan.save_steps(save_every)
     if project:
         y = system.project(y)
-    if backend != "numpy":
-        fast = _try_fast(system, stepper, y, t0, t1, h, nsteps, save_steps, t_saved, project, save_every, backend)
-        if fast is not None:
-            return fast
-    states = {name: np.empty((m,) + arr.shape) for name, arr in y.items()}
-    for name, arr in y.items():
-        states[name][0] = arr
-    slot, nfev = 1, 0
-    success, message = True, f"Reached t1 = {t1} in {nsteps} steps."
+    engine = make_engine(system, stepper, plan, y, backend)
+    internal = engine.start(y)
     cpu0 = time.process_time()
-    done = 0
-    # Overflow is detected and reported below (success=False), not warned about per operation.
-    with np.errstate(over="ignore", invalid="ignore"):
-        for k in range(nsteps):
-            tk = t0 + k * h
-            hk = h if k < nsteps - 1 else t1 - tk
-            try:
-                y, evals = stepper.step(system, tk, y, hk)
-            except np.linalg.LinAlgError as exc:  # a linear solve met a non-finite stage
-                success = False
-                message = (
-                    f"Step {k + 1} (t = {tk:.6g}) failed in a linear solve ({exc}): the stages became "
-                    f"non-finite, the step `h` = {h:g} is far too large for this motion. Reduce `h`."
-                )
-                break
-            nfev += evals
-            if project:
-                y = system.project(y)
-            done = k + 1
-            saving = slot < m and save_steps[slot] == done
-            if (saving or done % _FINITE_CHECK_EVERY == 0) and not _all_finite(y):
-                success = False
-                message = (
-                    f"The state became non-finite (NaN or inf) by step {done} (t = {t0 + done * h:.6g}); "
-                    f"the run stopped there. Reduce the step `h` = {h:g} or check the initial state."
-                )
-                break
-            if saving:
-                for name, arr in y.items():
-                    states[name][slot] = arr
-                slot += 1
+    seg = engine.advance(internal, 0, plan.nsteps, plan, save_steps[1:], project)
     cpu = time.process_time() - cpu0
-    if slot < m:
-        states = {name: arr[:slot] for name, arr in states.items()}
-        t_saved = t_saved[:slot]
+    states = {name: np.concatenate([y[name][None], seg.states[name]]) for name in seg.states}
+    m = states[next(iter(states))].shape[0]
+    t_saved = np.array([plan.time(int(k)) for k in save_steps[:m]])
+    message = seg.failure or f"Reached t1 = {t1} in {plan.nsteps} steps."
     stats = {
         "h": h,
         "project": project,
@@ -228,56 +177,9 @@ def _integrate_fixed(system, y, t0, t1, h, stepper, project, save_every, backend
         "save_every": save_every,
         "order": stepper.order,
         "coordinates": stepper.coordinates,
-        "backend": "numpy",
+        "backend": engine.name,
     }
-    return Solution(
-        t_saved, states, system, stepper.name, done if not success else nsteps, nfev, success, message, stats
-    )
-
-
-def _try_fast(system, stepper, y, t0, t1, h, nsteps, save_steps, t_saved, project, save_every, backend):
-    from . import fast
-
-    if not fast.supports(system, stepper) or not fast.within_range(system, stepper, y, h):
-        if backend == "numba":
-            raise ValueError(
-                f"`backend='numba'`: no compiled kernel covers {type(system).__name__} "
-                f"(n = {getattr(system, 'n', '?')}) "
-                f"with {stepper.name!r} at h = {h:g}; kernels exist for the 3D EulerTop with RKMK in exponential "
-                "coordinates (truncated dexp⁻¹, stages within the series radius) or classical RK. Use "
-                "backend='auto' or 'numpy'."
-            )
-        return None
-    h_last = t1 - (t0 + (nsteps - 1) * h)
-    cpu0 = time.process_time()
-    states = fast.run_fast(system, stepper, y, h, h_last, nsteps, np.array(save_steps), project)
-    cpu = time.process_time() - cpu0
-    success, message, done = True, f"Reached t1 = {t1} in {nsteps} steps.", nsteps
-    finite = np.array([all(np.isfinite(v[i]).all() for v in states.values()) for i in range(len(save_steps))])
-    if not finite.all():
-        bad = int(np.argmin(finite))
-        done = save_steps[bad]
-        states = {k: v[:bad] for k, v in states.items()}
-        t_saved = t_saved[:bad]
-        success = False
-        message = (
-            f"The state became non-finite (NaN or inf) by step {done} (t = {t0 + done * h:.6g}); "
-            f"the run stopped there. Reduce the step `h` = {h:g} or check the initial state."
-        )
-    stats = {
-        "h": h,
-        "project": project,
-        "cpu_time": cpu,
-        "save_every": save_every,
-        "order": stepper.order,
-        "coordinates": stepper.coordinates,
-        "backend": "numba",
-    }
-    return Solution(t_saved, states, system, stepper.name, done, stepper.stages * done, success, message, stats)
-
-
-def _all_finite(y: dict) -> bool:
-    return all(bool(np.isfinite(arr).all()) for arr in y.values())
+    return Solution(t_saved, states, system, stepper.name, seg.done, seg.nfev, seg.failure is None, message, stats)
 
 
 def _integrate_scipy(system, y, t0, t1, h, stepper, project, save_every, rtol, atol, t_eval) -> Solution:
@@ -294,12 +196,8 @@ def _integrate_scipy(system, y, t0, t1, h, stepper, project, save_every, rtol, a
             )
     elif h is not None:
         h = check_finite_positive(h, "h")
-        n = _step_count(t0, t1, h)
-        ks = list(range(0, n + 1, save_every))
-        if ks[-1] != n:
-            ks.append(n)
-        t_save = np.array([t0 + k * h for k in ks])
-        t_save[-1] = t1
+        plan = Plan.make(t0, t1, h)
+        t_save = np.array([plan.time(int(k)) for k in plan.save_steps(save_every)])
     else:
         t_save = np.linspace(t0, t1, 101)
     if project:

@@ -11,7 +11,7 @@ import numpy as np
 from ..groups.base import bernoulli_dexpinv_coefficients
 from ..groups.bivectors import hat, vee
 
-__all__ = ["run_fast", "supports"]
+__all__ = ["Top3Kernel", "supports", "within_range"]
 
 
 def supports(system, stepper) -> bool:
@@ -23,13 +23,6 @@ def supports(system, stepper) -> bool:
     if stepper.kind == "lie":
         return stepper.coordinates == "exp" and stepper.dexpinv_degree is not None
     return stepper.kind == "classical"
-
-
-def _principal_frame(system):
-    P = system.P.copy()
-    if np.linalg.det(P) < 0:  # a proper rotation keeps Π a vector (not a pseudo-vector)
-        P[:, -1] *= -1.0
-    return P
 
 
 def within_range(system, stepper, y0, h) -> bool:
@@ -49,37 +42,53 @@ def within_range(system, stepper, y0, h) -> bool:
     return reach < np.pi
 
 
-def run_fast(system, stepper, y0, h, h_last, nsteps, save_steps, project):
-    """Integrate with the compiled kernel; returns the saved states dict ``(m, *batch, …)``."""
-    from .top3 import integrate_top3
+class Top3Kernel:
+    """The compiled 3D-top kernel with its own state representation ``(Π, R P)`` in the
+    principal frame (P a proper eigenbasis of B), so that a run split into segments gives the
+    same bits as one that is not: the conversion to ``(A, R)`` happens only on output."""
 
-    batch = system.batch_shape(y0)
-    P = _principal_frame(system)
-    A = y0["A"].reshape(-1, 3, 3)
-    R = y0["R"].reshape(-1, 3, 3) if "R" in y0 else np.broadcast_to(np.eye(3), A.shape)
-    pi0 = -vee(P.T @ A @ P)
-    R0 = R @ P
-    if stepper.kind == "lie":
-        coeffs = bernoulli_dexpinv_coefficients(stepper.dexpinv_degree)
-    else:
-        coeffs = (1.0,)
-    tab = stepper.tableau
-    out_pi, out_R = integrate_top3(
-        pi0,
-        R0,
-        system.principal_moments,
-        tab.A,
-        tab.b,
-        coeffs,
-        stepper.kind == "lie",
-        h,
-        h_last,
-        nsteps,
-        save_steps,
-        project,
-    )
-    m = out_pi.shape[0]
-    states = {"A": (P @ (-hat(out_pi)) @ P.T).reshape((m,) + batch + (3, 3))}
-    if "R" in system.fields:
-        states["R"] = (out_R @ P.T).reshape((m,) + batch + (3, 3))
-    return states
+    def __init__(self, system, stepper):
+        self.system, self.stepper = system, stepper
+        P = system.P.copy()
+        if np.linalg.det(P) < 0:  # a proper rotation keeps Π a vector (not a pseudo-vector)
+            P[:, -1] *= -1.0
+        self.P = P
+        self.coeffs = bernoulli_dexpinv_coefficients(stepper.dexpinv_degree) if stepper.kind == "lie" else (1.0,)
+
+    def start(self, y: dict) -> dict:
+        self.batch = self.system.batch_shape(y)
+        A = y["A"].reshape(-1, 3, 3)
+        R = y["R"].reshape(-1, 3, 3) if "R" in y else np.broadcast_to(np.eye(3), A.shape)
+        return {"pi": -vee(self.P.T @ A @ self.P), "R": np.ascontiguousarray(R @ self.P)}
+
+    def advance(self, internal: dict, k_from: int, k_to: int, plan, save_steps, project: bool):
+        from .top3 import integrate_top3
+
+        tab = self.stepper.tableau
+        out_pi, out_R, fin_pi, fin_R = integrate_top3(
+            internal["pi"],
+            internal["R"],
+            self.system.principal_moments,
+            tab.A,
+            tab.b,
+            self.coeffs,
+            self.stepper.kind == "lie",
+            plan.h,
+            plan.last_step,
+            k_from,
+            k_to,
+            plan.nsteps,
+            save_steps,
+            project,
+        )
+        return {"pi": fin_pi, "R": fin_R}, self._user(out_pi, out_R)
+
+    def _user(self, pi, R) -> dict:
+        lead = pi.shape[:-2]
+        states = {"A": (self.P @ (-hat(pi)) @ self.P.T).reshape(lead + self.batch + (3, 3))}
+        if "R" in self.system.fields:
+            states["R"] = (R @ self.P.T).reshape(lead + self.batch + (3, 3))
+        return states
+
+    def user_state(self, internal: dict) -> dict:
+        return {k: v[0] for k, v in self._user(internal["pi"][None], internal["R"][None]).items()}

@@ -165,7 +165,11 @@ def _newton_schulz(R, tmp):
 
 
 @njit(cache=True, parallel=True)
-def _run(pi0, R0, Iinv, A, b, coeffs, lie, h, h_last, nsteps, save_steps, project, out_pi, out_R):
+def _run(
+    pi0, R0, Iinv, A, b, coeffs, lie, h, h_last, k_from, k_to, nsteps, save_steps, project, out_pi, out_R, fin_pi, fin_R
+):
+    """Steps k_from < k ≤ k_to of the global grid (the last global step has size h_last);
+    states after the steps listed in save_steps go to out_*, the state after k_to to fin_*."""
     nb = pi0.shape[0]
     s = b.shape[0]
     for n in prange(nb):
@@ -177,10 +181,8 @@ def _run(pi0, R0, Iinv, A, b, coeffs, lie, h, h_last, nsteps, save_steps, projec
         Q = np.zeros((3, 3))
         tpi = np.zeros(3)
         tR = np.zeros((3, 3))
-        out_pi[0, n] = pi
-        out_R[0, n] = R
-        slot = 1
-        for k in range(nsteps):
+        slot = 0
+        for k in range(k_from, k_to):
             hk = h if k < nsteps - 1 else h_last
             if lie:
                 _lie_step(pi, R, Iinv, A, b, hk, coeffs, K, u, Q, tpi, tR)
@@ -192,16 +194,35 @@ def _run(pi0, R0, Iinv, A, b, coeffs, lie, h, h_last, nsteps, save_steps, projec
                 out_pi[slot, n] = pi
                 out_R[slot, n] = R
                 slot += 1
+        fin_pi[n] = pi
+        fin_R[n] = R
 
 
 def integrate_top3(
-    pi0, R0, moments, tableau_A, tableau_b, coeffs, lie: bool, h, h_last, nsteps, save_steps, project: bool
+    pi0,
+    R0,
+    moments,
+    tableau_A,
+    tableau_b,
+    coeffs,
+    lie: bool,
+    h,
+    h_last,
+    k_from,
+    k_to,
+    nsteps,
+    save_steps,
+    project: bool,
 ):
-    """Run the compiled loop; returns ``(Π, R)`` at the save steps, shapes ``(m, N, 3)``, ``(m, N, 3, 3)``."""
-    m = len(save_steps)
-    N = pi0.shape[0]
-    out_pi = np.empty((m, N, 3))
-    out_R = np.empty((m, N, 3, 3))
+    """Run the compiled loop over steps ``k_from < k ≤ k_to``.
+
+    Returns ``(Π, R)`` at the global save steps in that range, shapes ``(m, N, 3)`` and
+    ``(m, N, 3, 3)``, and the final ``(Π, R)``; all in the principal frame.
+    """
+    save_steps = np.asarray(save_steps, dtype=np.int64)
+    m, N = save_steps.size, pi0.shape[0]
+    out_pi, out_R = np.empty((m, N, 3)), np.empty((m, N, 3, 3))
+    fin_pi, fin_R = np.empty((N, 3)), np.empty((N, 3, 3))
     _run(
         np.ascontiguousarray(pi0),
         np.ascontiguousarray(R0),
@@ -212,10 +233,14 @@ def integrate_top3(
         bool(lie),
         float(h),
         float(h_last),
+        int(k_from),
+        int(k_to),
         int(nsteps),
-        np.asarray(save_steps, dtype=np.int64),
+        save_steps,
         bool(project),
         out_pi,
         out_R,
+        fin_pi,
+        fin_R,
     )
-    return out_pi, out_R
+    return out_pi, out_R, fin_pi, fin_R
