@@ -15,6 +15,7 @@ equations while keeping the invariants of the group action to round-off.
 from .groups import SE, SO, DexpinvRangeError
 from .integrate import LieStepWarning, integrate
 from .methods import ButcherTableau, ClassicalRK, LieMethod, ScipyMethod, get_method, methods
+from .runs import run
 from .solution import Solution
 from .systems import ChaplyginBall, EulerTop, FreeBody, HeavyTop, LieGroupSystem, RollingBall
 
@@ -40,4 +41,5 @@ __all__ = [
     "get_method",
     "integrate",
     "methods",
+    "run",
 ]

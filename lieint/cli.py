@@ -75,6 +75,46 @@ def _build_parser() -> argparse.ArgumentParser:
         metavar="FILE.npz",
         help="also save the saved times and the requested outputs to a NumPy .npz file (plain arrays)",
     )
+    run.add_argument(
+        "--out",
+        metavar="RUN.h5",
+        help="stream states, times and invariants into this HDF5 file as the run goes (flat memory, "
+        "checkpoints, resumable); without it the run is held in memory",
+    )
+    run.add_argument("--overwrite", action="store_true", help="replace an existing --out file")
+    run.add_argument(
+        "--resume",
+        action="store_true",
+        help="continue an interrupted --out run from its checkpoint (RUN.h5.checkpoint)",
+    )
+    run.add_argument("--checkpoint-every", type=int, metavar="STEPS", help="write the checkpoint every STEPS steps")
+    run.add_argument(
+        "--checkpoint-seconds",
+        type=_positive_float,
+        default=60.0,
+        metavar="S",
+        help="write the checkpoint at least every S seconds of wall time",
+    )
+    run.add_argument("--quiet", action="store_true", help="no progress bar or progress lines")
+    run.add_argument(
+        "--monitor-every", type=int, metavar="STEPS", help="print each saved invariant's drift so far every STEPS steps"
+    )
+    run.add_argument(
+        "--max-drift",
+        action="append",
+        default=[],
+        metavar="NAME=VALUE",
+        help="stop the run once the drift of invariant NAME exceeds VALUE (repeatable)",
+    )
+    plot = sub.add_parser(
+        "plot",
+        help="draw a streamed run: invariant drifts, orientation or contact path, spread",
+        description="Draw what a streamed run holds (lieint run --out RUN.h5): each invariant's "
+        "drift against time on log axes, the orientation (body axis) or the contact "
+        "path, and for ensembles the spread over members (median and 10-90%% band).",
+    )
+    plot.add_argument("run", metavar="RUN.h5", help="the HDF5 file written by lieint run --out")
+    plot.add_argument("--out", metavar="FIG", help="output figure, .png or .svg (default: RUN.png beside the file)")
     scenes = sub.add_parser(
         "scenes",
         help="list the embedded example scenes",
@@ -124,7 +164,9 @@ def main(argv: list[str] | None = None) -> int:
     if args.command == "scenes":
         return _scenes(args)
     if args.command == "run":
-        return _run(args)
+        return _run_streamed(args) if args.out else _run(args)
+    if args.command == "plot":
+        return _plot(args)
     parser.print_help()
     return 0
 
@@ -141,6 +183,53 @@ def _scenes(args) -> int:
         return 0
     for name, scene in embedded_scenes().items():
         print(f"{name:16s} {scene.name}: {scene.description}")
+    return 0
+
+
+def _run_streamed(args) -> int:
+    from .runs import StoreError, run
+    from .scenes import SceneError
+
+    limits = {}
+    for item in args.max_drift:
+        name, sep, value = item.partition("=")
+        try:
+            limits[name.strip()] = float(value)
+        except ValueError:
+            sep = ""
+        if not sep or not name.strip():
+            print(f"lieint run: --max-drift expects NAME=VALUE (e.g. energy=1e-8); got {item!r}", file=sys.stderr)
+            return 2
+    try:
+        report = run(
+            args.scene,
+            args.out,
+            overwrite=args.overwrite,
+            resume=args.resume,
+            checkpoint_every=args.checkpoint_every,
+            checkpoint_seconds=args.checkpoint_seconds,
+            progress=False if args.quiet else "auto",
+            monitor_every=args.monitor_every,
+            max_drift=limits,
+        )
+    except (SceneError, StoreError, ValueError) as exc:
+        print(f"lieint run: {exc}", file=sys.stderr)
+        return 2
+    print(f"{report.message} -> {report.path}")
+    for name, value in report.drifts.items():
+        print(f"  {name:16s} max drift {value:.3e}")
+    return {"complete": 0, "interrupted": 130, "stopped": 3}.get(report.status, 1)
+
+
+def _plot(args) -> int:
+    from .runs.plot import PlotError, plot_run
+
+    try:
+        path = plot_run(args.run, args.out)
+    except PlotError as exc:
+        print(f"lieint plot: {exc}", file=sys.stderr)
+        return 2
+    print(f"wrote {path}")
     return 0
 
 

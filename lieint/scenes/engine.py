@@ -57,7 +57,9 @@ def build_system(scene: Scene):
     g = scene.gravity
     XG = scene.center_of_mass
     offset = XG is not None and bool(np.any(XG != 0))
-    ini = scene.initial
+    ini = dict(scene.initial)
+    if scene.ensemble is not None:  # the members replace the single initial velocity: one batch
+        ini[scene.ensemble["key"]] = scene.ensemble["members"]
     try:
         if scene.support == "fixed_point":
             if g is not None and offset:

@@ -12,6 +12,7 @@ A scene declares the body, the support (``fixed_point`` | ``rolling`` | ``free``
                   orientation, center, velocity
     [integrator]  method, step, t_end, t_start, coordinates, project, save_every
     [output]      quantities = ["energy", "orientation", "contact_path", ...]
+    [ensemble]    count, seed, spread  (Gaussian spread of the initial angular velocity) | file
 
 Every number may be written as a string in a small safe grammar (``"pi/4"``), see
 :mod:`lieint.scenes.expressions`; nothing in a scene is evaluated as code.
@@ -46,6 +47,7 @@ _TABLES: dict[str, set[str]] = {
     "initial": {"angular_velocity", "omega", "momentum", "orientation", "center", "velocity"},
     "integrator": {"method", "step", "t_end", "t_start", "coordinates", "project", "save_every"},
     "output": {"quantities"},
+    "ensemble": {"count", "seed", "spread", "file"},
 }
 _REQUIRED_TABLES = ("scene", "body", "support", "initial", "integrator", "output")
 
@@ -80,6 +82,7 @@ class Scene:
     project: bool = False
     save_every: int = 1
     outputs: tuple[str, ...] = ("energy",)
+    ensemble: dict | None = None
     description: str = ""
     source: str | None = None
     text: str | None = field(default=None, repr=False)
@@ -249,7 +252,9 @@ class _Reader:
         quantities = self.required(output, "output", "quantities")
         if not isinstance(quantities, list) or not quantities or not all(isinstance(q, str) for q in quantities):
             raise self.fail("output", "quantities", f"expected a nonempty list of names; got {quantities!r}")
+        ensemble = self.ensemble(self.table("ensemble"), init) if "ensemble" in self.data else None
         return Scene(
+            ensemble=ensemble,
             name=name,
             dimension=n,
             support=kind,
@@ -272,6 +277,48 @@ class _Reader:
             source=self.source,
             text=self.text,
         )
+
+    def ensemble(self, ens: dict, init: dict) -> dict:
+        """Many initial conditions: ``count`` members with a seeded Gaussian ``spread`` added to the
+        initial angular velocity (or to the entries of ``omega``), or the members from ``file``
+        (a .npy array of angular velocities (N, 3) or omegas (N, n, n)), integrated as one batch."""
+        key = "angular_velocity" if "angular_velocity" in init else "omega" if "omega" in init else None
+        if key is None:
+            raise self.fail("ensemble", None, "an ensemble spreads 'angular_velocity' or 'omega' of [initial]")
+        base = init[key]
+        if "file" in ens:
+            if set(ens) - {"file"}:
+                raise self.fail("ensemble", "file", "give either 'file' or 'count', 'seed' and 'spread'")
+            name = self.string("ensemble", "file", ens["file"])
+            path = Path(name) if self.source in (None, "<scene>") else Path(self.source).parent / name
+            try:
+                members = np.load(path, allow_pickle=False)  # plain arrays only: never code
+            except (OSError, ValueError) as exc:
+                raise self.fail("ensemble", "file", f"cannot read {str(path)!r} as a .npy array ({exc})") from None
+            if members.ndim != base.ndim + 1 or members.shape[1:] != base.shape or not np.all(np.isfinite(members)):
+                raise self.fail(
+                    "ensemble",
+                    "file",
+                    f"expected a finite array of shape (N, {', '.join(map(str, base.shape))}) "
+                    f"of initial {key}; got shape {members.shape}",
+                )
+            return {"key": key, "members": members.astype(float)}
+        missing = [k for k in ("count", "seed", "spread") if k not in ens]
+        if missing:
+            raise self.fail("ensemble", None, f"missing key {missing[0]!r} (count, seed and spread, or file)")
+        count, seed = ens["count"], ens["seed"]
+        for k, v in (("count", count), ("seed", seed)):
+            if isinstance(v, bool) or not isinstance(v, int) or v < (1 if k == "count" else 0):
+                raise self.fail(
+                    "ensemble", k, f"expected a {'positive' if k == 'count' else 'nonnegative'} integer; got {v!r}"
+                )
+        spread = self.number("ensemble", "spread", ens["spread"])
+        if spread < 0:
+            raise self.fail("ensemble", "spread", f"must be >= 0; got {spread:g}")
+        noise = np.random.default_rng(seed).normal(size=(count,) + base.shape) * spread
+        if key == "omega":
+            noise = 0.5 * (noise - np.swapaxes(noise, -1, -2))
+        return {"key": key, "members": base + noise}
 
     def required(self, table_data: dict, table: str, key: str):
         if key not in table_data:

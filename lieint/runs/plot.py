@@ -1,0 +1,166 @@
+"""``lieint plot RUN.h5``: the figures users look at after a long run.
+
+1. Each saved invariant's drift against time on log axes (relative to its first value;
+   defects such as ``orthogonality`` as they are); for an ensemble the median over members
+   with the 10–90 % band.
+2. The motion: the contact path on the plane for a ball, else the body's first axis ``R e₁``
+   in space (the Dzhanibekov flips show as jumps of its components).
+3. For an ensemble, the spread: how far each member's orientation (angle of ``R_i R₀ᵀ``) or
+   contact point is from the first member's, median and 10–90 % band.
+
+Long files are read with a stride (at most ~4000 rows), so plotting stays light.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["PlotError", "plot_run"]
+
+_MAX_POINTS = 4000
+_DEFECTS = {"orthogonality", "rotor_defect"}
+
+
+class PlotError(ValueError):
+    """A file that cannot be plotted (missing, corrupt, or not a lieint run)."""
+
+
+def _read(path: Path):
+    import h5py
+
+    try:
+        f = h5py.File(path, "r", swmr=True)  # also reads a run that is still being written
+    except OSError:
+        try:
+            f = h5py.File(path, "r")
+        except OSError as exc:
+            raise PlotError(f"cannot open {str(path)!r} as an HDF5 run file: {exc}") from None
+    try:
+        if "t" not in f or "states" not in f:
+            raise PlotError(f"{str(path)!r} is not a lieint run (no /t and /states)")
+        m = f["t"].shape[0]
+        stride = max(1, m // _MAX_POINTS)
+        t = f["t"][::stride]
+        states = {k: ds[::stride] for k, ds in f["states"].items()}
+        inv = {k: ds[::stride] for k, ds in f["invariants"].items()} if "invariants" in f else {}
+        outputs = {k: ds[::stride] for k, ds in f["outputs"].items()} if "outputs" in f else {}
+        attrs = {k: (v.decode() if isinstance(v, bytes) else v) for k, v in f.attrs.items()}
+    finally:
+        f.close()
+    return t, states, inv, outputs, attrs
+
+
+def _members(values: np.ndarray, tail: int) -> np.ndarray:
+    """Reshape ``(m, *batch, *tail)`` to ``(m, members, *tail)``."""
+    m = values.shape[0]
+    return values.reshape((m, -1) + values.shape[values.ndim - tail :])
+
+
+def _band(ax, t, series, label):
+    """Median and 10–90 % band of ``series`` (m, members)."""
+    if series.shape[1] == 1:
+        ax.plot(t, series[:, 0], label=label)
+        return
+    lo, med, hi = np.nanpercentile(series, [10, 50, 90], axis=1)
+    line = ax.plot(t, med, label=f"{label} (median)")[0]
+    ax.fill_between(t, lo, hi, color=line.get_color(), alpha=0.25)
+
+
+def plot_run(path, out=None) -> Path:
+    """Draw the figure of a streamed run; returns the figure's path (PNG or SVG by suffix)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    path = Path(path)
+    if not path.exists():
+        raise PlotError(f"no run file {str(path)!r}")
+    out = Path(out) if out else path.with_suffix(".png")
+    if out.suffix.lower() not in (".png", ".svg"):
+        raise PlotError(f"the figure must be .png or .svg; got {out.name!r}")
+    t, states, inv, outputs, attrs = _read(path)
+    field_ndim = {"A": 2, "R": 2, "Omega": 2, "Gamma": 1, "G": 1, "center": 1, "velocity": 1, "rotor": 1}
+    first = next(iter(states))
+    members = _members(states[first], field_ndim.get(first, 1)).shape[1]
+    ensemble = members > 1
+    ncols = 3 if ensemble else 2
+    fig, axes = plt.subplots(1, ncols, figsize=(5.2 * ncols, 4.2))
+    title = f"{attrs.get('scene_name', path.stem)} — {attrs.get('method', '')}, h = {attrs.get('h', '')}"
+    if attrs.get("status") != "complete":
+        title += f" [{attrs.get('status')}]"
+    fig.suptitle(title)
+
+    ax = axes[0]
+    tt = t - t[0]
+    keep = tt > 0
+    for name, values in inv.items():
+        extra = values.ndim - 1 - (len(states[first].shape) - 1 - field_ndim.get(first, 1))
+        v = _members(values, extra)
+        axes_extra = tuple(range(2, v.ndim))
+        if name in _DEFECTS:
+            d = np.sqrt(np.sum(v * v, axis=axes_extra)) if axes_extra else np.abs(v)
+        else:
+            ref = v[:1]
+            scale = np.sqrt(np.sum(ref * ref, axis=axes_extra)) if axes_extra else np.abs(ref)
+            diff = v - ref
+            d = np.sqrt(np.sum(diff * diff, axis=axes_extra)) if axes_extra else np.abs(diff)
+            d = d / np.where(scale > 0, scale, 1.0)
+        _band(ax, tt[keep], np.maximum(d[keep], 1e-17), name)
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("t − t₀")
+    ax.set_ylabel("relative drift |I(t) − I(0)| / |I(0)|  (defects: size)")
+    ax.set_title("invariants")
+    if inv:
+        ax.legend(fontsize=8)
+
+    ax = axes[1]
+    path_xy = outputs.get("contact_path")
+    if path_xy is None and "center" in states:
+        path_xy = states["center"]
+    if path_xy is not None:
+        p = _members(path_xy, 1)
+        for i in range(min(p.shape[1], 5)):
+            ax.plot(p[:, i, 0], p[:, i, 1], lw=1)
+        ax.set_xlabel("x")
+        ax.set_ylabel("y")
+        ax.set_aspect("equal", adjustable="datalim")
+        ax.set_title("contact path" if "contact_path" in outputs else "centre path")
+    elif "R" in states:
+        R = _members(states["R"], 2)
+        for c in range(min(3, R.shape[-1])):
+            ax.plot(t, R[:, 0, c, 0], label=f"(R e₁)_{c + 1}")
+        ax.set_xlabel("t")
+        ax.set_title("orientation: body axis e₁ in space" + (" (member 0)" if ensemble else ""))
+        ax.legend(fontsize=8)
+    else:
+        A = _members(states[first], field_ndim.get(first, 1))
+        ax.plot(t, A[:, 0].reshape(len(t), -1))
+        ax.set_xlabel("t")
+        ax.set_title(f"{first} (no orientation saved)")
+
+    if ensemble:
+        ax = axes[2]
+        if "R" in states:
+            R = _members(states["R"], 2)
+            rel = np.einsum("tmij,tkj->tmik", R, R[:, 0])  # R_i R_0ᵀ
+            cos = np.clip((np.trace(rel, axis1=-2, axis2=-1) - (R.shape[-1] - 2)) / 2, -1, 1)
+            _band(ax, t, np.arccos(cos), "angle to member 0")
+            ax.set_ylabel("rad")
+        elif path_xy is not None:
+            p = _members(path_xy, 1)
+            _band(ax, t, np.linalg.norm(p - p[:, :1], axis=-1), "distance to member 0")
+        ax.set_xlabel("t")
+        ax.set_title(f"ensemble spread ({members} members)")
+        ax.legend(fontsize=8)
+    fig.tight_layout()
+    try:
+        fig.savefig(out, dpi=110)
+    except OSError as exc:
+        raise PlotError(f"cannot write the figure {str(out)!r}: {exc}") from None
+    finally:
+        plt.close(fig)
+    return out
