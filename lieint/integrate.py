@@ -58,11 +58,12 @@ def integrate(
         ``(t0, t1)`` with ``t1 > t0``.
     h : float
         Step size of fixed-step methods. The steps are ``t_k = t0 + k h``; a last, shorter
-        step lands exactly on ``t1`` when ``(t1 − t0)/h`` is not an integer. For scipy
-        methods ``h`` (if given) only sets the save grid.
+        step lands exactly on ``t1`` when ``(t1 − t0)/h`` is not an integer. For adaptive
+        methods the initial step (default: estimated); for scipy methods only the save grid.
     method : str or method object
         A name from :func:`lieint.methods` ("lie_euler", "rkmk2", "rkmk3", "rkmk4", "rkmk6",
-        "rk4", "scipy:DOP853", …) or a :class:`~lieint.methods.LieMethod` /
+        the adaptive "rkmk23", "rkmk45", "rkmk853", "rk4", "scipy:DOP853", …) or a
+        :class:`~lieint.methods.LieMethod` /
         :class:`~lieint.methods.ClassicalRK` / :class:`~lieint.methods.ScipyMethod`.
     coordinates : {"exp", "cayley"}, optional
         Coordinate map of Lie-group methods (default "exp").
@@ -74,7 +75,8 @@ def integrate(
     dexpinv_degree : int, None or "auto"
         dexp⁻¹ truncation of Lie-group methods ("auto": degree p − 2; None: exact).
     rtol, atol : float
-        Tolerances of scipy methods.
+        Tolerances of adaptive and scipy methods (adaptive Lie-group methods measure the error
+        on the state: ``|y − ŷ| / (atol + rtol·|y|)`` in the RMS norm).
     t_eval : array_like, optional
         Save times of scipy methods (default: the grid of ``h`` and ``save_every``, else
         101 evenly spaced points).
@@ -106,6 +108,8 @@ def integrate(
         raise ValueError(f"`backend` must be one of ['auto', 'numpy', 'numba']; got {backend!r}.")
     if isinstance(stepper, ScipyMethod):
         return _integrate_scipy(system, y, t0, t1, h, stepper, project, save_every, rtol, atol, t_eval)
+    if stepper.kind == "adaptive":
+        return _integrate_adaptive(system, y, t0, t1, h, stepper, bool(project), int(save_every), rtol, atol, t_eval)
     if h is None:
         raise ValueError(f"`h` (the step size) is required for the fixed-step method {stepper.name!r}.")
     h = check_finite_positive(h, "h")
@@ -180,6 +184,37 @@ def _integrate_fixed(system, y, t0, t1, h, stepper, project, save_every, backend
         "backend": engine.name,
     }
     return Solution(t_saved, states, system, stepper.name, seg.done, seg.nfev, seg.failure is None, message, stats)
+
+
+def _integrate_adaptive(system, y, t0, t1, h, stepper, project, save_every, rtol, atol, t_eval) -> Solution:
+    from .methods.adaptive import integrate_adaptive
+
+    rtol = check_finite_positive(rtol, "rtol")
+    atol = check_finite_positive(atol, "atol")
+    if h is not None:
+        h = check_finite_positive(h, "h")
+    if t_eval is not None:
+        raise ValueError("`t_eval` applies to scipy methods only; adaptive Lie-group methods save accepted steps.")
+    if project:
+        y = system.project(y)
+    cpu0 = time.process_time()
+    t, states, info = integrate_adaptive(system, y, t0, t1, h, stepper, project, save_every, rtol, atol)
+    cpu = time.process_time() - cpu0
+    failure = info["failure"]
+    message = failure or f"Reached t1 = {t1} in {info['accepted']} accepted steps ({info['rejected']} rejected)."
+    stats = {
+        "rtol": rtol,
+        "atol": atol,
+        "project": project,
+        "cpu_time": cpu,
+        "order": stepper.order,
+        "coordinates": stepper.coordinates,
+        "accepted": info["accepted"],
+        "rejected": info["rejected"],
+        "backend": "numpy",
+        "save_every": save_every,
+    }
+    return Solution(t, states, system, stepper.name, info["accepted"], info["nfev"], failure is None, message, stats)
 
 
 def _integrate_scipy(system, y, t0, t1, h, stepper, project, save_every, rtol, atol, t_eval) -> Solution:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from . import tableaux
+from .adaptive import ADAPTIVE_PAIRS, AdaptiveLieMethod, embedded_pair
 from .classical import ClassicalRK
 from .lie import COORDINATES, LieMethod
 from .scipy_ivp import SCIPY_SOLVERS, ScipyMethod
@@ -33,7 +34,7 @@ def methods() -> list[str]:
     >>> "rkmk4" in lieint.methods()
     True
     """
-    return [*LIE_TABLEAUX, *CLASSICAL_TABLEAUX, *(f"scipy:{s}" for s in SCIPY_SOLVERS)]
+    return [*LIE_TABLEAUX, *ADAPTIVE_PAIRS, *CLASSICAL_TABLEAUX, *(f"scipy:{s}" for s in SCIPY_SOLVERS)]
 
 
 def get_method(method="rkmk4", coordinates: str | None = None, dexpinv_degree=_AUTO):
@@ -49,7 +50,7 @@ def get_method(method="rkmk4", coordinates: str | None = None, dexpinv_degree=_A
         dexp⁻¹ truncation of Lie-group methods: "auto" keeps degree ``p − 2`` (the least that
         preserves order p), None uses the exact closed form.
     """
-    if isinstance(method, (LieMethod, ClassicalRK, ScipyMethod)):
+    if isinstance(method, (LieMethod, AdaptiveLieMethod, ClassicalRK, ScipyMethod)):
         if coordinates is not None and getattr(method, "coordinates", None) != coordinates:
             raise ValueError(
                 f"`coordinates` = {coordinates!r} conflicts with the method object {method.name!r} "
@@ -66,9 +67,15 @@ def get_method(method="rkmk4", coordinates: str | None = None, dexpinv_degree=_A
         degree = max(tab.order - 2, 0) if dexpinv_degree == _AUTO else dexpinv_degree
         name = method if coords == "exp" else f"{method}[cayley]"
         return LieMethod(name, tab, coordinates=coords, dexpinv_degree=degree)
+    if method in ADAPTIVE_PAIRS:
+        coords = "exp" if coordinates is None else coordinates
+        pair = embedded_pair(ADAPTIVE_PAIRS[method])
+        degree = pair.order - 2 if dexpinv_degree == _AUTO else dexpinv_degree
+        name = method if coords == "exp" else f"{method}[cayley]"
+        return AdaptiveLieMethod(name, pair, coordinates=coords, dexpinv_degree=degree)
     if coordinates is not None and coordinates != "exp":
         raise ValueError(
-            f"`coordinates` applies to Lie-group methods only ({list(LIE_TABLEAUX)}); "
+            f"`coordinates` applies to Lie-group methods only ({[*LIE_TABLEAUX, *ADAPTIVE_PAIRS]}); "
             f"got coordinates={coordinates!r} with method={method!r}."
         )
     if method in CLASSICAL_TABLEAUX:
