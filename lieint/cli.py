@@ -19,40 +19,41 @@ def _positive_float(text: str) -> float:
 
 
 def _build_parser() -> argparse.ArgumentParser:
-    from .compare import DEFAULT_METHODS, DefaultScene
+    from .compare import DefaultScene
 
     scene = DefaultScene()
     parser = argparse.ArgumentParser(prog="lieint", description="Structure-preserving integrators for rigid bodies.")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     cmp = sub.add_parser(
         "compare",
-        help="compare integrators on the default scene (a 3D top near its unstable axis)",
+        help="work-precision study of the integrators on a scene (default: a 3D top near its unstable axis)",
         description=(
-            "Integrate the embedded default scene -- an asymmetric top with principal moments "
-            f"I = {scene.moments} started at body angular velocity w = {scene.angular_velocity}, "
-            "close to the unstable middle axis -- with several methods, and print per method: "
-            "step, steps, generator evaluations, CPU time, the largest relative error of the body "
-            "momentum A against the exact Jacobi-elliptic solution, the relative energy and Casimir "
-            "(spectrum of A) drifts, and the final orthogonality defect |R^T R - I|."
+            "Work-precision study: for each method sweep the step size (fixed-step methods) or the tolerance "
+            "(adaptive Lie-group methods; scipy's RK45, DOP853, Radau and LSODA with and without projection), "
+            "measure the global error of the scene's main field against the exact solution where one exists "
+            f"(the default scene: a top with I = {scene.moments} started at w = {scene.angular_velocity}, close "
+            "to its unstable middle axis, T = 100, against Jacobi elliptic functions; a uniform ball on an "
+            "incline) or else against DOP853 at rtol 1e-13, the CPU time (median of repeats, one run), and the "
+            "energy, Casimir and orthogonality errors. Prints the table and writes work_precision.csv/.json, "
+            "work_precision.png (error against CPU time) and long_run.png (invariant drift over 10x the span) "
+            "into --out-dir."
         ),
         formatter_class=argparse.ArgumentDefaultsHelpFormatter,
     )
     cmp.add_argument(
-        "--methods", default=",".join(DEFAULT_METHODS), help="comma-separated method names (see `lieint methods`)"
+        "scene", nargs="?", help="a scene TOML file or an embedded scene's name (default: the default scene)"
     )
     cmp.add_argument(
-        "--step", "-H", type=_positive_float, default=0.01, dest="h", help="step size h of the fixed-step methods"
+        "--methods",
+        help="comma-separated subset of the study's methods (default: all of "
+        "rkmk4, rkmk6, rk4, rkmk45, rkmk853, scipy:RK45, scipy:DOP853, scipy:Radau, "
+        "scipy:LSODA)",
     )
-    cmp.add_argument("--t-end", type=_positive_float, default=scene.t_end, help="final time T")
-    cmp.add_argument(
-        "--coordinates", choices=("exp", "cayley"), default="exp", help="coordinate map of the Lie-group methods"
-    )
-    cmp.add_argument(
-        "--no-project", action="store_true", help="do not project R onto SO(n) after each step (polar factor)"
-    )
-    cmp.add_argument("--rtol", type=_positive_float, default=1e-10, help="relative tolerance of scipy methods")
-    cmp.add_argument("--atol", type=_positive_float, default=1e-12, help="absolute tolerance of scipy methods")
-    cmp.add_argument("--format", choices=("table", "csv", "json"), default="table", help="output format")
+    cmp.add_argument("--full", action="store_true", help="all sweep points and 5 repeats (default: a quick sweep)")
+    cmp.add_argument("--t-end", type=_positive_float, help="override the scene's final time")
+    cmp.add_argument("--out-dir", default="lieint-compare", help="where the table and figures go")
+    cmp.add_argument("--no-plots", action="store_true", help="write the table only")
+    cmp.add_argument("--format", choices=("table", "csv", "json"), default="table", help="printed output format")
     sub.add_parser(
         "methods",
         help="list the method names lieint.integrate accepts",
@@ -134,33 +135,7 @@ def main(argv: list[str] | None = None) -> int:
         print("\n".join(methods()))
         return 0
     if args.command == "compare":
-        from .compare import format_rows, run_comparison
-        from .methods import methods
-
-        names = [m.strip() for m in args.methods.split(",") if m.strip()]
-        unknown = [m for m in names if m not in methods()]
-        if unknown or not names:
-            parser.error(f"--methods: unknown method(s) {unknown or names}; valid names are {methods()}")
-        try:
-            rows = run_comparison(
-                names,
-                h=args.h,
-                t_end=args.t_end,
-                coordinates=args.coordinates,
-                project=not args.no_project,
-                rtol=args.rtol,
-                atol=args.atol,
-            )
-        except ValueError as exc:  # e.g. a step too large for the dexp⁻¹ series
-            print(f"lieint compare: {exc}", file=sys.stderr)
-            return 2
-        if args.format == "table":
-            print(
-                f"Default scene: 3D top I = (1, 2, 3), w0 = (0.01, 1, 0.01), T = {args.t_end:g}, "
-                f"projection {'off' if args.no_project else 'on'}; error = max_t |A - A_exact| / |A0|."
-            )
-        print(format_rows(rows, args.format))
-        return 0
+        return _compare(args, parser)
     if args.command == "scenes":
         return _scenes(args)
     if args.command == "run":
@@ -169,6 +144,72 @@ def main(argv: list[str] | None = None) -> int:
         return _plot(args)
     parser.print_help()
     return 0
+
+
+def _compare(args, parser) -> int:
+    from dataclasses import replace
+    from pathlib import Path
+
+    from .compare import default_scene
+    from .scenes import SceneError, embedded_scenes, load_scene
+    from .study import plot_long_run, plot_work_precision, run_study, write_table
+
+    try:
+        if args.scene is None:
+            scene = default_scene()
+        elif Path(args.scene).exists() or args.scene.endswith(".toml"):
+            scene = load_scene(args.scene)
+        elif args.scene in embedded_scenes():
+            scene = embedded_scenes()[args.scene]
+        else:
+            raise SceneError(f"no scene file {args.scene!r} and no embedded scene of that name")
+        if args.t_end is not None:
+            scene = replace(scene, t_end=scene.t_start + args.t_end)
+        methods = [m.strip() for m in args.methods.split(",")] if args.methods else None
+        rows, kind = run_study(scene, quick=not args.full, repeats=5 if args.full else 2, methods=methods)
+    except (SceneError, ValueError) as exc:
+        print(f"lieint compare: {exc}", file=sys.stderr)
+        return 2
+    out_dir = Path(args.out_dir)
+    csv_path, json_path = write_table(rows, out_dir)
+    if args.format == "table":
+        print(f"{scene.name}: T = {scene.t_end - scene.t_start:g}; error = max_t |y - y_ref| / |y0| against {kind}")
+    print(_format_study(rows, args.format))
+    if args.format == "table":
+        written = [csv_path, json_path]
+        if not args.no_plots:
+            written.append(plot_work_precision(rows, out_dir / "work_precision.png", f"{scene.name}: work-precision"))
+            written.append(plot_long_run(scene, out_dir / "long_run.png"))
+        print("wrote " + ", ".join(str(p) for p in written))
+    return 0
+
+
+def _format_study(rows, fmt: str) -> str:
+    import json
+    from dataclasses import asdict
+
+    if fmt == "json":
+        return json.dumps([asdict(r) for r in rows], indent=2)
+    cols = [
+        ("method", "method", "{}"),
+        ("setting", "step/tol", "{}"),
+        ("projection", "proj", "{}"),
+        ("steps", "steps", "{:d}"),
+        ("nfev", "evals", "{:d}"),
+        ("cpu_time", "CPU [s]", "{:.4f}"),
+        ("error", "error", "{:.2e}"),
+        ("energy_drift", "energy drift", "{:.2e}"),
+        ("casimir_drift", "Casimir drift", "{:.2e}"),
+        ("orthogonality", "|RᵀR-I|", "{:.1e}"),
+    ]
+    cells = [[spec.format(getattr(r, key)) for key, _, spec in cols] for r in rows]
+    if fmt == "csv":
+        return "\n".join([",".join(k for k, _, _ in cols)] + [",".join(c) for c in cells])
+    head = [title for _, title, _ in cols]
+    widths = [max(len(head[i]), *(len(c[i]) for c in cells)) for i in range(len(cols))]
+    line = "  ".join(h.rjust(w) for h, w in zip(head, widths, strict=True))
+    body = ["  ".join(c.rjust(w) for c, w in zip(r, widths, strict=True)) for r in cells]
+    return "\n".join([line, "-" * len(line), *body])
 
 
 def _scenes(args) -> int:

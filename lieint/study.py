@@ -1,0 +1,278 @@
+"""Work–precision studies: what accuracy costs in time, per method, on one scene.
+
+For each method the study sweeps the step size (fixed-step methods) or the tolerance
+(adaptive Lie-group methods and scipy's ``solve_ivp`` solvers, the latter with and without
+projection), and measures
+
+* the global error — ``max_t ‖y(t) − y_ref(t)‖ / ‖y(0)‖`` on the scene's main field — against
+  the exact solution where one exists (the 3D Euler top: Jacobi elliptic functions; the uniform
+  ball on an incline: ``(n+2)/(n+4) g sin θ``), else against a DOP853 solution at rtol 1e-13;
+* the CPU time, the median of repeats timed in one run;
+* the invariants' largest relative drifts.
+
+It writes the table (CSV and JSON), the work–precision plot (error against CPU time, log–log,
+one line per method) and the drift of the invariants against time over a long run.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import statistics
+import time
+from dataclasses import asdict, dataclass, replace
+from pathlib import Path
+
+import numpy as np
+
+from .integrate import integrate
+from .methods.registry import get_method
+from .scenes import Scene, build_system
+from .systems import EulerTop, RollingBall
+
+__all__ = ["StudyRow", "plot_long_run", "plot_work_precision", "reference_for", "run_study", "write_table"]
+
+FIXED = {
+    "rkmk4": (250, 500, 1000, 2000, 4000, 8000),
+    "rkmk6": (250, 500, 1000, 2000, 4000),
+    "rk4": (250, 500, 1000, 2000, 4000, 8000),
+}
+ADAPTIVE = {"rkmk45": (1e-5, 1e-7, 1e-9), "rkmk853": (1e-5, 1e-7, 1e-9, 1e-11)}
+SCIPY = {
+    "scipy:RK45": (1e-5, 1e-7, 1e-9),
+    "scipy:DOP853": (1e-5, 1e-7, 1e-9, 1e-11),
+    "scipy:Radau": (1e-5, 1e-7, 1e-9),
+    "scipy:LSODA": (1e-5, 1e-7, 1e-9),
+}
+
+
+@dataclass
+class StudyRow:
+    """One run of the sweep."""
+
+    method: str
+    setting: str  # "h=…" or "rtol=…"
+    projection: bool
+    steps: int
+    nfev: int
+    cpu_time: float
+    error: float
+    energy_drift: float
+    casimir_drift: float
+    orthogonality: float
+
+
+def reference_for(scene: Scene, system, y0):
+    """``(field, ref(t) → array, kind)``: the truth the errors are measured against."""
+    if isinstance(system, EulerTop) and system.n == 3:
+        return "A", (lambda t: system.exact_solution(t, y0)["A"]), "exact (Jacobi elliptic)"
+    if (
+        isinstance(system, RollingBall)
+        and scene.gravity is not None
+        and np.allclose(system.B_C, system.B_C[0, 0] * np.eye(system.n))
+        and not np.any(system.center_of_mass)
+        and "center" in system.fields
+        and not np.any(y0["Omega"])
+    ):
+        n, lam, M, r = system.n, system.B_C[0, 0], system.mass, system.radius
+        g_t = scene.gravity - (scene.gravity @ system.normal) * system.normal
+        accel = g_t * M * r * r / (M * r * r + 2 * lam)  # MATH.md §4, from rest
+        return (
+            "center",
+            (lambda t: y0["center"] + 0.5 * np.multiply.outer(t - scene.t_start, accel)),
+            (f"exact ((n+2)/(n+4) g sin θ, n = {n})"),
+        )
+    field = next(iter(system.fields))
+    ref = integrate(
+        system,
+        y0,
+        (scene.t_start, scene.t_end),
+        method="scipy:DOP853",
+        rtol=1e-13,
+        atol=1e-15,
+        t_eval=np.linspace(scene.t_start, scene.t_end, 2001),
+    )
+    from scipy.interpolate import CubicSpline
+
+    spline = CubicSpline(ref.t, ref.states[field], axis=0)
+    return field, spline, "DOP853 at rtol 1e-13 (interpolated)"
+
+
+def _time(fn, repeats):
+    times, result = [], None
+    for _ in range(repeats):
+        t0 = time.process_time()
+        result = fn()
+        times.append(time.process_time() - t0)
+    return statistics.median(times), result
+
+
+def _row(method, setting, projection, sol, cpu, field, ref, scale) -> StudyRow:
+    err = float(np.max(np.linalg.norm((sol.states[field] - ref(sol.t)).reshape(sol.t.size, -1), axis=1)) / scale)
+    inv = sol.invariants
+    return StudyRow(
+        method=method,
+        setting=setting,
+        projection=projection,
+        steps=int(sol.nsteps),
+        nfev=int(sol.nfev),
+        cpu_time=cpu,
+        error=err,
+        energy_drift=float(np.max(sol.drift("energy"))) if "energy" in inv else float("nan"),
+        casimir_drift=float(np.max(sol.drift("casimirs"))) if "casimirs" in inv else float("nan"),
+        orthogonality=float(np.max(inv["orthogonality"][-1])) if "orthogonality" in inv else float("nan"),
+    )
+
+
+def run_study(scene: Scene, *, quick: bool = True, repeats: int = 3, methods=None, progress=None):
+    """Sweep every method on the scene; returns ``(rows, reference kind)``."""
+    scene = replace(scene, outputs=tuple(dict.fromkeys((*scene.outputs, "orientation"))))
+    system, y0 = build_system(scene)
+    field, ref, kind = reference_for(scene, system, y0)
+    scale = float(np.linalg.norm(y0[field])) or 1.0
+    span = (scene.t_start, scene.t_end)
+    T = scene.t_end - scene.t_start
+    rows = []
+    plan = {**FIXED, **ADAPTIVE, **SCIPY}
+    if methods:
+        unknown = [m for m in methods if m not in plan]
+        if unknown:
+            raise ValueError(f"`methods`: {unknown[0]!r} is not in the study; choose from {list(plan)}")
+        plan = {m: plan[m] for m in methods}
+    for method, settings in plan.items():
+        if quick:
+            settings = settings[::2] if len(settings) > 3 else settings
+        kind_m = get_method(method).kind
+        for value in settings:
+            projections = (False, True) if kind_m == "scipy" else (True,)
+            for proj in projections:
+                if kind_m in ("lie", "classical"):
+                    n = int(value)
+                    save = max(1, n // 100)
+
+                    def fn(n=n, save=save, proj=proj, method=method):
+                        return integrate(system, y0, span, h=T / n, method=method, project=proj, save_every=save)
+
+                    setting = f"h={T / n:.3g}"
+                elif kind_m == "adaptive":
+
+                    def fn(tol=value, proj=proj, method=method):
+                        return integrate(
+                            system, y0, span, method=method, rtol=tol, atol=tol * 1e-2, project=proj, save_every=5
+                        )
+
+                    setting = f"rtol={value:.0e}"
+                else:
+
+                    def fn(tol=value, proj=proj, method=method):
+                        return integrate(
+                            system,
+                            y0,
+                            span,
+                            method=method,
+                            rtol=tol,
+                            atol=tol * 1e-2,
+                            project=proj,
+                            t_eval=np.linspace(*span, 101),
+                        )
+
+                    setting = f"rtol={value:.0e}"
+                fn()  # warm-up (compilation, caches)
+                cpu, sol = _time(fn, repeats)
+                rows.append(_row(method, setting, proj, sol, cpu, field, ref, scale))
+                if progress:
+                    progress(rows[-1])
+    return rows, kind
+
+
+def write_table(rows, out_dir: Path) -> tuple[Path, Path]:
+    out_dir.mkdir(parents=True, exist_ok=True)
+    csv_path, json_path = out_dir / "work_precision.csv", out_dir / "work_precision.json"
+    with open(csv_path, "w", newline="", encoding="utf-8") as fh:
+        writer = csv.DictWriter(fh, fieldnames=list(asdict(rows[0])))
+        writer.writeheader()
+        writer.writerows(asdict(r) for r in rows)
+    with open(json_path, "w", encoding="utf-8") as fh:
+        json.dump(
+            [
+                {k: (None if isinstance(v, float) and not np.isfinite(v) else v) for k, v in asdict(r).items()}
+                for r in rows
+            ],
+            fh,
+            indent=2,
+        )
+    return csv_path, json_path
+
+
+def plot_work_precision(rows, path: Path, title: str) -> Path:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(7.5, 5.2))
+    colors = plt.get_cmap("tab20").colors
+    groups: dict[str, list[StudyRow]] = {}
+    for r in rows:
+        label = r.method + (" + projection" if r.projection and r.method.startswith("scipy:") else "")
+        groups.setdefault(label, []).append(r)
+    for i, (label, rs) in enumerate(groups.items()):
+        # in sweep order (coarse to fine), so each line runs from cheap and rough to dear and exact
+        style = "-o" if not label.startswith("scipy:") else "--s"
+        if get_method(rs[0].method).kind == "adaptive":
+            style = "-^"
+        ax.loglog(
+            [r.cpu_time for r in rs],
+            [max(r.error, 1e-16) for r in rs],
+            style,
+            ms=4,
+            label=label,
+            color=colors[(2 * i) % 20 if i < 10 else (2 * i + 1) % 20],
+        )
+    ax.set_xlabel("CPU time [s] (median of repeats)")
+    ax.set_ylabel("global error  max_t |y − y_ref| / |y0|")
+    ax.set_title(title)
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=7, ncol=2)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def plot_long_run(scene: Scene, path: Path, factor: float = 10.0, h: float = 0.01) -> Path:
+    """Energy and Casimir drift against time over ``factor`` × the scene's span:
+    RKMK4 against classical RK4 at the same step and DOP853 at rtol 1e-9."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    system, y0 = build_system(replace(scene, outputs=tuple(dict.fromkeys((*scene.outputs, "energy")))))
+    span = (scene.t_start, scene.t_start + factor * (scene.t_end - scene.t_start))
+    T = span[1] - span[0]
+    runs = {
+        f"rkmk4, h = {h:g}": integrate(system, y0, span, h=h, method="rkmk4", save_every=max(1, int(T / h) // 500)),
+        f"rk4, h = {h:g}": integrate(system, y0, span, h=h, method="rk4", save_every=max(1, int(T / h) // 500)),
+        "DOP853, rtol 1e-9": integrate(
+            system, y0, span, method="scipy:DOP853", rtol=1e-9, atol=1e-11, t_eval=np.linspace(*span, 501)
+        ),
+    }
+    names = [n for n in ("energy", "casimirs") if n in system.invariant_functions]
+    fig, axes = plt.subplots(1, len(names), figsize=(6 * len(names), 4.2))
+    axes = np.atleast_1d(axes)
+    for ax, name in zip(axes, names, strict=True):
+        for label, sol in runs.items():
+            v = sol.invariants[name].reshape(sol.t.size, -1)
+            d = np.linalg.norm(v - v[0], axis=1) / max(np.linalg.norm(v[0]), 1e-300)
+            keep = sol.t > sol.t[0]
+            ax.loglog(sol.t[keep] - sol.t[0], np.maximum(d[keep], 1e-17), label=label)
+        ax.set_xlabel("t")
+        ax.set_ylabel(f"relative {name} error")
+        ax.set_title(f"{name} over a long run")
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
