@@ -7,7 +7,7 @@ constant in space (MATH.md §4), so the body momentum ``A_K = Rᵀ a R`` is isos
 
 with Ω recovered from A_K in the eigenbasis of ``B_K(Γ)`` at every evaluation. SO(n) acts by
 ``Q·(A_K, Γ, R) = (QᵀA_K Q, QᵀΓ, RQ)`` (SE(n) with the centre ``p + Rv``, twist ``(Ω, rΩΓ)``),
-so spec(A_K), |Γ| and ``ΓᵀA_K²Γ`` are kept to round-off; the energy is kept by the flow only.
+so spec(A_K), ``|Γ|`` and ``ΓᵀA_K²Γ`` are kept to round-off; the energy is kept by the flow only.
 """
 
 from __future__ import annotations

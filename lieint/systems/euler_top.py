@@ -36,8 +36,8 @@ class EulerTop(LieGroupSystem):
         Integrate R as well. Without it the state is A alone (cheaper), and the invariants
         that need R (``momentum``, ``orthogonality``) are not available.
 
-    Invariants
-    ----------
+    Notes
+    -----
     ``energy``: ``T = ¼ tr(ΩA) = −½ tr(ΩBΩ)``. ``casimirs``: the rotation "angles" of A,
     ``θ₁ ≥ θ₂ ≥ …`` (eigenvalues ``±iθ_k``), i.e. the spectrum. ``manakov``: coefficients
     of ``tr((A − λB²)^k)`` in λ (see :func:`~lieint.systems.invariants.manakov_integrals`).

@@ -26,7 +26,7 @@ class HeavyTop(LieGroupSystem):
         Ȧ = [A, Ω] + M X_G ∧ Γ,   Γ̇ = −ΩΓ,   Ṙ = RΩ,   A = −(BΩ + ΩB).
 
     SE(n) acts on the right, ``(Q, v) · (A, Γ, R) = (Qᵀ(A + v ∧ Γ)Q, QᵀΓ, RQ)``, with generator
-    ``(Ω(A), M X_G)``: a Lie-group method keeps |Γ| and the Casimirs to round-off.
+    ``(Ω(A), M X_G)``: a Lie-group method keeps ``|Γ|`` and the Casimirs to round-off.
 
     Parameters
     ----------
@@ -41,8 +41,8 @@ class HeavyTop(LieGroupSystem):
     orientation : bool, default True
         Integrate R too; without it the state is (A, Γ), which is all the dynamics needs.
 
-    Invariants
-    ----------
+    Notes
+    -----
     ``energy`` ``T − U`` with ``U = M⟨Γ, X_G⟩``; ``casimirs``: n = 3 ``⟨Π, Γ⟩`` (``A = −Π̂``),
     n ≥ 4 the rotation angles of ``P_Γ A P_Γ`` (A restricted to ``Γ^⊥``, which ``v ∧ Γ`` cannot
     change); ``gamma_norm`` ``|Γ|``; ``orthogonality``. Named constructors add the extra
