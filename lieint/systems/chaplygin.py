@@ -16,19 +16,19 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from .._validation import check_rotation, check_skew, describe
+from .._validation import check_skew, describe
 from ..groups.bivectors import inner, skew_part
-from ..groups.se import SE, se_join, se_split
-from ..groups.so import SO, project_to_so
+from ..groups.se import SE
+from ..groups.so import SO
 from .base import LieGroupSystem, State
 from .invariants import orthogonality_defect, skew_spectrum
 from .mass import solve_lyapunov_sym
-from .rolling_ball import check_ball, rolling_initial_kinematics
+from .rolling_ball import RollingPose, check_ball, rolling_initial_kinematics
 
 __all__ = ["ChaplyginBall"]
 
 
-class ChaplyginBall(LieGroupSystem):
+class ChaplyginBall(RollingPose, LieGroupSystem):
     """Chaplygin's ball: a ball with centre of mass at its centre rolling on a plane.
 
     Parameters
@@ -55,10 +55,7 @@ class ChaplyginBall(LieGroupSystem):
                 raise TypeError(f"`{label}` must be True or False; got {flag!r}.")
         self.orientation, self.track_center = bool(orientation), bool(track_center)
         self.fields = {"A": (n, n), "Gamma": (n,)}
-        if self.orientation or self.track_center:
-            self.fields["R"] = (n, n)
-        if self.track_center:
-            self.fields["center"] = (n,)
+        self._pose_fields(n, self.orientation)
         self.group = SE(n) if self.track_center else SO(n)
         self._Mr2 = self.mass * self.radius**2
 
@@ -81,47 +78,29 @@ class ChaplyginBall(LieGroupSystem):
         """``T = ¼ tr(Ω A_K) = −¼⟨Ω, A_K⟩`` (gravity does no work: the centre stays at height r)."""
         return -0.25 * inner(self.angular_velocity(y["A"], y["Gamma"]), y["A"])
 
-    def contact_point(self, center: np.ndarray) -> np.ndarray:
-        """Contact point ``K = q_C − rν``."""
-        return center - self.radius * self.normal
-
     # -- the LieGroupSystem contract ---------------------------------------------------
     def generator(self, t, y: State) -> np.ndarray:
-        Om = self.angular_velocity(y["A"], y["Gamma"])
-        if not self.track_center:
-            return Om
-        return se_join(Om, self.radius * (Om @ y["Gamma"][..., None])[..., 0], algebra=True)
+        return self._twist(self.angular_velocity(y["A"], y["Gamma"]), y["Gamma"])
 
     def act(self, g: np.ndarray, y: State) -> State:
-        Q, v = se_split(g) if self.track_center else (g, None)
+        Q, v = self._split(g)
         Qt = np.swapaxes(Q, -1, -2)
         out = {"A": Qt @ y["A"] @ Q, "Gamma": (Qt @ y["Gamma"][..., None])[..., 0]}
-        if "R" in self.fields:
-            out["R"] = y["R"] @ Q
-        if self.track_center:
-            out["center"] = y["center"] + (y["R"] @ v[..., None])[..., 0]
+        self._move_pose(out, y, Q, v)
         return out
 
     def infinitesimal_action(self, xi: np.ndarray, y: State) -> State:
-        Om, V = se_split(xi) if self.track_center else (xi, None)
+        Om, V = self._split(xi)
         A = y["A"]
         out = {"A": A @ Om - Om @ A, "Gamma": -(Om @ y["Gamma"][..., None])[..., 0]}
-        if "R" in self.fields:
-            out["R"] = y["R"] @ Om
-        if self.track_center:
-            out["center"] = (y["R"] @ V[..., None])[..., 0]
+        self._pose_rate(out, y, Om, V)
         return out
 
     def project(self, y: State) -> State:
         out = dict(y)
         out["A"] = skew_part(y["A"])
         out["Gamma"] = y["Gamma"] / np.linalg.norm(y["Gamma"], axis=-1, keepdims=True)
-        if "R" in self.fields:
-            out["R"] = project_to_so(y["R"])
-        if self.track_center:
-            # back onto the constraint ⟨p, ν⟩ = r (the SE(n) step keeps it to truncation error)
-            height = y["center"] @ self.normal - self.radius
-            out["center"] = y["center"] - height[..., None] * self.normal
+        self._project_pose(out, y)
         return out
 
     @property
@@ -145,19 +124,12 @@ class ChaplyginBall(LieGroupSystem):
         centre ``velocity`` is checked against the rolling constraint."""
         Om, Rm, p = rolling_initial_kinematics(self, R, Omega, angular_velocity, center, velocity)
         Gam = np.swapaxes(Rm, -1, -2) @ self.normal
-        state = {"A": self.momentum(Om, Gam), "Gamma": Gam}
-        if "R" in self.fields:
-            state["R"] = Rm
-        if self.track_center:
-            state["center"] = p
-        return state
+        return self._add_pose({"A": self.momentum(Om, Gam), "Gamma": Gam}, Rm, p)
 
     def validate_state(self, y: Mapping[str, np.ndarray], name: str = "y0") -> State:
         out = super().validate_state(y, name)
         out["A"] = check_skew(out["A"], f"{name}['A']")
-        if "R" in self.fields:
-            check_rotation(out["R"], f"{name}['R']", atol=1e-9)
-        return out
+        return self._validate_pose(out, name)
 
     def __repr__(self) -> str:
         return (

@@ -37,7 +37,7 @@ from .base import LieGroupSystem, State
 from .invariants import orthogonality_defect
 from .mass import check_mass_tensor, solve_lyapunov_sym
 
-__all__ = ["RollingBall", "check_ball", "rolling_initial_kinematics"]
+__all__ = ["RollingBall", "RollingPose", "check_ball", "rolling_initial_kinematics"]
 
 
 def check_ball(mass_tensor, mass, radius, center_of_mass=None, normal=None):
@@ -80,7 +80,68 @@ def check_ball(mass_tensor, mass, radius, center_of_mass=None, normal=None):
     return B, M, r, XG, nu
 
 
-class RollingBall(LieGroupSystem):
+class RollingPose:
+    """The pose of a ball on SE(n), shared by :class:`RollingBall` and the Chaplygin ball.
+
+    ``(Q, v)·(R, p) = (RQ, p + Rv)`` with the body twist ``(Ω, rΩΓ)``; R is carried when an
+    output needs it or when the centre is tracked (the centre moves by R v). Subclasses set
+    ``fields``, ``track_center``, ``normal`` and ``radius``.
+    """
+
+    def _pose_fields(self, n: int, orientation: bool) -> None:
+        if orientation or self.track_center:  # the centre moves by p + R v: it needs R
+            self.fields["R"] = (n, n)
+        if self.track_center:
+            self.fields["center"] = (n,)
+
+    def _split(self, g):
+        """``(Q, v)`` of a pose element (``v`` None without the centre)."""
+        return se_split(g) if self.track_center else (g, None)
+
+    def _twist(self, Om, Gamma):
+        """The algebra element of the pose: ``(Ω, rΩΓ)`` on se(n), or Ω on so(n)."""
+        if not self.track_center:
+            return Om
+        return se_join(Om, self.radius * (Om @ Gamma[..., None])[..., 0], algebra=True)
+
+    def _move_pose(self, out: State, y: State, Q, v) -> None:
+        if "R" in self.fields:
+            out["R"] = y["R"] @ Q
+        if self.track_center:
+            out["center"] = y["center"] + (y["R"] @ v[..., None])[..., 0]
+
+    def _pose_rate(self, out: State, y: State, Om, V) -> None:
+        if "R" in self.fields:
+            out["R"] = y["R"] @ Om
+        if self.track_center:
+            out["center"] = (y["R"] @ V[..., None])[..., 0]
+
+    def _project_pose(self, out: State, y: State) -> None:
+        if "R" in self.fields:
+            out["R"] = project_to_so(y["R"])
+        if self.track_center:
+            # back onto the constraint ⟨p, ν⟩ = r (the SE(n) step keeps it to truncation error)
+            height = y["center"] @ self.normal - self.radius
+            out["center"] = y["center"] - height[..., None] * self.normal
+
+    def _add_pose(self, state: State, Rm, p) -> State:
+        if "R" in self.fields:
+            state["R"] = Rm
+        if self.track_center:
+            state["center"] = p
+        return state
+
+    def _validate_pose(self, out: State, name: str) -> State:
+        if "R" in self.fields:
+            check_rotation(out["R"], f"{name}['R']", atol=1e-9)
+        return out
+
+    def contact_point(self, center: np.ndarray) -> np.ndarray:
+        """Contact point ``K = q_C − rν`` on the plane."""
+        return center - self.radius * self.normal
+
+
+class RollingBall(RollingPose, LieGroupSystem):
     """A ball of radius r rolling without sliding on the plane ``⟨q, ν⟩ = 0``.
 
     Parameters
@@ -141,11 +202,7 @@ class RollingBall(LieGroupSystem):
         self.fields = {"Omega": (n, n), "Gamma": (n,)}
         if self._tilted:
             self.fields["G"] = (n,)
-        # The centre moves by p + R v: tracking it needs R even when no output asks for R.
-        if self.orientation or self.track_center:
-            self.fields["R"] = (n, n)
-        if self.track_center:
-            self.fields["center"] = (n,)
+        self._pose_fields(n, self.orientation)
         pose = SE(n) if self.track_center else SO(n)
         self.group = ProductGroup(pose, VectorSpace((n, n)))
 
@@ -198,43 +255,27 @@ class RollingBall(LieGroupSystem):
             U = U + self.mass * self._g_normal * self.radius
         return T - U
 
-    def contact_point(self, center: np.ndarray) -> np.ndarray:
-        """Contact point ``K = q_C − rν`` on the plane."""
-        return center - self.radius * self.normal
-
     # -- the LieGroupSystem contract ---------------------------------------------------
     def generator(self, t, y: State):
-        Om = y["Omega"]
-        if self.track_center:
-            V = self.radius * (Om @ y["Gamma"][..., None])[..., 0]
-            pose = se_join(Om, V, algebra=True)
-        else:
-            pose = Om
-        return (pose, self.angular_acceleration(y))
+        return (self._twist(y["Omega"], y["Gamma"]), self.angular_acceleration(y))
 
     def act(self, g, y: State) -> State:
         pose, dOm = g
-        Q, v = se_split(pose) if self.track_center else (pose, None)
+        Q, v = self._split(pose)
         Qt = np.swapaxes(Q, -1, -2)
         out = {"Omega": y["Omega"] + dOm, "Gamma": (Qt @ y["Gamma"][..., None])[..., 0]}
         if self._tilted:
             out["G"] = (Qt @ y["G"][..., None])[..., 0]
-        if "R" in self.fields:
-            out["R"] = y["R"] @ Q
-        if self.track_center:
-            out["center"] = y["center"] + (y["R"] @ v[..., None])[..., 0]
+        self._move_pose(out, y, Q, v)
         return out
 
     def infinitesimal_action(self, xi, y: State) -> State:
         pose, dOm = xi
-        Om, V = se_split(pose) if self.track_center else (pose, None)
+        Om, V = self._split(pose)
         out = {"Omega": dOm, "Gamma": -(Om @ y["Gamma"][..., None])[..., 0]}
         if self._tilted:
             out["G"] = -(Om @ y["G"][..., None])[..., 0]
-        if "R" in self.fields:
-            out["R"] = y["R"] @ Om
-        if self.track_center:
-            out["center"] = (y["R"] @ V[..., None])[..., 0]
+        self._pose_rate(out, y, Om, V)
         return out
 
     def project(self, y: State) -> State:
@@ -243,12 +284,7 @@ class RollingBall(LieGroupSystem):
         out["Gamma"] = y["Gamma"] / np.linalg.norm(y["Gamma"], axis=-1, keepdims=True)
         if self._tilted:
             out["G"] = y["G"] * (np.linalg.norm(self.gravity) / np.linalg.norm(y["G"], axis=-1, keepdims=True))
-        if "R" in self.fields:
-            out["R"] = project_to_so(y["R"])
-        if self.track_center:
-            # back onto the constraint ⟨p, ν⟩ = r (the SE(n) step keeps it to truncation error)
-            height = y["center"] @ self.normal - self.radius
-            out["center"] = y["center"] - height[..., None] * self.normal
+        self._project_pose(out, y)
         return out
 
     @property
@@ -274,18 +310,12 @@ class RollingBall(LieGroupSystem):
         state = {"Omega": Om, "Gamma": Rt @ self.normal}
         if self._tilted:
             state["G"] = Rt @ self.gravity
-        if "R" in self.fields:
-            state["R"] = Rm
-        if self.track_center:
-            state["center"] = p
-        return state
+        return self._add_pose(state, Rm, p)
 
     def validate_state(self, y: Mapping[str, np.ndarray], name: str = "y0") -> State:
         out = super().validate_state(y, name)
         out["Omega"] = check_skew(out["Omega"], f"{name}['Omega']")
-        if "R" in self.fields:
-            check_rotation(out["R"], f"{name}['R']", atol=1e-9)
-        return out
+        return self._validate_pose(out, name)
 
     def __repr__(self) -> str:
         return (
