@@ -2,7 +2,7 @@
 
 For each method the study sweeps the step size (fixed-step methods) or the tolerance
 (adaptive Lie-group methods and scipy's ``solve_ivp`` solvers, the latter with and without
-projection), and measures
+projection; and the peer library lielab on the 3D top when it is installed), and measures
 
 * the global error — ``max_t ‖y(t) − y_ref(t)‖ / ‖y(0)‖`` on the scene's main field — against
   the exact solution where one exists (the 3D Euler top: Jacobi elliptic functions; the uniform
@@ -124,6 +124,40 @@ def _row(method, setting, projection, sol, cpu, field, ref, scale) -> StudyRow:
     )
 
 
+def lielab_top3(system, y0, span):
+    """A runner for the peer library lielab (optional extra ``lieint[bench]``) on the 3D top:
+    its default adaptive Munthe-Kaas flow on SO(3) × R³ with the body angular velocity; returns
+    ``run(rtol) → (t, A(t), nfev)`` or None when lielab is not installed."""
+    try:
+        from lielab.domain import RN, SO, CompositeAlgebra, CompositeManifold, rn, so
+        from lielab.integrate import HomogeneousIVPSystem, IVPOptions
+        from lielab.integrate import solve_ivp as lielab_solve
+    except ImportError:
+        return None
+    from .groups.bivectors import hat, vee
+
+    P = system.P if np.linalg.det(system.P) > 0 else system.P * np.array([1.0, 1.0, -1.0])
+    moments = system.principal_moments
+    w0 = vee(system.angular_velocity(P.T @ y0["A"] @ P))
+
+    def generator(t, y):
+        w = np.asarray(y[1].serialize())
+        return CompositeAlgebra([so.from_vector(w), rn.from_vector(np.cross(moments * w, w) / moments)])
+
+    dynamics = HomogeneousIVPSystem(generator)
+    start = CompositeManifold([SO(3), RN.from_vector(w0)])
+
+    def run(rtol):
+        opts = IVPOptions()
+        opts.reltol, opts.abstol = rtol, rtol * 1e-2
+        sol = lielab_solve(dynamics, list(span), start, opts)
+        w = np.asarray(sol.ybar)[:, -3:]
+        A = P @ (-hat(moments * w)) @ P.T
+        return np.asarray(sol.t), A, len(sol.t)
+
+    return run
+
+
 def run_study(scene: Scene, *, quick: bool = True, repeats: int = 3, methods=None, progress=None):
     """Sweep every method on the scene; returns ``(rows, reference kind)``."""
     scene = replace(scene, outputs=tuple(dict.fromkeys((*scene.outputs, "orientation"))))
@@ -135,10 +169,10 @@ def run_study(scene: Scene, *, quick: bool = True, repeats: int = 3, methods=Non
     rows = []
     plan = {**FIXED, **ADAPTIVE, **SCIPY}
     if methods:
-        unknown = [m for m in methods if m not in plan]
+        unknown = [m for m in methods if m not in plan and m != "lielab"]
         if unknown:
             raise ValueError(f"`methods`: {unknown[0]!r} is not in the study; choose from {list(plan)}")
-        plan = {m: plan[m] for m in methods}
+        plan = {m: plan[m] for m in methods if m != "lielab"}
     for method, settings in plan.items():
         if quick:
             settings = settings[::2] if len(settings) > 3 else settings
@@ -182,6 +216,17 @@ def run_study(scene: Scene, *, quick: bool = True, repeats: int = 3, methods=Non
                 rows.append(_row(method, setting, proj, sol, cpu, field, ref, scale))
                 if progress:
                     progress(rows[-1])
+    if (methods is None or "lielab" in methods) and isinstance(system, EulerTop) and system.n == 3:
+        lielab = lielab_top3(system, y0, span)
+        for tol in (SCIPY["scipy:DOP853"][::2] if quick else SCIPY["scipy:DOP853"]) if lielab else ():
+            lielab(tol)
+            cpu, (t, A, steps) = _time(lambda tol=tol: lielab(tol), repeats)
+            err = float(np.max(np.linalg.norm((A - ref(t)).reshape(t.size, -1), axis=1)) / scale)
+            rows.append(
+                StudyRow(
+                    "lielab", f"rtol={tol:.0e}", False, steps, 0, cpu, err, float("nan"), float("nan"), float("nan")
+                )
+            )
     return rows, kind
 
 
@@ -218,8 +263,8 @@ def plot_work_precision(rows, path: Path, title: str) -> Path:
         groups.setdefault(label, []).append(r)
     for i, (label, rs) in enumerate(groups.items()):
         # in sweep order (coarse to fine), so each line runs from cheap and rough to dear and exact
-        style = "-o" if not label.startswith("scipy:") else "--s"
-        if get_method(rs[0].method).kind == "adaptive":
+        style = "-o" if not label.startswith(("scipy:", "lielab")) else "--s"
+        if rs[0].method != "lielab" and get_method(rs[0].method).kind == "adaptive":
             style = "-^"
         ax.loglog(
             [r.cpu_time for r in rs],
