@@ -160,7 +160,7 @@ def make_engine(system, stepper, plan: Plan, y, backend: str = "auto"):
         from . import fast
 
         if fast.supports(system, stepper) and fast.within_range(system, stepper, y, plan.h):
-            return KernelEngine(fast.Top3Kernel(system, stepper))
+            return KernelEngine(fast.Top3Kernel(system, stepper, y))
         if backend == "numba":
             raise ValueError(
                 f"`backend='numba'`: no compiled kernel covers {type(system).__name__} "

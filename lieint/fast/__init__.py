@@ -47,8 +47,15 @@ class Top3Kernel:
     principal frame (P a proper eigenbasis of B), so that a run split into segments gives the
     same bits as one that is not: the conversion to ``(A, R)`` happens only on output."""
 
-    def __init__(self, system, stepper):
+    #: ensembles of at least this many bodies run RKMK in SIMD lanes (:mod:`lieint.fast.lanes`)
+    LANES_FROM = 64
+
+    def __init__(self, system, stepper, y):
         self.system, self.stepper = system, stepper
+        self.batch = system.batch_shape(y)
+        bodies = int(np.prod(self.batch)) if self.batch else 1
+        # the layout is fixed per run (and so per resume): Π as (N, 3) per body, or (3, N) in lanes
+        self.lanes = stepper.kind == "lie" and bodies >= self.LANES_FROM
         P = system.P.copy()
         if np.linalg.det(P) < 0:  # a proper rotation keeps Π a vector (not a pseudo-vector)
             P[:, -1] *= -1.0
@@ -56,12 +63,16 @@ class Top3Kernel:
         self.coeffs = bernoulli_dexpinv_coefficients(stepper.dexpinv_degree) if stepper.kind == "lie" else (1.0,)
 
     def start(self, y: dict) -> dict:
-        self.batch = self.system.batch_shape(y)
         A = y["A"].reshape(-1, 3, 3)
         R = y["R"].reshape(-1, 3, 3) if "R" in y else np.broadcast_to(np.eye(3), A.shape)
-        return {"pi": -vee(self.P.T @ A @ self.P), "R": np.ascontiguousarray(R @ self.P)}
+        pi, R = -vee(self.P.T @ A @ self.P), R @ self.P
+        if self.lanes:
+            return {"pi": np.ascontiguousarray(pi.T), "R": np.ascontiguousarray(np.moveaxis(R, 0, -1))}
+        return {"pi": pi, "R": np.ascontiguousarray(R)}
 
     def advance(self, internal: dict, k_from: int, k_to: int, plan, save_steps, project: bool):
+        if self.lanes:
+            return self._advance_lanes(internal, k_from, k_to, plan, save_steps, project)
         from .top3 import integrate_top3
 
         tab = self.stepper.tableau
@@ -83,6 +94,33 @@ class Top3Kernel:
         )
         return {"pi": fin_pi, "R": fin_R}, self._user(out_pi, out_R)
 
+    def _advance_lanes(self, internal, k_from, k_to, plan, save_steps, project):
+        from .lanes import run_lanes
+
+        tab = self.stepper.tableau
+        pi, R = internal["pi"].copy(), internal["R"].copy()
+        m, N = len(save_steps), pi.shape[1]
+        out_pi, out_R = np.empty((m, 3, N)), np.empty((m, 3, 3, N))
+        run_lanes(
+            pi,
+            R,
+            1.0 / self.system.principal_moments,
+            tab.A,
+            tab.b,
+            tab.c,
+            np.asarray(self.coeffs),
+            plan.h,
+            plan.last_step,
+            k_from,
+            k_to,
+            plan.nsteps,
+            np.asarray(save_steps, dtype=np.int64),
+            project,
+            out_pi,
+            out_R,
+        )
+        return {"pi": pi, "R": R}, self._user(np.swapaxes(out_pi, -1, -2), np.moveaxis(out_R, -1, 1))
+
     def _user(self, pi, R) -> dict:
         lead = pi.shape[:-2]
         states = {"A": (self.P @ (-hat(pi)) @ self.P.T).reshape(lead + self.batch + (3, 3))}
@@ -91,4 +129,7 @@ class Top3Kernel:
         return states
 
     def user_state(self, internal: dict) -> dict:
-        return {k: v[0] for k, v in self._user(internal["pi"][None], internal["R"][None]).items()}
+        pi, R = internal["pi"], internal["R"]
+        if self.lanes:
+            pi, R = pi.T, np.moveaxis(R, -1, 0)
+        return {k: v[0] for k, v in self._user(pi[None], R[None]).items()}

@@ -41,6 +41,8 @@ class LieGroupSystem(ABC):
     fields: dict[str, tuple[int, ...]]
     #: invariants that measure a defect (zero for the exact flow): their drift is their size
     defects: frozenset[str] = frozenset({"orthogonality"})
+    #: True when ξ(t, y) does not depend on t (lets the driver evaluate it batched over times)
+    autonomous: bool = False
 
     @abstractmethod
     def generator(self, t: float | np.ndarray, y: State) -> np.ndarray:

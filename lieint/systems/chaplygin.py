@@ -47,6 +47,8 @@ class ChaplyginBall(RollingPose, LieGroupSystem):
     and ``orthogonality`` (with R).
     """
 
+    autonomous = True
+
     def __init__(self, mass_tensor, mass, radius, normal=None, *, orientation: bool = True, track_center: bool = True):
         self.B_C, self.mass, self.radius, _, self.normal = check_ball(mass_tensor, mass, radius, None, normal)
         n = self.n = self.B_C.shape[0]

@@ -53,6 +53,8 @@ class EulerTop(LieGroupSystem):
     True
     """
 
+    autonomous = True
+
     def __init__(self, B, *, orientation: bool = True):
         self.B, self.b, self.P = check_mass_tensor(B, "B")
         self.n = self.B.shape[0]

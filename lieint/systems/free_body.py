@@ -43,6 +43,8 @@ class FreeBody(LieGroupSystem):
     (``R A Rᵀ``), ``linear_momentum`` ``M v`` (without gravity), ``orthogonality``.
     """
 
+    autonomous = True
+
     def __init__(self, mass_tensor, mass, gravity=None, *, orientation: bool = True):
         self.top = EulerTop(mass_tensor, orientation=orientation)
         self.n = n = self.top.n

@@ -49,6 +49,8 @@ class HeavyTop(LieGroupSystem):
     integral of their case (``spin`` for Lagrange, ``kovalevskaya``).
     """
 
+    autonomous = True
+
     def __init__(self, mass_tensor, mass, center_of_mass, gravity, *, orientation: bool = True):
         self.top = EulerTop(mass_tensor, orientation=False)
         self.B, self.n = self.top.B, self.top.n

@@ -172,6 +172,8 @@ class RollingBall(RollingPose, LieGroupSystem):
     ``gamma_norm`` ``|Γ|``, ``orthogonality``.
     """
 
+    autonomous = True
+
     def __init__(
         self,
         mass_tensor,
