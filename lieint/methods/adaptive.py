@@ -23,7 +23,7 @@ from functools import cache
 import numpy as np
 
 from ..groups.base import DexpinvRangeError
-from .lie import COORDINATES, _combine
+from .lie import COORDINATES, _combine, coordinate_map, rkmk_stages
 from .order_conditions import order_residuals, tree_string
 from .tableau import ButcherTableau
 
@@ -126,26 +126,12 @@ class AdaptiveLieMethod:
     def stages(self) -> int:
         return self.pair.tableau.stages
 
-    def _map(self, group, u):
-        return group.exp(u) if self.coordinates == "exp" else group.cay(u)
-
     def attempt(self, system, t: float, y: dict, h: float):
         """One trial step: ``(y₁, ŷ₁, evaluations)``; raises DexpinvRangeError past the radius."""
-        group = system.group
-        tab = self.pair.tableau
-        ks: list = []
-        for i in range(tab.stages):
-            u = _combine(group, tab.A[i, :i], ks, h)
-            if u is None:
-                ks.append(system.generator(t + tab.c[i] * h, y))
-                continue
-            xi = system.generator(t + tab.c[i] * h, system.act(self._map(group, u), y))
-            if self.coordinates == "exp":
-                ks.append(group.dexpinv(group.negate(u), xi, self.dexpinv_degree))
-            else:
-                ks.append(group.dcayinv(group.negate(u), xi))
-        y1 = system.act(self._map(group, _combine(group, tab.b, ks, h)), y)
-        y_hat = system.act(self._map(group, _combine(group, self.pair.b_hat, ks, h)), y)
+        group, tab = system.group, self.pair.tableau
+        ks = rkmk_stages(system, tab, self.coordinates, self.dexpinv_degree, t, y, h)
+        y1 = system.act(coordinate_map(group, self.coordinates, _combine(group, tab.b, ks, h)), y)
+        y_hat = system.act(coordinate_map(group, self.coordinates, _combine(group, self.pair.b_hat, ks, h)), y)
         return y1, y_hat, tab.stages
 
 

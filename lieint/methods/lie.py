@@ -22,7 +22,7 @@ import numpy as np
 
 from .tableau import ButcherTableau
 
-__all__ = ["COORDINATES", "LieMethod"]
+__all__ = ["COORDINATES", "LieMethod", "coordinate_map", "rkmk_stages"]
 
 COORDINATES = ("exp", "cayley")
 
@@ -87,30 +87,39 @@ class LieMethod:
     def stages(self) -> int:
         return self.tableau.stages
 
-    def _coordinate_map(self, group, u):
-        return group.exp(u) if self.coordinates == "exp" else group.cay(u)
-
-    def _inverse_differential(self, group, u, v):
-        # Right action: k = dφ⁻¹_{−u}(ξ).
-        if self.coordinates == "exp":
-            return group.dexpinv(group.negate(u), v, self.dexpinv_degree)
-        return group.dcayinv(group.negate(u), v)
+    def stage_increments(self, system, t: float, y: dict, h: float) -> list:
+        """The stage increments ``k_i = dφ⁻¹_{−u_i}(ξ(t + c_i h, ρ(φ(u_i), y)))`` of one step."""
+        return rkmk_stages(system, self.tableau, self.coordinates, self.dexpinv_degree, t, y, h)
 
     def step(self, system, t: float, y: dict, h: float) -> tuple[dict, int]:
         """One step from ``(t, y)`` of size ``h``; returns ``(y₁, generator evaluations)``."""
-        group = system.group
-        A, b, c = self.tableau.A, self.tableau.b, self.tableau.c
-        ks: list = []
-        for i in range(self.tableau.stages):
-            u = _combine(group, A[i, :i], ks, h)
-            if u is None:
-                ks.append(system.generator(t + c[i] * h, y))
-            else:
-                yi = system.act(self._coordinate_map(group, u), y)
-                xi = system.generator(t + c[i] * h, yi)
-                ks.append(self._inverse_differential(group, u, xi))
-        U = _combine(group, b, ks, h)
-        return system.act(self._coordinate_map(group, U), y), self.tableau.stages
+        ks = self.stage_increments(system, t, y, h)
+        U = _combine(system.group, self.tableau.b, ks, h)
+        return system.act(coordinate_map(system.group, self.coordinates, U), y), self.tableau.stages
+
+
+def coordinate_map(group, coordinates: str, u):
+    """φ(u): ``exp`` or ``cay``."""
+    return group.exp(u) if coordinates == "exp" else group.cay(u)
+
+
+def rkmk_stages(system, tableau, coordinates: str, degree, t: float, y: dict, h: float) -> list:
+    """The RKMK stages of a right action: ``u_i = h Σ_j a_ij k_j``,
+    ``k_i = dφ⁻¹_{−u_i}(ξ(t + c_i h, ρ(φ(u_i), y)))`` (see the module docstring)."""
+    group = system.group
+    A, c = tableau.A, tableau.c
+    ks: list = []
+    for i in range(tableau.stages):
+        u = _combine(group, A[i, :i], ks, h)
+        if u is None:
+            ks.append(system.generator(t + c[i] * h, y))
+            continue
+        xi = system.generator(t + c[i] * h, system.act(coordinate_map(group, coordinates, u), y))
+        if coordinates == "exp":
+            ks.append(group.dexpinv(group.negate(u), xi, degree))
+        else:
+            ks.append(group.dcayinv(group.negate(u), xi))
+    return ks
 
 
 def _combine(group, coeffs: np.ndarray, ks: list, h: float):
