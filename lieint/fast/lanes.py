@@ -20,12 +20,14 @@ _BLOCK = 64
 
 @njit(cache=True, inline="always")
 def _coefficients(t2):
-    a = 1.0 - t2 / 6.0 * (1.0 - t2 / 20.0 * (1.0 - t2 / 42.0 * (1.0 - t2 / 72.0 * (1.0 - t2 / 110.0))))
-    b = 0.5 * (1.0 - t2 / 12.0 * (1.0 - t2 / 30.0 * (1.0 - t2 / 56.0 * (1.0 - t2 / 90.0 * (1.0 - t2 / 132.0)))))
+    # sin θ/θ and (1 − cos θ)/θ² as even polynomials (Horner, multiplications only: a vector
+    # division costs several multiplications)
+    a = 1.0 + t2 * (-1.0 / 6 + t2 * (1.0 / 120 + t2 * (-1.0 / 5040 + t2 * (1.0 / 362880 + t2 * (-1.0 / 39916800)))))
+    b = 0.5 + t2 * (-1.0 / 24 + t2 * (1.0 / 720 + t2 * (-1.0 / 40320 + t2 * (1.0 / 3628800 + t2 * (-1.0 / 479001600)))))
     return a, b
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _fix_large(t2, a, b, lanes):
     for l in range(lanes):
         if t2[l] >= 1e-2:
@@ -34,7 +36,7 @@ def _fix_large(t2, a, b, lanes):
             b[l] = (1.0 - np.cos(th)) / t2[l]
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True, parallel=True, fastmath={"contract", "reassoc", "nsz", "arcp"})
 def run_lanes(pi, R, Iinv, A, b, c, coeffs, h, h_last, k_from, k_to, nsteps, save_steps, project, out_pi, out_R):
     """RKMK (exp coordinates) on bodies in lanes. ``pi`` (3, N) and ``R`` (3, 3, N) are updated
     in place; states after the listed global save steps go to ``out_pi`` (m, 3, N), ``out_R``."""
@@ -136,15 +138,22 @@ def run_lanes(pi, R, Iinv, A, b, c, coeffs, h, h_last, k_from, k_to, nsteps, sav
                 Q[2, 0, l] = -a_ * y_ + b_ * x_ * z_
                 Q[1, 2, l] = -a_ * x_ + b_ * y_ * z_
                 Q[2, 1, l] = a_ * x_ + b_ * y_ * z_
+            # Π ← QᵀΠ and R ← R Q, in separate short loops (each vectorises on its own)
+            for l in range(L):
                 p0 = Q[0, 0, l] * P[0, l] + Q[1, 0, l] * P[1, l] + Q[2, 0, l] * P[2, l]
                 p1 = Q[0, 1, l] * P[0, l] + Q[1, 1, l] * P[1, l] + Q[2, 1, l] * P[2, l]
                 p2 = Q[0, 2, l] * P[0, l] + Q[1, 2, l] * P[1, l] + Q[2, 2, l] * P[2, l]
-                P[0, l], P[1, l], P[2, l] = p0, p1, p2
-                for r in range(3):
+                P[0, l] = p0
+                P[1, l] = p1
+                P[2, l] = p2
+            for r in range(3):
+                for l in range(L):
                     r0 = Rb[r, 0, l] * Q[0, 0, l] + Rb[r, 1, l] * Q[1, 0, l] + Rb[r, 2, l] * Q[2, 0, l]
                     r1 = Rb[r, 0, l] * Q[0, 1, l] + Rb[r, 1, l] * Q[1, 1, l] + Rb[r, 2, l] * Q[2, 1, l]
                     r2 = Rb[r, 0, l] * Q[0, 2, l] + Rb[r, 1, l] * Q[1, 2, l] + Rb[r, 2, l] * Q[2, 2, l]
-                    Rb[r, 0, l], Rb[r, 1, l], Rb[r, 2, l] = r0, r1, r2
+                    Rb[r, 0, l] = r0
+                    Rb[r, 1, l] = r1
+                    Rb[r, 2, l] = r2
             if project:
                 for l in range(L):
                     # one Newton–Schulz step R ← R (3I − RᵀR)/2
