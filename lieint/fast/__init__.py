@@ -68,7 +68,9 @@ class Top3Kernel:
         R = y["R"].reshape(-1, 3, 3) if "R" in y else np.broadcast_to(np.eye(3), A.shape)
         pi, R = -vee(self.P.T @ A @ self.P), R @ self.P
         if self.lanes:
-            return {"pi": np.ascontiguousarray(pi.T), "R": np.ascontiguousarray(np.moveaxis(R, 0, -1))}
+            from .lanes import matrix_to_quaternion
+
+            return {"pi": np.ascontiguousarray(pi.T), "q": np.ascontiguousarray(matrix_to_quaternion(R).T)}
         return {"pi": pi, "R": np.ascontiguousarray(R)}
 
     def advance(self, internal: dict, k_from: int, k_to: int, plan, save_steps, project: bool):
@@ -96,15 +98,15 @@ class Top3Kernel:
         return {"pi": fin_pi, "R": fin_R}, self._user(out_pi, out_R)
 
     def _advance_lanes(self, internal, k_from, k_to, plan, save_steps, project):
-        from .lanes import run_lanes
+        from .lanes import quaternion_to_matrix, run_lanes
 
         tab = self.stepper.tableau
-        pi, R = internal["pi"].copy(), internal["R"].copy()
+        pi, q = internal["pi"].copy(), internal["q"].copy()
         m, N = len(save_steps), pi.shape[1]
-        out_pi, out_R = np.empty((m, 3, N)), np.empty((m, 3, 3, N))
+        out_pi, out_q = np.empty((m, 3, N)), np.empty((m, 4, N))
         run_lanes(
             pi,
-            R,
+            q,
             1.0 / self.system.principal_moments,
             tab.A,
             tab.b,
@@ -118,9 +120,10 @@ class Top3Kernel:
             np.asarray(save_steps, dtype=np.int64),
             project,
             out_pi,
-            out_R,
+            out_q,
         )
-        return {"pi": pi, "R": R}, self._user(np.swapaxes(out_pi, -1, -2), np.moveaxis(out_R, -1, 1))
+        R = quaternion_to_matrix(np.swapaxes(out_q, -1, -2))
+        return {"pi": pi, "q": q}, self._user(np.swapaxes(out_pi, -1, -2), R)
 
     def _user(self, pi, R) -> dict:
         lead = pi.shape[:-2]
@@ -130,7 +133,10 @@ class Top3Kernel:
         return states
 
     def user_state(self, internal: dict) -> dict:
-        pi, R = internal["pi"], internal["R"]
         if self.lanes:
-            pi, R = pi.T, np.moveaxis(R, -1, 0)
+            from .lanes import quaternion_to_matrix
+
+            pi, R = internal["pi"].T, quaternion_to_matrix(internal["q"].T)
+        else:
+            pi, R = internal["pi"], internal["R"]
         return {k: v[0] for k, v in self._user(pi[None], R[None]).items()}

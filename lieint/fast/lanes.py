@@ -1,11 +1,15 @@
 """Ensemble kernel for the 3D top: bodies in SIMD lanes.
 
 The per-body kernel (:mod:`lieint.fast.top3`) runs one body's steps in scalar code. For
-ensembles this kernel stores the bodies structure-of-arrays (``Π`` as ``(3, N)``, ``R`` as
-``(3, 3, N)``) and runs each operation of an RKMK step as a loop over a block of bodies, which
-the compiler vectorises. Rodrigues' coefficients use their Taylor polynomials (exact to
-round-off below θ = 0.1, where every stage of a resolved step lies) with a scalar fix-up for
-the rare lanes beyond, so the hot loop has no sqrt, sin or cos.
+ensembles this kernel stores the bodies structure-of-arrays (``Π`` as ``(3, N)``, the
+orientation as a unit quaternion ``q`` as ``(4, N)``, turned into R only at the saved steps)
+and runs each operation of an RKMK step as a loop over a block of bodies, which the compiler
+vectorises. ``R ← R exp(Û)`` is ``q ← q ⊗ (cos(θ/2), sin(θ/2) U/θ)`` and ``Π ← exp(−Û)Π``
+the vector form of Rodrigues' formula, so no 3 × 3 matrix is formed in the loop. The
+coefficients ``sin θ/θ``, ``(1 − cos θ)/θ²``, ``cos(θ/2)``, ``sin(θ/2)/θ`` are Taylor polynomials
+without divisions (exact to round-off below θ = 0.1, where every stage of a resolved step lies)
+with a scalar fix-up for the rare lanes beyond, so the hot loops have no sqrt, sin, cos or
+division.
 """
 
 from __future__ import annotations
@@ -13,7 +17,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-__all__ = ["run_lanes"]
+__all__ = ["matrix_to_quaternion", "quaternion_to_matrix", "run_lanes"]
 
 _BLOCK = 64
 
@@ -28,6 +32,15 @@ def _coefficients(t2):
 
 
 @njit(cache=True, inline="always")
+def _half_angle(t2):
+    """``cos(θ/2)`` and ``sin(θ/2)/θ`` as polynomials in ``s = θ²/4`` (exact to round-off below θ = 0.1)."""
+    s = 0.25 * t2
+    ch = 1.0 + s * (-1.0 / 2 + s * (1.0 / 24 + s * (-1.0 / 720 + s * (1.0 / 40320 + s * (-1.0 / 3628800)))))
+    sh = 0.5 + s * (-1.0 / 12 + s * (1.0 / 240 + s * (-1.0 / 10080 + s * (1.0 / 725760 + s * (-1.0 / 79833600)))))
+    return ch, sh
+
+
+@njit(cache=True, inline="always")
 def _fix_large(t2, a, b, lanes):
     for l in range(lanes):
         if t2[l] >= 1e-2:
@@ -37,9 +50,10 @@ def _fix_large(t2, a, b, lanes):
 
 
 @njit(cache=True, parallel=True, fastmath={"contract", "reassoc", "nsz", "arcp"})
-def run_lanes(pi, R, Iinv, A, b, c, coeffs, h, h_last, k_from, k_to, nsteps, save_steps, project, out_pi, out_R):
-    """RKMK (exp coordinates) on bodies in lanes. ``pi`` (3, N) and ``R`` (3, 3, N) are updated
-    in place; states after the listed global save steps go to ``out_pi`` (m, 3, N), ``out_R``."""
+def run_lanes(pi, q, Iinv, A, b, c, coeffs, h, h_last, k_from, k_to, nsteps, save_steps, project, out_pi, out_q):
+    """RKMK (exp coordinates) on bodies in lanes. ``pi`` (3, N) and the quaternions ``q`` (4, N)
+    are updated in place; states after the listed global save steps go to ``out_pi`` (m, 3, N)
+    and ``out_q`` (m, 4, N)."""
     N = pi.shape[1]
     s = b.shape[0]
     degree = coeffs.shape[0] - 1
@@ -55,14 +69,13 @@ def run_lanes(pi, R, Iinv, A, b, c, coeffs, h, h_last, k_from, k_to, nsteps, sav
         x = np.zeros((3, _BLOCK))
         tt = np.zeros((3, _BLOCK))
         P = np.zeros((3, _BLOCK))
-        Rb = np.zeros((3, 3, _BLOCK))
-        Q = np.zeros((3, 3, _BLOCK))
+        qb = np.zeros((4, _BLOCK))
         for i in range(3):
             for l in range(L):
                 P[i, l] = pi[i, l0 + l]
-            for j in range(3):
-                for l in range(L):
-                    Rb[i, j, l] = R[i, j, l0 + l]
+        for i in range(4):
+            for l in range(L):
+                qb[i, l] = q[i, l0 + l]
         slot = 0
         for k in range(k_from, k_to):
             hk = h if k < nsteps - 1 else h_last
@@ -127,58 +140,87 @@ def run_lanes(pi, R, Iinv, A, b, c, coeffs, h, h_last, k_from, k_to, nsteps, sav
                 ca[l], cb[l] = _coefficients(t2[l])
             _fix_large(t2, ca, cb, L)
             for l in range(L):
-                a_, b_ = ca[l], cb[l]
-                x_, y_, z_ = u[0, l], u[1, l], u[2, l]
-                Q[0, 0, l] = 1.0 - b_ * (y_ * y_ + z_ * z_)
-                Q[1, 1, l] = 1.0 - b_ * (x_ * x_ + z_ * z_)
-                Q[2, 2, l] = 1.0 - b_ * (x_ * x_ + y_ * y_)
-                Q[0, 1, l] = -a_ * z_ + b_ * x_ * y_
-                Q[1, 0, l] = a_ * z_ + b_ * x_ * y_
-                Q[0, 2, l] = a_ * y_ + b_ * x_ * z_
-                Q[2, 0, l] = -a_ * y_ + b_ * x_ * z_
-                Q[1, 2, l] = -a_ * x_ + b_ * y_ * z_
-                Q[2, 1, l] = a_ * x_ + b_ * y_ * z_
-            # Π ← QᵀΠ and R ← R Q, in separate short loops (each vectorises on its own)
+                # Π ← exp(−Û)Π = Π − a U×Π + b U×(U×Π)
+                c0_ = u[1, l] * P[2, l] - u[2, l] * P[1, l]
+                c1_ = u[2, l] * P[0, l] - u[0, l] * P[2, l]
+                c2_ = u[0, l] * P[1, l] - u[1, l] * P[0, l]
+                e0 = u[1, l] * c2_ - u[2, l] * c1_
+                e1 = u[2, l] * c0_ - u[0, l] * c2_
+                e2 = u[0, l] * c1_ - u[1, l] * c0_
+                P[0, l] = P[0, l] - ca[l] * c0_ + cb[l] * e0
+                P[1, l] = P[1, l] - ca[l] * c1_ + cb[l] * e1
+                P[2, l] = P[2, l] - ca[l] * c2_ + cb[l] * e2
             for l in range(L):
-                p0 = Q[0, 0, l] * P[0, l] + Q[1, 0, l] * P[1, l] + Q[2, 0, l] * P[2, l]
-                p1 = Q[0, 1, l] * P[0, l] + Q[1, 1, l] * P[1, l] + Q[2, 1, l] * P[2, l]
-                p2 = Q[0, 2, l] * P[0, l] + Q[1, 2, l] * P[1, l] + Q[2, 2, l] * P[2, l]
-                P[0, l] = p0
-                P[1, l] = p1
-                P[2, l] = p2
-            for r in range(3):
-                for l in range(L):
-                    r0 = Rb[r, 0, l] * Q[0, 0, l] + Rb[r, 1, l] * Q[1, 0, l] + Rb[r, 2, l] * Q[2, 0, l]
-                    r1 = Rb[r, 0, l] * Q[0, 1, l] + Rb[r, 1, l] * Q[1, 1, l] + Rb[r, 2, l] * Q[2, 1, l]
-                    r2 = Rb[r, 0, l] * Q[0, 2, l] + Rb[r, 1, l] * Q[1, 2, l] + Rb[r, 2, l] * Q[2, 2, l]
-                    Rb[r, 0, l] = r0
-                    Rb[r, 1, l] = r1
-                    Rb[r, 2, l] = r2
+                ca[l], cb[l] = _half_angle(t2[l])  # reused: cos(θ/2), sin(θ/2)/θ
+            for l in range(L):
+                if t2[l] >= 1e-2:  # rare: a stage beyond θ = 0.1
+                    th = np.sqrt(t2[l])
+                    ca[l] = np.cos(0.5 * th)
+                    cb[l] = np.sin(0.5 * th) / th
+            for l in range(L):
+                # q ← q ⊗ (cos(θ/2), sin(θ/2) U/θ)
+                ch, sh = ca[l], cb[l]
+                w0, w1, w2 = sh * u[0, l], sh * u[1, l], sh * u[2, l]
+                q0, q1, q2, q3 = qb[0, l], qb[1, l], qb[2, l], qb[3, l]
+                qb[0, l] = q0 * ch - q1 * w0 - q2 * w1 - q3 * w2
+                qb[1, l] = q0 * w0 + q1 * ch + q2 * w2 - q3 * w1
+                qb[2, l] = q0 * w1 - q1 * w2 + q2 * ch + q3 * w0
+                qb[3, l] = q0 * w2 + q1 * w1 - q2 * w0 + q3 * ch
             if project:
                 for l in range(L):
-                    # one Newton–Schulz step R ← R (3I − RᵀR)/2
-                    m00 = 3.0 - (Rb[0, 0, l] ** 2 + Rb[1, 0, l] ** 2 + Rb[2, 0, l] ** 2)
-                    m11 = 3.0 - (Rb[0, 1, l] ** 2 + Rb[1, 1, l] ** 2 + Rb[2, 1, l] ** 2)
-                    m22 = 3.0 - (Rb[0, 2, l] ** 2 + Rb[1, 2, l] ** 2 + Rb[2, 2, l] ** 2)
-                    m01 = -(Rb[0, 0, l] * Rb[0, 1, l] + Rb[1, 0, l] * Rb[1, 1, l] + Rb[2, 0, l] * Rb[2, 1, l])
-                    m02 = -(Rb[0, 0, l] * Rb[0, 2, l] + Rb[1, 0, l] * Rb[1, 2, l] + Rb[2, 0, l] * Rb[2, 2, l])
-                    m12 = -(Rb[0, 1, l] * Rb[0, 2, l] + Rb[1, 1, l] * Rb[1, 2, l] + Rb[2, 1, l] * Rb[2, 2, l])
-                    for r in range(3):
-                        r0 = 0.5 * (Rb[r, 0, l] * m00 + Rb[r, 1, l] * m01 + Rb[r, 2, l] * m02)
-                        r1 = 0.5 * (Rb[r, 0, l] * m01 + Rb[r, 1, l] * m11 + Rb[r, 2, l] * m12)
-                        r2 = 0.5 * (Rb[r, 0, l] * m02 + Rb[r, 1, l] * m12 + Rb[r, 2, l] * m22)
-                        Rb[r, 0, l], Rb[r, 1, l], Rb[r, 2, l] = r0, r1, r2
+                    # the unit sphere of quaternions is the exact projection for rotations
+                    n = 1.0 / np.sqrt(qb[0, l] ** 2 + qb[1, l] ** 2 + qb[2, l] ** 2 + qb[3, l] ** 2)
+                    qb[0, l] *= n
+                    qb[1, l] *= n
+                    qb[2, l] *= n
+                    qb[3, l] *= n
             if slot < save_steps.shape[0] and save_steps[slot] == k + 1:
                 for i in range(3):
                     for l in range(L):
                         out_pi[slot, i, l0 + l] = P[i, l]
-                    for j in range(3):
-                        for l in range(L):
-                            out_R[slot, i, j, l0 + l] = Rb[i, j, l]
+                for i in range(4):
+                    for l in range(L):
+                        out_q[slot, i, l0 + l] = qb[i, l]
                 slot += 1
         for i in range(3):
             for l in range(L):
                 pi[i, l0 + l] = P[i, l]
-            for j in range(3):
-                for l in range(L):
-                    R[i, j, l0 + l] = Rb[i, j, l]
+        for i in range(4):
+            for l in range(L):
+                q[i, l0 + l] = qb[i, l]
+
+
+def quaternion_to_matrix(q: np.ndarray) -> np.ndarray:
+    """Rotation matrices ``(..., 3, 3)`` of unit quaternions ``(..., 4)`` = (w, x, y, z)."""
+    w, x, y, z = np.moveaxis(q, -1, 0)
+    return np.stack(
+        [
+            np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], -1),
+            np.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], -1),
+            np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], -1),
+        ],
+        -2,
+    )
+
+
+def matrix_to_quaternion(R: np.ndarray) -> np.ndarray:
+    """Unit quaternions ``(..., 4)`` of rotation matrices, by the largest of the four pivots
+    (Shepperd's method), so the result is accurate for every rotation."""
+    R = np.asarray(R, dtype=float)
+    tr = np.trace(R, axis1=-2, axis2=-1)
+    diag = np.diagonal(R, axis1=-2, axis2=-1)
+    pivots = np.concatenate([tr[..., None], diag], axis=-1)
+    k = np.argmax(pivots, axis=-1)
+    q = np.empty(R.shape[:-2] + (4,))
+    r = lambda i, j: R[..., i, j]  # noqa: E731
+    cases = [
+        (1 + tr, r(2, 1) - r(1, 2), r(0, 2) - r(2, 0), r(1, 0) - r(0, 1)),
+        (r(2, 1) - r(1, 2), 1 + 2 * r(0, 0) - tr, r(0, 1) + r(1, 0), r(0, 2) + r(2, 0)),
+        (r(0, 2) - r(2, 0), r(0, 1) + r(1, 0), 1 + 2 * r(1, 1) - tr, r(1, 2) + r(2, 1)),
+        (r(1, 0) - r(0, 1), r(0, 2) + r(2, 0), r(1, 2) + r(2, 1), 1 + 2 * r(2, 2) - tr),
+    ]
+    for case, comps in enumerate(cases):
+        sel = k == case
+        v = np.stack(comps, -1)
+        q[sel] = v[sel] / (2 * np.sqrt(np.stack(comps, -1)[sel][..., case : case + 1]))
+    return q / np.linalg.norm(q, axis=-1, keepdims=True)
