@@ -32,6 +32,34 @@ def _coefficients(t2):
 
 
 @njit(cache=True, inline="always")
+def _stage_lane(u, P, Iinv, a, b, c1, c2, degree, K, st, l):
+    """Stage increment of lane l: ξ = I⁻¹(Π − a u×Π + b u×(u×Π)), then the degree-2 dexp⁻¹
+    terms when degree == 2 (other degrees add theirs in separate passes)."""
+    c0_ = u[1, l] * P[2, l] - u[2, l] * P[1, l]
+    c1_ = u[2, l] * P[0, l] - u[0, l] * P[2, l]
+    c2_ = u[0, l] * P[1, l] - u[1, l] * P[0, l]
+    e0 = u[1, l] * c2_ - u[2, l] * c1_
+    e1 = u[2, l] * c0_ - u[0, l] * c2_
+    e2 = u[0, l] * c1_ - u[1, l] * c0_
+    x0 = Iinv[0] * (P[0, l] - a * c0_ + b * e0)
+    x1 = Iinv[1] * (P[1, l] - a * c1_ + b * e1)
+    x2 = Iinv[2] * (P[2, l] - a * c2_ + b * e2)
+    if degree == 2:
+        n0 = -(u[1, l] * x2 - u[2, l] * x1)
+        n1 = -(u[2, l] * x0 - u[0, l] * x2)
+        n2 = -(u[0, l] * x1 - u[1, l] * x0)
+        m0 = -(u[1, l] * n2 - u[2, l] * n1)
+        m1 = -(u[2, l] * n0 - u[0, l] * n2)
+        m2 = -(u[0, l] * n1 - u[1, l] * n0)
+        x0 += c1 * n0 + c2 * m0
+        x1 += c1 * n1 + c2 * m1
+        x2 += c1 * n2 + c2 * m2
+    K[st, 0, l] = x0
+    K[st, 1, l] = x1
+    K[st, 2, l] = x2
+
+
+@njit(cache=True, inline="always")
 def _half_angle(t2):
     """``cos(θ/2)`` and ``sin(θ/2)/θ`` as polynomials in ``s = θ²/4`` (exact to round-off below θ = 0.1)."""
     s = 0.25 * t2
@@ -66,7 +94,6 @@ def run_lanes(pi, q, Iinv, A, b, c, coeffs, h, h_last, k_from, k_to, nsteps, sav
         t2 = np.zeros(_BLOCK)
         ca = np.zeros(_BLOCK)
         cb = np.zeros(_BLOCK)
-        x = np.zeros((3, _BLOCK))
         tt = np.zeros((3, _BLOCK))
         P = np.zeros((3, _BLOCK))
         qb = np.zeros((4, _BLOCK))
@@ -96,36 +123,38 @@ def run_lanes(pi, q, Iinv, A, b, c, coeffs, h, h_last, k_from, k_to, nsteps, sav
                         for l in range(L):
                             K[st, d, l] = Iinv[d] * P[d, l]
                     continue
+                # one fused pass: Rodrigues' coefficients, Π_i = exp(−û)Π = Π − a u×Π + b u×(u×Π),
+                # ξ = I⁻¹Π_i and, for degree 2 (RKMK4), k = ξ + c₁(−u)×ξ + c₂(−u)×((−u)×ξ)
+                c1, c2 = (coeffs[1], coeffs[2]) if degree == 2 else (0.0, 0.0)
+                large = False
                 for l in range(L):
                     t2[l] = u[0, l] * u[0, l] + u[1, l] * u[1, l] + u[2, l] * u[2, l]
-                    ca[l], cb[l] = _coefficients(t2[l])
-                _fix_large(t2, ca, cb, L)
-                for l in range(L):
-                    # Π_i = exp(−û)Π = Π − a u×Π + b u×(u×Π); ξ = I⁻¹ Π_i
-                    c0_ = u[1, l] * P[2, l] - u[2, l] * P[1, l]
-                    c1_ = u[2, l] * P[0, l] - u[0, l] * P[2, l]
-                    c2_ = u[0, l] * P[1, l] - u[1, l] * P[0, l]
-                    e0 = u[1, l] * c2_ - u[2, l] * c1_
-                    e1 = u[2, l] * c0_ - u[0, l] * c2_
-                    e2 = u[0, l] * c1_ - u[1, l] * c0_
-                    x[0, l] = Iinv[0] * (P[0, l] - ca[l] * c0_ + cb[l] * e0)
-                    x[1, l] = Iinv[1] * (P[1, l] - ca[l] * c1_ + cb[l] * e1)
-                    x[2, l] = Iinv[2] * (P[2, l] - ca[l] * c2_ + cb[l] * e2)
-                for d in range(3):
+                    large |= t2[l] >= 1e-2
+                    a_, b_ = _coefficients(t2[l])
+                    ca[l], cb[l] = a_, b_
+                    _stage_lane(u, P, Iinv, a_, b_, c1, c2, degree, K, st, l)
+                if large:  # rare: lanes beyond θ = 0.1 get trigonometric coefficients
                     for l in range(L):
-                        K[st, d, l] = x[d, l]
-                        tt[d, l] = x[d, l]
-                for dd in range(1, degree + 1):
-                    cf = coeffs[dd]
-                    for l in range(L):
-                        # ad_{−u} t = (−u) × t
-                        n0 = -(u[1, l] * tt[2, l] - u[2, l] * tt[1, l])
-                        n1 = -(u[2, l] * tt[0, l] - u[0, l] * tt[2, l])
-                        n2 = -(u[0, l] * tt[1, l] - u[1, l] * tt[0, l])
-                        tt[0, l], tt[1, l], tt[2, l] = n0, n1, n2
-                        K[st, 0, l] += cf * n0
-                        K[st, 1, l] += cf * n1
-                        K[st, 2, l] += cf * n2
+                        if t2[l] >= 1e-2:
+                            th = np.sqrt(t2[l])
+                            ca[l] = np.sin(th) / th
+                            cb[l] = (1.0 - np.cos(th)) / t2[l]
+                            _stage_lane(u, P, Iinv, ca[l], cb[l], c1, c2, degree, K, st, l)
+                if degree != 2:
+                    for d in range(3):
+                        for l in range(L):
+                            tt[d, l] = K[st, d, l]
+                    for dd in range(1, degree + 1):
+                        cf = coeffs[dd]
+                        for l in range(L):
+                            # ad_{−u} t = (−u) × t
+                            n0 = -(u[1, l] * tt[2, l] - u[2, l] * tt[1, l])
+                            n1 = -(u[2, l] * tt[0, l] - u[0, l] * tt[2, l])
+                            n2 = -(u[0, l] * tt[1, l] - u[1, l] * tt[0, l])
+                            tt[0, l], tt[1, l], tt[2, l] = n0, n1, n2
+                            K[st, 0, l] += cf * n0
+                            K[st, 1, l] += cf * n1
+                            K[st, 2, l] += cf * n2
             # U = h Σ b_j K_j; Q = exp(Û); Π ← QᵀΠ; R ← R Q
             for d in range(3):
                 for l in range(L):
