@@ -28,8 +28,9 @@ from scipy.integrate import solve_ivp
 from scipy.linalg import expm
 
 import lieint
-from lieint.compare import DefaultScene
+from lieint.compare import default_scene
 from lieint.groups import project_to_so
+from lieint.scenes import build_system
 
 TARGETS = [1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10]
 
@@ -44,8 +45,8 @@ def median_time(fn, repeats: int) -> float:
 
 
 def work_precision(repeats: int, quick: bool):
-    scene = DefaultScene()
-    top, y0 = scene.build()
+    scene = default_scene()
+    top, y0 = build_system(scene)
     T = scene.t_end
     t_save = np.linspace(0.0, T, 201)
     exact = top.exact_solution(t_save, y0)["A"]

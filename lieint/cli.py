@@ -19,9 +19,11 @@ def _positive_float(text: str) -> float:
 
 
 def _build_parser() -> argparse.ArgumentParser:
-    from .compare import DefaultScene
+    from .compare import default_scene
 
-    scene = DefaultScene()
+    scene = default_scene()
+    moments = tuple(float(x) for x in scene.mass_tensor.trace() - scene.mass_tensor.diagonal())
+    w0 = tuple(float(x) for x in scene.initial["angular_velocity"])
     parser = argparse.ArgumentParser(prog="lieint", description="Structure-preserving integrators for rigid bodies.")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     cmp = sub.add_parser(
@@ -31,7 +33,7 @@ def _build_parser() -> argparse.ArgumentParser:
             "Work-precision study: for each method sweep the step size (fixed-step methods) or the tolerance "
             "(adaptive Lie-group methods; scipy's RK45, DOP853, Radau and LSODA with and without projection), "
             "measure the global error of the scene's main field against the exact solution where one exists "
-            f"(the default scene: a top with I = {scene.moments} started at w = {scene.angular_velocity}, close "
+            f"(the default scene: a top with I = {moments} started at w = {w0}, close "
             "to its unstable middle axis, T = 100, against Jacobi elliptic functions; a uniform ball on an "
             "incline) or else against DOP853 at rtol 1e-13, the CPU time (median of repeats, one run), and the "
             "energy, Casimir and orthogonality errors. Prints the table and writes work_precision.csv/.json, "

@@ -1,36 +1,21 @@
 """The default scene of the main job ``lieint compare`` (the study itself is :mod:`lieint.study`).
 
-An asymmetric 3D top (``I = (1, 2, 3)``) started close to its unstable middle axis, where the
-body flips (the Dzhanibekov effect) and the exact solution in Jacobi elliptic functions is the
-reference.
+The embedded Dzhanibekov scene — an asymmetric 3D top (``I = (1, 2, 3)``) started close to its
+unstable middle axis, where the body flips and the exact solution in Jacobi elliptic functions is
+the reference — integrated to T = 100.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import replace
 
-from .systems.euler_top import EulerTop
+__all__ = ["DEFAULT_T_END", "default_scene"]
 
-__all__ = ["DefaultScene", "default_scene"]
+DEFAULT_T_END = 100.0
 
 
 def default_scene():
-    """The embedded default scene as a :class:`lieint.scenes.Scene`: the Dzhanibekov top, T = 100."""
-    from dataclasses import replace
-
+    """The default scene as a :class:`lieint.scenes.Scene`: the embedded Dzhanibekov top, T = 100."""
     from .scenes import embedded_scene
 
-    return replace(embedded_scene("dzhanibekov"), t_end=DefaultScene().t_end, name="default scene (Dzhanibekov top)")
-
-
-@dataclass(frozen=True)
-class DefaultScene:
-    """Asymmetric 3D top near its unstable middle axis (the Dzhanibekov flip)."""
-
-    moments: tuple[float, float, float] = (1.0, 2.0, 3.0)
-    angular_velocity: tuple[float, float, float] = (0.01, 1.0, 0.01)
-    t_end: float = 100.0
-
-    def build(self):
-        top = EulerTop.from_principal_moments(self.moments)
-        return top, top.initial_state(angular_velocity=self.angular_velocity)
+    return replace(embedded_scene("dzhanibekov"), t_end=DEFAULT_T_END, name="default scene (Dzhanibekov top)")

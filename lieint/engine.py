@@ -135,7 +135,8 @@ class KernelEngine:
     def advance(self, internal: dict, k_from: int, k_to: int, plan: Plan, save_steps, project: bool):
         save_steps = np.asarray(save_steps, dtype=np.int64)
         new, states = self.kernel.advance(internal, k_from, k_to, plan, save_steps, project)
-        finite = np.array([all(np.isfinite(v[i]).all() for v in states.values()) for i in range(save_steps.size)])
+        m = save_steps.size
+        finite = np.all([np.isfinite(v.reshape(m, -1)).all(axis=1) for v in states.values()], axis=0)
         done, failure = k_to, None
         if not (finite.all() and all(np.isfinite(v).all() for v in new.values())):
             bad = int(np.argmin(finite)) if not finite.all() else save_steps.size

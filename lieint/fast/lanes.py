@@ -32,18 +32,23 @@ def _coefficients(t2):
 
 
 @njit(cache=True, inline="always")
-def _stage_lane(u, P, Iinv, a, b, c1, c2, degree, K, st, l):
-    """Stage increment of lane l: ξ = I⁻¹(Π − a u×Π + b u×(u×Π)), then the degree-2 dexp⁻¹
-    terms when degree == 2 (other degrees add theirs in separate passes)."""
+def _rotate_back(u, P, a, b, l):
+    """``exp(−û)Π = Π − a u×Π + b u×(u×Π)`` of lane l (a, b: Rodrigues' coefficients)."""
     c0_ = u[1, l] * P[2, l] - u[2, l] * P[1, l]
     c1_ = u[2, l] * P[0, l] - u[0, l] * P[2, l]
     c2_ = u[0, l] * P[1, l] - u[1, l] * P[0, l]
     e0 = u[1, l] * c2_ - u[2, l] * c1_
     e1 = u[2, l] * c0_ - u[0, l] * c2_
     e2 = u[0, l] * c1_ - u[1, l] * c0_
-    x0 = Iinv[0] * (P[0, l] - a * c0_ + b * e0)
-    x1 = Iinv[1] * (P[1, l] - a * c1_ + b * e1)
-    x2 = Iinv[2] * (P[2, l] - a * c2_ + b * e2)
+    return P[0, l] - a * c0_ + b * e0, P[1, l] - a * c1_ + b * e1, P[2, l] - a * c2_ + b * e2
+
+
+@njit(cache=True, inline="always")
+def _stage_lane(u, P, Iinv, a, b, c1, c2, degree, K, st, l):
+    """Stage increment of lane l: ξ = I⁻¹ exp(−û)Π, then the degree-2 dexp⁻¹ terms when
+    degree == 2 (other degrees add theirs in separate passes)."""
+    p0, p1, p2 = _rotate_back(u, P, a, b, l)
+    x0, x1, x2 = Iinv[0] * p0, Iinv[1] * p1, Iinv[2] * p2
     if degree == 2:
         n0 = -(u[1, l] * x2 - u[2, l] * x1)
         n1 = -(u[2, l] * x0 - u[0, l] * x2)
@@ -169,16 +174,7 @@ def run_lanes(pi, q, Iinv, A, b, c, coeffs, h, h_last, k_from, k_to, nsteps, sav
                 ca[l], cb[l] = _coefficients(t2[l])
             _fix_large(t2, ca, cb, L)
             for l in range(L):
-                # Π ← exp(−Û)Π = Π − a U×Π + b U×(U×Π)
-                c0_ = u[1, l] * P[2, l] - u[2, l] * P[1, l]
-                c1_ = u[2, l] * P[0, l] - u[0, l] * P[2, l]
-                c2_ = u[0, l] * P[1, l] - u[1, l] * P[0, l]
-                e0 = u[1, l] * c2_ - u[2, l] * c1_
-                e1 = u[2, l] * c0_ - u[0, l] * c2_
-                e2 = u[0, l] * c1_ - u[1, l] * c0_
-                P[0, l] = P[0, l] - ca[l] * c0_ + cb[l] * e0
-                P[1, l] = P[1, l] - ca[l] * c1_ + cb[l] * e1
-                P[2, l] = P[2, l] - ca[l] * c2_ + cb[l] * e2
+                P[0, l], P[1, l], P[2, l] = _rotate_back(u, P, ca[l], cb[l], l)  # Π ← exp(−Û)Π
             for l in range(L):
                 ca[l], cb[l] = _half_angle(t2[l])  # reused: cos(θ/2), sin(θ/2)/θ
             for l in range(L):

@@ -13,6 +13,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
+from .._validation import check_skew
 from ..groups.base import LieGroup
 from ..groups.bivectors import bivector_dimension, skew_part
 from ..groups.so import SO
@@ -138,9 +139,9 @@ class RotorEulerTop(EulerTop):
         return {"A": s["A"], "rotor": matrix_to_rotor(s["R"], as_multivector=False)}
 
     def validate_state(self, y: Mapping[str, np.ndarray], name: str = "y0") -> State:
-        return super(EulerTop, self).validate_state(y, name) | {
-            "A": EulerTop(self.B, orientation=False).validate_state({"A": y["A"]}, name)["A"]
-        }
+        out = super(EulerTop, self).validate_state(y, name)  # keys, shapes, finiteness
+        out["A"] = check_skew(out["A"], f"{name}['A']")
+        return out
 
     def __repr__(self) -> str:
         return f"RotorEulerTop(n={self.n})"

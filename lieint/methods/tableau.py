@@ -6,7 +6,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .order_conditions import order_residuals, tree_string
+from .order_conditions import order_residuals, tree_size, tree_string
 
 __all__ = ["ButcherTableau"]
 
@@ -64,7 +64,7 @@ class ButcherTableau:
             if abs(residual) > 1e-13:
                 raise ValueError(
                     f"Tableau {self.name!r} does not have order {self.order}: the condition for the "
-                    f"tree {tree_string(tree)} (order {_size(tree)}) fails by {residual:.3g}."
+                    f"tree {tree_string(tree)} (order {tree_size(tree)}) fails by {residual:.3g}."
                 )
         for key, val in (("A", A), ("b", b), ("c", c)):
             val.setflags(write=False)
@@ -74,7 +74,3 @@ class ButcherTableau:
 
     def __repr__(self) -> str:
         return f"ButcherTableau({self.name!r}, stages={self.stages}, order={self.order})"
-
-
-def _size(tree) -> int:
-    return 1 + sum(_size(c) for c in tree)

@@ -20,7 +20,6 @@ import numpy as np
 __all__ = ["PlotError", "plot_run"]
 
 _MAX_POINTS = 4000
-_DEFECTS = {"orthogonality", "rotor_defect"}
 
 
 class PlotError(ValueError):
@@ -82,6 +81,8 @@ def plot_run(path, out=None) -> Path:
     if out.suffix.lower() not in (".png", ".svg"):
         raise PlotError(f"the figure must be .png or .svg; got {out.name!r}")
     t, states, inv, outputs, attrs = _read(path)
+    # invariants that measure a defect (zero for the exact flow), as the run recorded them
+    defects = set(filter(None, str(attrs.get("defects", "")).split(",")))
     field_ndim = {"A": 2, "R": 2, "Omega": 2, "Gamma": 1, "G": 1, "center": 1, "velocity": 1, "rotor": 1}
     first = next(iter(states))
     members = _members(states[first], field_ndim.get(first, 1)).shape[1]
@@ -100,7 +101,7 @@ def plot_run(path, out=None) -> Path:
         extra = values.ndim - 1 - (len(states[first].shape) - 1 - field_ndim.get(first, 1))
         v = _members(values, extra)
         axes_extra = tuple(range(2, v.ndim))
-        if name in _DEFECTS:
+        if name in defects:
             d = np.sqrt(np.sum(v * v, axis=axes_extra)) if axes_extra else np.abs(v)
         else:
             ref = v[:1]

@@ -242,6 +242,8 @@ def run(
                 "backend": engine.name,
                 "status": "running",
                 "save_every": scene.save_every,
+                # which saved invariants measure a defect (plots show their size, not a drift)
+                "defects": ",".join(sorted(set(getattr(system, "defects", ())) & set(invariant_names))),
             },
             {g: {n: v[0] for n, v in a.items()} for g, a in first_rows.items() if a},
             plan.t0,
