@@ -17,9 +17,8 @@ from .._validation import check_skew
 from ..groups.base import LieGroup
 from ..groups.bivectors import bivector_dimension, skew_part
 from ..groups.so import SO
-from ..systems.base import State
+from ..systems.base import Invariant, Output, State
 from ..systems.euler_top import EulerTop
-from ..systems.invariants import skew_spectrum
 from .algebra import algebra, matrix_to_rotor
 
 __all__ = ["RotorEulerTop", "Spin"]
@@ -40,8 +39,29 @@ class Spin(LieGroup):
         self.dim = bivector_dimension(n)
         self.name = f"spin({n})"
 
+    def identity(self, batch_shape=()):
+        one = np.zeros((*batch_shape, self.ga.size))
+        one[..., 0] = 1.0
+        return one
+
+    def multiply(self, g, h):
+        return self.ga.product(g, h)
+
+    def inverse(self, g):
+        """``S⁻¹ = S̃`` for unit rotors."""
+        return self.ga.reverse(g)
+
     def exp(self, X):
         return self.ga.rotor_exp(X)
+
+    def log(self, g):
+        """The principal logarithm of the rotation under ``g`` (rotors with positive scalar part)."""
+        return self.so.log(self.ga.rotor_matrix(g))
+
+    def project(self, g):
+        """``S / √⟨S S̃⟩₀``: the unit rotor nearest a slightly denormalised one."""
+        norm2 = self.ga.product(g, self.ga.reverse(g))[..., :1]
+        return g / np.sqrt(norm2)
 
     def cay(self, X):
         raise ValueError(
@@ -71,8 +91,6 @@ class RotorEulerTop(EulerTop):
     ``a = R A Rᵀ`` (R the matrix of the rotor) and ``rotor_defect`` ``‖S̃S − 1‖``.
     """
 
-    defects = frozenset({"rotor_defect"})
-
     def __init__(self, B):
         super().__init__(B, orientation=False)
         self.ga = algebra(self.n)
@@ -96,7 +114,7 @@ class RotorEulerTop(EulerTop):
         return {"A": skew_part(y["A"]), "rotor": self.ga.normalize(y["rotor"])}
 
     @property
-    def invariant_functions(self):
+    def invariants(self) -> dict[str, Invariant]:
         ga = self.ga
 
         def momentum(t, y):
@@ -107,11 +125,21 @@ class RotorEulerTop(EulerTop):
             S = y["rotor"]
             return np.linalg.norm(ga.product(ga.reverse(S), S) - ga.scalar(np.ones(S.shape[:-1])), axis=-1)
 
-        funcs = dict(super().invariant_functions)
-        funcs.update(
-            {"casimirs": lambda t, y: skew_spectrum(y["A"]), "momentum": momentum, "rotor_defect": rotor_defect}
+        declared = dict(super().invariants)
+        declared["momentum"] = Invariant(momentum, "integral", "space momentum R A Rᵀ")
+        declared["rotor_defect"] = Invariant(rotor_defect, "defect", "‖S̃S − 1‖ (rotor off Spin(n))")
+        return declared
+
+    @property
+    def outputs(self) -> dict[str, Output]:
+        out = dict(super().outputs)
+        out["orientation"] = Output(
+            lambda t, y: self.rotation_matrix(y["rotor"]), (self.n, self.n), "orientation R", "rotation"
         )
-        return funcs
+        return out
+
+    def compiled(self):
+        return None  # the compiled kernels step matrices, not rotors
 
     def initial_state(self, *, Omega=None, A=None, R=None, angular_velocity=None, rotor=None) -> State:
         """As :meth:`lieint.EulerTop.initial_state`, with the orientation given as ``R`` (a matrix,

@@ -59,15 +59,38 @@ def bernoulli_dexpinv_coefficients(degree: int) -> tuple[float, ...]:
 
 
 class LieGroup(ABC):
-    """What a Lie-group integrator needs of a group: coordinate maps, their inverse
-    differentials, and linear combinations of algebra elements.
+    """The one surface every group offers: the group law (identity, multiply, inverse), the
+    coordinate maps (exp, log, cay) and their inverse differentials, the projection onto the
+    group, and linear combinations of algebra elements.
 
     Algebra and group elements are arrays with leading batch dimensions (matrices for
-    :class:`MatrixLieGroup`, vectors for a vector space, tuples for a product group).
+    :class:`MatrixLieGroup`, vectors for a vector space, tuples for a product group,
+    multivectors for Spin(n)). Methods, systems and tests use only these names, so every group
+    answers to the same calls.
     """
 
     name: str
     dim: int
+
+    @abstractmethod
+    def identity(self, batch_shape: tuple[int, ...] = ()):
+        """The identity element, broadcast to ``batch_shape``."""
+
+    @abstractmethod
+    def multiply(self, g, h):
+        """The group product ``g h``."""
+
+    @abstractmethod
+    def inverse(self, g):
+        """The group inverse ``g⁻¹``."""
+
+    @abstractmethod
+    def log(self, g):
+        """Principal logarithm: the inverse of :meth:`exp` near the identity."""
+
+    @abstractmethod
+    def project(self, g):
+        """The nearest group element (removes round-off drift off the group)."""
 
     @abstractmethod
     def exp(self, X):

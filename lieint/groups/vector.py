@@ -51,6 +51,13 @@ class VectorSpace(LieGroup):
     def inverse(self, g):
         return -g
 
+    def log(self, g):
+        return g
+
+    def project(self, g):
+        # every array of the right shape is an element: nothing to remove
+        return g
+
     def __repr__(self) -> str:
         return f"VectorSpace({self.shape})"
 
@@ -92,6 +99,18 @@ class ProductGroup(LieGroup):
 
     def identity(self, batch_shape=()):
         return tuple(f.identity(batch_shape) for f in self.factors)
+
+    def multiply(self, g, h):
+        return tuple(f.multiply(a, b) for f, a, b in zip(self.factors, g, h, strict=True))
+
+    def inverse(self, g):
+        return tuple(f.inverse(a) for f, a in zip(self.factors, g, strict=True))
+
+    def log(self, g):
+        return tuple(f.log(a) for f, a in zip(self.factors, g, strict=True))
+
+    def project(self, g):
+        return tuple(f.project(a) for f, a in zip(self.factors, g, strict=True))
 
     def __repr__(self) -> str:
         return f"ProductGroup({', '.join(map(repr, self.factors))})"
