@@ -7,31 +7,96 @@ functions of ``(t, y)``. The integrators know nothing else about the system.
 
 To add a system, subclass :class:`LieGroupSystem` and implement
 
-1. ``fields`` -- name → trailing shape of each state array (e.g. ``{"A": (n, n)}``);
-2. :meth:`generator` -- ``ξ(t, y)``, an algebra element of shape ``(*batch, m, m)``;
-3. :meth:`act` -- the right action ``ρ(g, y)`` of group elements ``(*batch, m, m)``;
-4. :meth:`infinitesimal_action` -- ``d/ds ρ(exp(s ξ), y)`` at ``s = 0``;
-5. optionally :meth:`project` (exact projection of fields onto their manifolds) and
-   entries of ``invariant_functions``.
+1. ``group`` -- the Lie group acting (:class:`lieint.groups.SO`, :class:`~lieint.groups.SE`,
+   a :class:`~lieint.groups.ProductGroup`, …);
+2. ``fields`` -- name → trailing shape of each state array (e.g. ``{"A": (n, n)}``);
+3. :meth:`generator` -- ``ξ(t, y)``, an algebra element of ``group`` (batched);
+4. :meth:`act` -- the right action ``ρ(g, y)`` of group elements;
+5. :meth:`infinitesimal_action` -- ``d/ds ρ(exp(s ξ), y)`` at ``s = 0``;
+6. optionally :meth:`project` (exact projection of fields onto their manifolds),
+   :attr:`invariants` (name → :class:`Invariant`, each an ``integral`` of the exact flow or a
+   ``defect`` that the exact flow keeps at zero), :attr:`outputs` (derived quantities by name,
+   :class:`Output`; the state fields are outputs already), :attr:`structure` (tags that let
+   special methods recognise what they can step, e.g. ``"free_top"``), :meth:`initial_state`
+   (the state from physical keywords; scenes pass their ``[initial]`` keys to it) and
+   :meth:`compiled` (what a compiled kernel needs, see :mod:`lieint.fast`).
 
 Generators and actions must be pure array functions (no hidden state), so that a compiled
-fast path can replace them.
+fast path can replace them. A system that another package installs under the entry-point group
+``lieint.systems`` can be named in a scene (see :mod:`lieint.systems.catalog`).
 """
 
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
 from collections.abc import Callable, Mapping
+from dataclasses import dataclass
 
 import numpy as np
 
 from .._validation import as_float_array
 from ..groups.base import LieGroup
 
-__all__ = ["LieGroupSystem", "State"]
+__all__ = ["INVARIANT_KINDS", "Invariant", "LieGroupSystem", "Output", "State"]
 
 State = dict[str, np.ndarray]
 InvariantFunction = Callable[[np.ndarray, State], np.ndarray]
+
+#: what an invariant measures: a first integral of the exact flow, or a defect (zero for it)
+INVARIANT_KINDS = ("integral", "defect")
+
+
+@dataclass(frozen=True)
+class Invariant:
+    """A quantity the exact flow keeps: a first ``integral`` (drift measured relative to its
+    initial value) or a ``defect`` that is zero along the exact flow (drift = its size).
+
+    Attributes
+    ----------
+    function : callable
+        ``f(t, y) -> array`` of shape ``(*lead, *shape)`` for states with leading axes ``lead``
+        (times and batch members); ``t`` broadcasts against the leading axes.
+    kind : {"integral", "defect"}
+    description : str
+        One line for listings and plots.
+    """
+
+    function: InvariantFunction
+    kind: str = "integral"
+    description: str = ""
+
+    def __post_init__(self):
+        if self.kind not in INVARIANT_KINDS:
+            raise ValueError(f"`kind` must be one of {list(INVARIANT_KINDS)}; got {self.kind!r}.")
+
+    def __call__(self, t, y: State) -> np.ndarray:
+        return np.asarray(self.function(t, y))
+
+
+@dataclass(frozen=True)
+class Output:
+    """A derived quantity of the state, saved when a scene or run asks for it by name.
+
+    Attributes
+    ----------
+    function : callable
+        ``f(t, y) -> array`` of shape ``(*lead, *shape)``.
+    shape : tuple of int
+        Trailing shape per body (``(n, n)`` for a bivector, ``(n,)`` for a point).
+    description : str
+        One line for listings and plots.
+    kind : str
+        What the values are, for plots and converters: "bivector", "rotation", "vector",
+        "point", "rotor" or "" (anything else).
+    """
+
+    function: InvariantFunction
+    shape: tuple[int, ...]
+    description: str = ""
+    kind: str = ""
+
+    def __call__(self, t, y: State) -> np.ndarray:
+        return np.asarray(self.function(t, y))
 
 
 class LieGroupSystem(ABC):
@@ -39,10 +104,21 @@ class LieGroupSystem(ABC):
 
     group: LieGroup
     fields: dict[str, tuple[int, ...]]
-    #: invariants that measure a defect (zero for the exact flow): their drift is their size
-    defects: frozenset[str] = frozenset({"orthogonality"})
     #: True when ξ(t, y) does not depend on t (lets the driver evaluate it batched over times)
     autonomous: bool = False
+    #: tags of structure special methods recognise (e.g. "free_top"; see each system)
+    structure: frozenset[str] = frozenset()
+    #: what each state field is (see :class:`Output`); conventional names are known already
+    field_kinds: Mapping[str, str] = {
+        "A": "bivector",
+        "Omega": "bivector",
+        "R": "rotation",
+        "Gamma": "vector",
+        "G": "vector",
+        "center": "point",
+        "velocity": "vector",
+        "rotor": "rotor",
+    }
 
     @abstractmethod
     def generator(self, t: float | np.ndarray, y: State) -> np.ndarray:
@@ -66,18 +142,46 @@ class LieGroupSystem(ABC):
         return y
 
     @property
-    def invariant_functions(self) -> Mapping[str, InvariantFunction]:
-        """name → ``f(t, y)`` of the first integrals and defects this system reports."""
+    def invariants(self) -> Mapping[str, Invariant]:
+        """name → :class:`Invariant` (first integrals and defects) this system reports."""
         return {}
 
-    def invariants(self, t: np.ndarray, y: State, names=None) -> dict[str, np.ndarray]:
+    @property
+    def outputs(self) -> Mapping[str, Output]:
+        """name → :class:`Output`: every state field, plus the derived quantities a system adds."""
+        return {
+            name: Output(_field_getter(name), shape, f"state field {name!r}", self.field_kinds.get(name, ""))
+            for name, shape in self.fields.items()
+        }
+
+    def evaluate_invariants(self, t, y: State, names=None) -> dict[str, np.ndarray]:
         """Evaluate the named invariants (all by default) on states with any leading shape."""
-        funcs = self.invariant_functions
-        names = list(funcs) if names is None else list(names)
-        unknown = [n for n in names if n not in funcs]
+        declared = self.invariants
+        names = list(declared) if names is None else list(names)
+        unknown = [n for n in names if n not in declared]
         if unknown:
-            raise ValueError(f"Unknown invariant(s) {unknown}; this system provides {list(funcs)}.")
-        return {name: funcs[name](t, y) for name in names}
+            raise ValueError(f"Unknown invariant(s) {unknown}; this system provides {list(declared)}.")
+        return {name: declared[name](t, y) for name in names}
+
+    def evaluate_outputs(self, t, y: State, names) -> dict[str, np.ndarray]:
+        """Evaluate named outputs or invariants on states with any leading shape."""
+        outputs, declared = self.outputs, self.invariants
+        result = {}
+        for name in names:
+            if name in outputs:
+                result[name] = outputs[name](t, y)
+            elif name in declared:
+                result[name] = declared[name](t, y)
+            else:
+                raise ValueError(
+                    f"Unknown output {name!r}; this system provides the outputs {sorted(outputs)} "
+                    f"and the invariants {sorted(declared)}."
+                )
+        return result
+
+    def compiled(self):
+        """What a compiled kernel needs to step this system (see :mod:`lieint.fast`), or None."""
+        return None
 
     def batch_shape(self, y: State) -> tuple[int, ...]:
         """Leading batch shape of a validated state."""
@@ -119,3 +223,10 @@ class LieGroupSystem(ABC):
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}(group={self.group!r}, fields={list(self.fields)})"
+
+
+def _field_getter(name: str) -> InvariantFunction:
+    def get(t, y):
+        return y[name]
+
+    return get

@@ -20,9 +20,9 @@ from .._validation import check_skew, describe
 from ..groups.bivectors import inner, skew_part
 from ..groups.se import SE
 from ..groups.so import SO
-from .base import LieGroupSystem, State
-from .invariants import orthogonality_defect, skew_spectrum
+from .base import Invariant, LieGroupSystem, Output, State
 from .mass import solve_lyapunov_sym
+from .rigid import casimir_invariant, momentum_invariant, orthogonality_invariant
 from .rolling_ball import RollingPose, check_ball, rolling_initial_kinematics
 
 __all__ = ["ChaplyginBall"]
@@ -48,6 +48,7 @@ class ChaplyginBall(RollingPose, LieGroupSystem):
     """
 
     autonomous = True
+    structure = frozenset({"chaplygin_ball"})
 
     def __init__(self, mass_tensor, mass, radius, normal=None, *, orientation: bool = True, track_center: bool = True):
         self.B_C, self.mass, self.radius, _, self.normal = check_ball(mass_tensor, mass, radius, None, normal)
@@ -106,18 +107,32 @@ class ChaplyginBall(RollingPose, LieGroupSystem):
         return out
 
     @property
-    def invariant_functions(self):
-        funcs = {
-            "energy": lambda t, y: self.energy(y),
-            "casimirs": lambda t, y: skew_spectrum(y["A"]),
-            "gamma_norm": lambda t, y: np.linalg.norm(y["Gamma"], axis=-1),
+    def invariants(self) -> dict[str, Invariant]:
+        declared = {
+            "energy": Invariant(lambda t, y: self.energy(y), "integral", "kinetic energy T = ¼ tr(Ω A_K)"),
+            "casimirs": casimir_invariant("A"),
+            "gamma_norm": Invariant(lambda t, y: np.linalg.norm(y["Gamma"], axis=-1), "integral", "|Γ|"),
             # ΓᵀA²Γ = −|AΓ|² for skew A
-            "gamma_A2_gamma": lambda t, y: -np.sum(((y["A"] @ y["Gamma"][..., None])[..., 0]) ** 2, axis=-1),
+            "gamma_A2_gamma": Invariant(
+                lambda t, y: -np.sum(((y["A"] @ y["Gamma"][..., None])[..., 0]) ** 2, axis=-1),
+                "integral",
+                "Γᵀ A_K² Γ",
+            ),
         }
         if "R" in self.fields:
-            funcs["momentum"] = lambda t, y: y["R"] @ y["A"] @ np.swapaxes(y["R"], -1, -2)
-            funcs["orthogonality"] = lambda t, y: orthogonality_defect(y["R"])
-        return funcs
+            declared["momentum"] = momentum_invariant("A")
+            declared["orthogonality"] = orthogonality_invariant()
+        return declared
+
+    @property
+    def outputs(self) -> dict[str, Output]:
+        n = self.n
+        out = dict(super().outputs)
+        out["angular_momentum"] = Output(lambda t, y: y["A"], (n, n), "momentum about the contact A_K", "bivector")
+        out["angular_velocity"] = Output(
+            lambda t, y: self.angular_velocity(y["A"], y["Gamma"]), (n, n), "body angular velocity Ω", "bivector"
+        )
+        return self._pose_outputs(out)
 
     # -- states ------------------------------------------------------------------------
     def initial_state(self, *, R=None, Omega=None, angular_velocity=None, center=None, velocity=None) -> State:

@@ -7,12 +7,19 @@ from collections.abc import Mapping
 import numpy as np
 
 from .._validation import as_bivector_array, as_float_array, check_rotation, check_skew, check_square_trailing, describe
-from ..groups.bivectors import hat, inner, skew_part, vee
+from ..groups.bivectors import hat, skew_part, vee
 from ..groups.so import SO, project_to_so
-from .base import LieGroupSystem, State
+from .base import Invariant, LieGroupSystem, Output, State
 from .euler_top_exact import euler_top_angular_velocity
-from .invariants import manakov_integrals, manakov_labels, orthogonality_defect, skew_spectrum
+from .invariants import manakov_integrals, manakov_labels
 from .mass import check_mass_tensor
+from .rigid import (
+    InertiaOperator,
+    casimir_invariant,
+    momentum_invariant,
+    orientation_output,
+    orthogonality_invariant,
+)
 
 __all__ = ["EulerTop", "check_mass_tensor"]
 
@@ -38,7 +45,9 @@ class EulerTop(LieGroupSystem):
 
     Notes
     -----
-    ``energy``: ``T = ¼ tr(ΩA) = −½ tr(ΩBΩ)``. ``casimirs``: the rotation "angles" of A,
+    Structure tag ``"free_top"`` (``inertia`` is its :class:`~lieint.systems.rigid.InertiaOperator`).
+    Outputs: ``angular_momentum`` (A), ``angular_velocity`` (Ω), ``orientation`` (R).
+    Invariants: ``energy``: ``T = ¼ tr(ΩA) = −½ tr(ΩBΩ)``. ``casimirs``: the rotation "angles" of A,
     ``θ₁ ≥ θ₂ ≥ …`` (eigenvalues ``±iθ_k``), i.e. the spectrum. ``manakov``: coefficients
     of ``tr((A − λB²)^k)`` in λ (see :func:`~lieint.systems.invariants.manakov_integrals`).
     ``momentum``: space momentum ``a = R A Rᵀ``. ``orthogonality``: ``‖RᵀR − I‖_F``.
@@ -54,10 +63,12 @@ class EulerTop(LieGroupSystem):
     """
 
     autonomous = True
+    structure = frozenset({"free_top"})
 
     def __init__(self, B, *, orientation: bool = True):
-        self.B, self.b, self.P = check_mass_tensor(B, "B")
-        self.n = self.B.shape[0]
+        self.inertia = InertiaOperator(B, "B")
+        self.B, self.b, self.P = self.inertia.B, self.inertia.b, self.inertia.P
+        self.n = self.inertia.n
         self.group = SO(self.n)
         if not isinstance(orientation, (bool, np.bool_)):
             raise TypeError(f"`orientation` must be True or False; got {orientation!r}.")
@@ -65,15 +76,9 @@ class EulerTop(LieGroupSystem):
         self.fields = {"A": (self.n, self.n)}
         if self.orientation:
             self.fields["R"] = (self.n, self.n)
-        # A diagonal B needs no change of basis: skip two matrix products per evaluation.
-        self._diagonal = bool(np.all(self.B == np.diag(np.diag(self.B))))
-        if self._diagonal:
-            self.b = np.diag(self.B).copy()
-            self.P = np.eye(self.n)
-        pair = self.b[:, None] + self.b[None, :]
-        np.fill_diagonal(pair, 1.0)  # the diagonal of a bivector is zero anyway
-        self._minus_inv_pair = -1.0 / pair
-        self._B2 = self.B @ self.B
+        self._diagonal = self.inertia.diagonal
+        self._minus_inv_pair = self.inertia.minus_inv_pair
+        self._B2 = self.inertia.B2
 
     @classmethod
     def from_principal_moments(cls, moments, *, orientation: bool = True) -> EulerTop:
@@ -99,25 +104,19 @@ class EulerTop(LieGroupSystem):
     @property
     def principal_moments(self) -> np.ndarray:
         """n = 3: ``I = tr(B) − b`` in the order of the eigenvalues ``b``."""
-        return self.b.sum() - self.b
+        return self.inertia.principal_moments
 
     def momentum(self, Omega: np.ndarray) -> np.ndarray:
         """Body angular momentum ``A = −(BΩ + ΩB)``."""
-        return -(self.B @ Omega + Omega @ self.B)
+        return self.inertia.momentum(Omega)
 
     def angular_velocity(self, A: np.ndarray) -> np.ndarray:
         """Inertia operator: Ω with ``A = −(BΩ + ΩB)``, via ``Ω_ij = −A_ij/(b_i + b_j)``."""
-        # The result is made exactly skew: for a nearly flat or rod-like body (b_i + b_j tiny)
-        # the round-off asymmetry of A, divided by b_i + b_j, would otherwise make Ω visibly
-        # non-skew, exp(hΩ) non-orthogonal, and the Casimirs drift.
-        if self._diagonal:
-            return skew_part(A * self._minus_inv_pair)
-        P = self.P
-        return skew_part(P @ ((P.T @ A @ P) * self._minus_inv_pair) @ P.T)
+        return self.inertia.angular_velocity(A)
 
     def energy(self, A: np.ndarray) -> np.ndarray:
         """Kinetic energy ``T = ¼ tr(ΩA) = −¼ ⟨Ω, A⟩``."""
-        return -0.25 * inner(self.angular_velocity(A), A)
+        return self.inertia.energy(A)
 
     # -- the LieGroupSystem contract ---------------------------------------------------
     def generator(self, t, y: State) -> np.ndarray:
@@ -144,16 +143,36 @@ class EulerTop(LieGroupSystem):
         return out
 
     @property
-    def invariant_functions(self):
-        funcs = {
-            "energy": lambda t, y: self.energy(y["A"]),
-            "casimirs": lambda t, y: skew_spectrum(y["A"]),
-            "manakov": lambda t, y: manakov_integrals(y["A"], self._B2),
+    def invariants(self) -> dict[str, Invariant]:
+        declared = {
+            "energy": Invariant(lambda t, y: self.energy(y["A"]), "integral", "kinetic energy T = ¼ tr(ΩA)"),
+            "casimirs": casimir_invariant("A"),
+            "manakov": Invariant(
+                lambda t, y: manakov_integrals(y["A"], self._B2), "integral", "Manakov integrals tr((A − λB²)^k)"
+            ),
         }
         if self.orientation:
-            funcs["momentum"] = lambda t, y: y["R"] @ y["A"] @ np.swapaxes(y["R"], -1, -2)
-            funcs["orthogonality"] = lambda t, y: orthogonality_defect(y["R"])
-        return funcs
+            declared["momentum"] = momentum_invariant("A")
+            declared["orthogonality"] = orthogonality_invariant()
+        return declared
+
+    @property
+    def outputs(self) -> dict[str, Output]:
+        n = self.n
+        out = dict(super().outputs)
+        out["angular_momentum"] = Output(lambda t, y: y["A"], (n, n), "body angular momentum A", "bivector")
+        out["angular_velocity"] = Output(
+            lambda t, y: self.angular_velocity(y["A"]), (n, n), "body angular velocity Ω", "bivector"
+        )
+        if self.orientation:
+            out["orientation"] = orientation_output(n)
+        return out
+
+    def compiled(self):
+        """The 3D top has compiled kernels (:mod:`lieint.fast`): its principal moments and frame."""
+        if self.n != 3:
+            return None
+        return {"kind": "top3", "moments": self.principal_moments, "P": self.P, "orientation": self.orientation}
 
     @property
     def manakov_labels(self) -> list[tuple[int, int]]:

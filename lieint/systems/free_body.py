@@ -9,9 +9,9 @@ import numpy as np
 from .._validation import check_finite_positive, check_rotation, check_vector, describe
 from ..groups.so import SO
 from ..groups.vector import ProductGroup, VectorSpace
-from .base import LieGroupSystem, State
+from .base import Invariant, LieGroupSystem, Output, State
 from .euler_top import EulerTop
-from .invariants import orthogonality_defect, skew_spectrum
+from .rigid import casimir_invariant, momentum_invariant, orientation_output, orthogonality_invariant
 
 __all__ = ["FreeBody"]
 
@@ -44,9 +44,11 @@ class FreeBody(LieGroupSystem):
     """
 
     autonomous = True
+    structure = frozenset({"free_body"})
 
     def __init__(self, mass_tensor, mass, gravity=None, *, orientation: bool = True):
         self.top = EulerTop(mass_tensor, orientation=orientation)
+        self.inertia = self.top.inertia
         self.n = n = self.top.n
         self.B = self.top.B
         self.mass = check_finite_positive(mass, "mass")
@@ -87,17 +89,29 @@ class FreeBody(LieGroupSystem):
         return E
 
     @property
-    def invariant_functions(self):
-        funcs = {
-            "energy": lambda t, y: self.energy(y),
-            "casimirs": lambda t, y: skew_spectrum(y["A"]),
+    def invariants(self) -> dict[str, Invariant]:
+        declared = {
+            "energy": Invariant(lambda t, y: self.energy(y), "integral", "rotational + translational − potential"),
+            "casimirs": casimir_invariant("A"),
         }
         if self.gravity is None:
-            funcs["linear_momentum"] = lambda t, y: self.mass * y["velocity"]
+            declared["linear_momentum"] = Invariant(lambda t, y: self.mass * y["velocity"], "integral", "M v")
         if self.orientation:
-            funcs["momentum"] = lambda t, y: y["R"] @ y["A"] @ np.swapaxes(y["R"], -1, -2)
-            funcs["orthogonality"] = lambda t, y: orthogonality_defect(y["R"])
-        return funcs
+            declared["momentum"] = momentum_invariant("A")
+            declared["orthogonality"] = orthogonality_invariant()
+        return declared
+
+    @property
+    def outputs(self) -> dict[str, Output]:
+        n = self.n
+        out = dict(super().outputs)
+        out["angular_momentum"] = Output(lambda t, y: y["A"], (n, n), "body angular momentum A", "bivector")
+        out["angular_velocity"] = Output(
+            lambda t, y: self.top.angular_velocity(y["A"]), (n, n), "body angular velocity Ω", "bivector"
+        )
+        if self.orientation:
+            out["orientation"] = orientation_output(n)
+        return out
 
     def initial_state(self, *, R=None, Omega=None, A=None, angular_velocity=None, center=None, velocity=None):
         """State from the orientation, one of ``Omega``/``A``/``angular_velocity``, the centre

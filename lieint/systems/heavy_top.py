@@ -10,9 +10,10 @@ from .._validation import check_finite_positive, check_rotation, check_vector, d
 from ..groups.bivectors import skew_part, vee, wedge
 from ..groups.se import SE, se_join, se_split
 from ..groups.so import project_to_so
-from .base import LieGroupSystem, State
+from .base import Invariant, LieGroupSystem, Output, State
 from .euler_top import EulerTop
-from .invariants import orthogonality_defect, skew_spectrum
+from .invariants import skew_spectrum
+from .rigid import orientation_output, orthogonality_invariant
 
 __all__ = ["HeavyTop"]
 
@@ -43,16 +44,20 @@ class HeavyTop(LieGroupSystem):
 
     Notes
     -----
-    ``energy`` ``T − U`` with ``U = M⟨Γ, X_G⟩``; ``casimirs``: n = 3 ``⟨Π, Γ⟩`` (``A = −Π̂``),
+    Structure tag ``"heavy_top"`` (``inertia``, ``mass``, ``center_of_mass``, ``gravity``).
+    Outputs: ``angular_momentum``, ``angular_velocity``, ``gamma`` (Γ), ``orientation``.
+    Invariants: ``energy`` ``T − U`` with ``U = M⟨Γ, X_G⟩``; ``casimirs``: n = 3 ``⟨Π, Γ⟩`` (``A = −Π̂``),
     n ≥ 4 the rotation angles of ``P_Γ A P_Γ`` (A restricted to ``Γ^⊥``, which ``v ∧ Γ`` cannot
     change); ``gamma_norm`` ``|Γ|``; ``orthogonality``. Named constructors add the extra
     integral of their case (``spin`` for Lagrange, ``kovalevskaya``).
     """
 
     autonomous = True
+    structure = frozenset({"heavy_top"})
 
     def __init__(self, mass_tensor, mass, center_of_mass, gravity, *, orientation: bool = True):
         self.top = EulerTop(mass_tensor, orientation=False)
+        self.inertia = self.top.inertia
         self.B, self.n = self.top.B, self.top.n
         n = self.n
         self.mass = check_finite_positive(mass, "mass")
@@ -78,7 +83,9 @@ class HeavyTop(LieGroupSystem):
         Extra first integral ``spin``: the body angular velocity ``w₃`` about the axis.
         """
         top = cls._principal([I1, I1, I3], mass, [0.0, 0.0, length], g, **kw)
-        top._extra["spin"] = lambda t, y: vee(top.top.angular_velocity(y["A"]))[..., 2]
+        top._extra["spin"] = Invariant(
+            lambda t, y: vee(top.top.angular_velocity(y["A"]))[..., 2], "integral", "spin w₃ about the axis"
+        )
         return top
 
     @classmethod
@@ -97,7 +104,7 @@ class HeavyTop(LieGroupSystem):
             G = y["Gamma"]
             return (p * p - q * q + c * G[..., 0]) ** 2 + (2 * p * q + c * G[..., 1]) ** 2
 
-        top._extra["kovalevskaya"] = kovalevskaya
+        top._extra["kovalevskaya"] = Invariant(kovalevskaya, "integral", "Kovalevskaya's integral")
         return top
 
     @classmethod
@@ -150,16 +157,29 @@ class HeavyTop(LieGroupSystem):
         return skew_spectrum(P @ A @ P)[..., : (self.n - 1) // 2]
 
     @property
-    def invariant_functions(self):
-        funcs = {
-            "energy": lambda t, y: self.energy(y["A"], y["Gamma"]),
-            "casimirs": lambda t, y: self.casimirs(y["A"], y["Gamma"]),
-            "gamma_norm": lambda t, y: np.linalg.norm(y["Gamma"], axis=-1),
+    def invariants(self) -> dict[str, Invariant]:
+        declared = {
+            "energy": Invariant(lambda t, y: self.energy(y["A"], y["Gamma"]), "integral", "H = T − U"),
+            "casimirs": Invariant(lambda t, y: self.casimirs(y["A"], y["Gamma"]), "integral", "Casimirs of se(n)*"),
+            "gamma_norm": Invariant(lambda t, y: np.linalg.norm(y["Gamma"], axis=-1), "integral", "|Γ|"),
         }
         if self.orientation:
-            funcs["orthogonality"] = lambda t, y: orthogonality_defect(y["R"])
-        funcs.update(self._extra)
-        return funcs
+            declared["orthogonality"] = orthogonality_invariant()
+        declared.update(self._extra)
+        return declared
+
+    @property
+    def outputs(self) -> dict[str, Output]:
+        n = self.n
+        out = dict(super().outputs)
+        out["angular_momentum"] = Output(lambda t, y: y["A"], (n, n), "body angular momentum A", "bivector")
+        out["angular_velocity"] = Output(
+            lambda t, y: self.top.angular_velocity(y["A"]), (n, n), "body angular velocity Ω", "bivector"
+        )
+        out["gamma"] = Output(lambda t, y: y["Gamma"], (n,), "body gravity Γ = Rᵀg", "vector")
+        if self.orientation:
+            out["orientation"] = orientation_output(n)
+        return out
 
     # -- states ------------------------------------------------------------------------
     def initial_state(self, *, R=None, Omega=None, A=None, angular_velocity=None) -> State:

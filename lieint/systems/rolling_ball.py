@@ -33,9 +33,9 @@ from ..groups.bivectors import hat, inner, skew_part, wedge
 from ..groups.se import SE, se_join, se_split
 from ..groups.so import SO, project_to_so
 from ..groups.vector import ProductGroup, VectorSpace
-from .base import LieGroupSystem, State
-from .invariants import orthogonality_defect
+from .base import Invariant, LieGroupSystem, Output, State
 from .mass import check_mass_tensor, solve_lyapunov_sym
+from .rigid import orientation_output, orthogonality_invariant
 
 __all__ = ["RollingBall", "RollingPose", "check_ball", "rolling_initial_kinematics"]
 
@@ -140,6 +140,18 @@ class RollingPose:
         """Contact point ``K = q_C − rν`` on the plane."""
         return center - self.radius * self.normal
 
+    def _pose_outputs(self, out: dict) -> dict:
+        """Orientation, centre and contact path where the state carries them."""
+        n = self.n
+        if "R" in self.fields:
+            out["orientation"] = orientation_output(n)
+        if self.track_center:
+            out["contact_path"] = Output(
+                lambda t, y: self.contact_point(y["center"]), (n,), "contact point K on the plane", "point"
+            )
+        out["gamma"] = Output(lambda t, y: y["Gamma"], (n,), "body normal Γ = Rᵀν", "vector")
+        return out
+
 
 class RollingBall(RollingPose, LieGroupSystem):
     """A ball of radius r rolling without sliding on the plane ``⟨q, ν⟩ = 0``.
@@ -173,6 +185,7 @@ class RollingBall(RollingPose, LieGroupSystem):
     """
 
     autonomous = True
+    structure = frozenset({"rolling_ball"})
 
     def __init__(
         self,
@@ -290,13 +303,20 @@ class RollingBall(RollingPose, LieGroupSystem):
         return out
 
     @property
-    def invariant_functions(self):
-        funcs = {"gamma_norm": lambda t, y: np.linalg.norm(y["Gamma"], axis=-1)}
+    def invariants(self) -> dict[str, Invariant]:
+        declared = {"gamma_norm": Invariant(lambda t, y: np.linalg.norm(y["Gamma"], axis=-1), "integral", "|Γ|")}
         if not self._tilted or self.track_center:
-            funcs["energy"] = lambda t, y: self.energy(y)
+            declared["energy"] = Invariant(lambda t, y: self.energy(y), "integral", "H = T − U")
         if "R" in self.fields:
-            funcs["orthogonality"] = lambda t, y: orthogonality_defect(y["R"])
-        return funcs
+            declared["orthogonality"] = orthogonality_invariant()
+        return declared
+
+    @property
+    def outputs(self) -> dict[str, Output]:
+        n = self.n
+        out = dict(super().outputs)
+        out["angular_velocity"] = Output(lambda t, y: y["Omega"], (n, n), "body angular velocity Ω", "bivector")
+        return self._pose_outputs(out)
 
     # -- states ------------------------------------------------------------------------
     def initial_state(self, *, R=None, Omega=None, angular_velocity=None, center=None, velocity=None) -> State:

@@ -1,0 +1,74 @@
+"""Systems by name: the built-in ones and those other packages install.
+
+A package makes its system available to scenes, streamed runs and plots by declaring an entry
+point in the group ``lieint.systems`` whose value is the system class (or any factory taking
+keyword parameters), e.g. in its ``pyproject.toml``::
+
+    [project.entry-points."lieint.systems"]
+    pendulum = "mypackage.pendulum:Pendulum"
+
+A scene then names it, with numeric parameters passed as keywords to the factory and the
+``[initial]`` keys passed to ``system.initial_state``::
+
+    [body]
+    system = "pendulum"
+    parameters = { length = 1.0, mass = 2.0 }
+
+Scenes stay data: they name an installed system, never Python code to import.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from importlib import metadata
+
+__all__ = ["ENTRY_POINT_GROUP", "make_system", "system_factories"]
+
+#: the entry-point group other packages register their systems under
+ENTRY_POINT_GROUP = "lieint.systems"
+
+
+def _builtin() -> dict[str, Callable]:
+    from .chaplygin import ChaplyginBall
+    from .euler_top import EulerTop
+    from .free_body import FreeBody
+    from .heavy_top import HeavyTop
+    from .rolling_ball import RollingBall
+
+    return {
+        "euler_top": EulerTop,
+        "heavy_top": HeavyTop,
+        "free_body": FreeBody,
+        "rolling_ball": RollingBall,
+        "chaplygin_ball": ChaplyginBall,
+    }
+
+
+def system_factories() -> dict[str, Callable]:
+    """name → factory of every system a scene can name (built-in first, then entry points)."""
+    out = _builtin()
+    for ep in metadata.entry_points(group=ENTRY_POINT_GROUP):
+        out.setdefault(ep.name, ep)  # loaded on use; a built-in name cannot be taken over
+    return out
+
+
+def make_system(name: str, parameters: dict):
+    """Build the system ``name`` from keyword ``parameters``; errors name what went wrong."""
+    factories = system_factories()
+    if name not in factories:
+        raise ValueError(
+            f"`system`: no system named {name!r}; known systems are {sorted(factories)} (packages add theirs "
+            f"under the entry-point group {ENTRY_POINT_GROUP!r})."
+        )
+    factory = factories[name]
+    if isinstance(factory, metadata.EntryPoint):
+        try:
+            factory = factory.load()
+        except Exception as exc:  # a broken plugin must not look like a lieint bug
+            raise ValueError(
+                f"`system`: the installed system {name!r} ({factory.value}) failed to load: {exc}"
+            ) from None
+    try:
+        return factory(**parameters)
+    except TypeError as exc:
+        raise ValueError(f"`parameters` of system {name!r}: {exc}") from None
