@@ -10,36 +10,40 @@ equations while keeping the invariants of the group action to round-off.
 >>> sol = lieint.integrate(top, y0, t_span=(0.0, 10.0), h=0.01, method="rkmk4", project=True)
 >>> sol.states["A"].shape
 (1001, 3, 3)
+
+Layers (each imports only from those above it): ``groups`` (SO(n), SE(n), products) →
+``methods`` (the stepper contract, tableaux, RKMK, RK, scipy, the registry) and ``systems``
+(the system contract and the bodies) → ``control`` and ``driver`` (grids, step-size control,
+the one driving loop, :class:`Solution`) → front ends (``ivp.integrate``, ``scenes``, ``runs``,
+``study``, ``cli``).
 """
 
+from .driver import Stats
 from .groups import SE, SO, DexpinvRangeError
-from .integrate import LieStepWarning, integrate
-from .methods import ButcherTableau, ClassicalRK, LieMethod, ScipyMethod, get_method, methods
+from .ivp import LieStepWarning, integrate
+from .methods import get_method, method_names
 from .runs import run
 from .solution import Solution
 from .systems import ChaplyginBall, EulerTop, FreeBody, HeavyTop, LieGroupSystem, RollingBall
 
-__version__ = "0.1.0"
+__version__ = "0.2.0"
 
 __all__ = [
     "SE",
     "SO",
-    "ButcherTableau",
     "ChaplyginBall",
-    "ClassicalRK",
     "DexpinvRangeError",
     "EulerTop",
     "FreeBody",
     "HeavyTop",
     "LieGroupSystem",
-    "LieMethod",
     "LieStepWarning",
     "RollingBall",
-    "ScipyMethod",
     "Solution",
+    "Stats",
     "__version__",
     "get_method",
     "integrate",
-    "methods",
+    "method_names",
     "run",
 ]

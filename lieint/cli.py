@@ -18,6 +18,16 @@ def _positive_float(text: str) -> float:
     return value
 
 
+def _positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}")
+    return value
+
+
 def _build_parser() -> argparse.ArgumentParser:
     from .compare import default_scene
 
@@ -47,9 +57,8 @@ def _build_parser() -> argparse.ArgumentParser:
     )
     cmp.add_argument(
         "--methods",
-        help="comma-separated subset of the study's methods (default: all of "
-        "rkmk4, rkmk6, rk4, rkmk45, rkmk853, scipy:RK45, scipy:DOP853, scipy:Radau, "
-        "scipy:LSODA)",
+        help="comma-separated method names, or 'all' for every registered method that applies "
+        "(default: rkmk4, rkmk6, rk4, rkmk45, rkmk853, scipy:RK45, scipy:DOP853, scipy:Radau, scipy:LSODA)",
     )
     cmp.add_argument("--full", action="store_true", help="all sweep points and 5 repeats (default: a quick sweep)")
     cmp.add_argument("--t-end", type=_positive_float, help="override the scene's final time")
@@ -59,7 +68,7 @@ def _build_parser() -> argparse.ArgumentParser:
     sub.add_parser(
         "methods",
         help="list the method names lieint.integrate accepts",
-        description="List the method names lieint.integrate accepts.",
+        description="List the method names lieint.integrate accepts, with family, order and coordinates.",
     )
     run = sub.add_parser(
         "run",
@@ -90,17 +99,28 @@ def _build_parser() -> argparse.ArgumentParser:
         action="store_true",
         help="continue an interrupted --out run from its checkpoint (RUN.h5.checkpoint)",
     )
-    run.add_argument("--checkpoint-every", type=int, metavar="STEPS", help="write the checkpoint every STEPS steps")
+    run.add_argument(
+        "--checkpoint-every", type=_positive_int, metavar="STEPS", help="write the checkpoint every STEPS steps"
+    )
     run.add_argument(
         "--checkpoint-seconds",
         type=_positive_float,
         default=60.0,
         metavar="S",
-        help="write the checkpoint at least every S seconds of wall time",
+        help="write the checkpoint at least every S seconds of wall time (default: 60)",
+    )
+    run.add_argument(
+        "--stop-after",
+        type=_positive_int,
+        metavar="STEPS",
+        help="stop (resumable with --resume) after STEPS steps of this call",
     )
     run.add_argument("--quiet", action="store_true", help="no progress bar or progress lines")
     run.add_argument(
-        "--monitor-every", type=int, metavar="STEPS", help="print each saved invariant's drift so far every STEPS steps"
+        "--monitor-every",
+        type=_positive_int,
+        metavar="STEPS",
+        help="print each saved invariant's drift so far every STEPS steps",
     )
     run.add_argument(
         "--max-drift",
@@ -132,9 +152,12 @@ def main(argv: list[str] | None = None) -> int:
     parser = _build_parser()
     args = parser.parse_args(argv)
     if args.command == "methods":
-        from .methods import methods
+        from .methods import method_specs
 
-        print("\n".join(methods()))
+        for name, spec in method_specs().items():
+            order = "var" if spec.order is None else str(spec.order)
+            coords = "/".join(spec.coordinates) or "-"
+            print(f"{name:16s} {spec.family:14s} order {order:>3s}  coords {coords:10s} {spec.description}")
         return 0
     if args.command == "compare":
         return _compare(args, parser)
@@ -167,7 +190,9 @@ def _compare(args, parser) -> int:
             raise SceneError(f"no scene file {args.scene!r} and no embedded scene of that name")
         if args.t_end is not None:
             scene = replace(scene, t_end=scene.t_start + args.t_end)
-        methods = [m.strip() for m in args.methods.split(",")] if args.methods else None
+        methods = None
+        if args.methods:
+            methods = "all" if args.methods.strip() == "all" else [m.strip() for m in args.methods.split(",")]
         rows, kind = run_study(scene, quick=not args.full, repeats=5 if args.full else 2, methods=methods)
     except (SceneError, ValueError) as exc:
         print(f"lieint compare: {exc}", file=sys.stderr)
@@ -254,11 +279,14 @@ def _run_streamed(args) -> int:
             progress=False if args.quiet else "auto",
             monitor_every=args.monitor_every,
             max_drift=limits,
+            stop_after=args.stop_after,
         )
     except (SceneError, StoreError, ValueError) as exc:
         print(f"lieint run: {exc}", file=sys.stderr)
         return 2
     print(f"{report.message} -> {report.path}")
+    if report.status == "failed":
+        print(f"lieint run: the run failed: {report.message}", file=sys.stderr)
     for name, value in report.drifts.items():
         print(f"  {name:16s} max drift {value:.3e}")
     return {"complete": 0, "interrupted": 130, "stopped": 3}.get(report.status, 1)
@@ -301,13 +329,14 @@ def _run(args) -> int:
     print(f"{scene.name} — {system!r}")
     print(
         f"integrated: {', '.join(system.fields)} with {sol.method}, h = {scene.step:g}, "
-        f"{sol.nsteps} steps, {sol.nfev} evaluations, CPU {sol.stats['cpu_time']:.3f} s"
+        f"{sol.nsteps} steps ({sol.stats.nrejected} rejected), {sol.nfev} evaluations, "
+        f"CPU {sol.stats.cpu_time:.3f} s, {sol.stats.backend}"
         f"{'' if sol.success else ' — STOPPED: ' + sol.message}"
     )
     for name, values in result.outputs.items():
-        if name in sol.invariants:
+        if name in system.invariants:
             drift = np.max(sol.drift(name))
-            kind = "max size" if name in system.defects else "max relative drift"
+            kind = "max size" if system.invariants[name].kind == "defect" else "max relative drift"
             print(f"  {name:16s} {kind} {drift:.3e}")
         else:
             final = np.asarray(values[-1])

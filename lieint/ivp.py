@@ -1,17 +1,15 @@
-"""The driver: :func:`integrate` steps a system with a method and saves the trajectory."""
+""":func:`integrate`: check the user's arguments, then run the one driver (:mod:`lieint.driver`)."""
 
 from __future__ import annotations
 
 import math
-import time
 import warnings
 
 import numpy as np
 
 from ._validation import check_finite_positive
-from .engine import Plan, make_engine
-from .methods.registry import _AUTO, get_method
-from .methods.scipy_ivp import ScipyMethod
+from .driver import Driver
+from .methods.registry import AUTO, get_method
 from .solution import Solution
 from .systems.base import LieGroupSystem
 
@@ -39,7 +37,7 @@ def integrate(
     coordinates: str | None = None,
     project: bool = False,
     save_every: int = 1,
-    dexpinv_degree=_AUTO,
+    dexpinv_degree=AUTO,
     rtol: float = 1e-8,
     atol: float = 1e-10,
     t_eval=None,
@@ -60,16 +58,16 @@ def integrate(
         Step size of fixed-step methods. The steps are ``t_k = t0 + k h``; a last, shorter
         step lands exactly on ``t1`` when ``(t1 − t0)/h`` is not an integer. For adaptive
         methods the initial step (default: estimated); for scipy methods only the save grid.
-    method : str or method object
-        A name from :func:`lieint.methods` ("lie_euler", "rkmk2", "rkmk3", "rkmk4", "rkmk6",
-        the adaptive "rkmk23", "rkmk45", "rkmk853", "rk4", "scipy:DOP853", …) or a
-        :class:`~lieint.methods.LieMethod` /
-        :class:`~lieint.methods.ClassicalRK` / :class:`~lieint.methods.ScipyMethod`.
+    method : str or Method
+        A name from :func:`lieint.method_names` ("lie_euler", "rkmk2", "rkmk3", "rkmk4",
+        "rkmk6", the adaptive "rkmk23", "rkmk45", "rkmk853", "rk4", "scipy:DOP853", …) or a
+        method object (:class:`~lieint.methods.Method`).
     coordinates : {"exp", "cayley"}, optional
-        Coordinate map of Lie-group methods (default "exp").
+        Coordinate map of methods that have one (default: the method's, "exp"); refused for
+        methods without coordinates.
     project : bool, default False
-        After every step (scipy: at every save point) project the state onto its manifold
-        exactly (R onto SO(n) by the polar factor).
+        After every step project the state onto its manifold exactly (R onto SO(n) by the
+        polar factor). scipy's solvers: the saved copies are projected, their own state is not.
     save_every : int, default 1
         Keep every k-th step (and always the last one).
     dexpinv_degree : int, None or "auto"
@@ -78,8 +76,8 @@ def integrate(
         Tolerances of adaptive and scipy methods (adaptive Lie-group methods measure the error
         on the state: ``|y − ŷ| / (atol + rtol·|y|)`` in the RMS norm).
     t_eval : array_like, optional
-        Save times of scipy methods (default: the grid of ``h`` and ``save_every``, else
-        101 evenly spaced points).
+        Save times of scipy methods (default: the grid of ``h`` and ``save_every``, else every
+        ``save_every``-th accepted step).
     backend : {"auto", "numpy", "numba"}
         "auto" runs a compiled kernel where one covers the system and method (the 3D Euler
         top with RKMK in exponential coordinates or classical RK), else the generic numpy path;
@@ -88,7 +86,8 @@ def integrate(
     Returns
     -------
     Solution
-        ``t``, ``states`` (``(m, *batch, ...)`` per field), lazy ``invariants``, counts.
+        ``t``, ``states`` (``(m, *batch, ...)`` per field), lazy ``invariants``, ``stats``
+        (:class:`lieint.driver.Stats`: steps, rejections, evaluations, times, back end).
 
     Raises
     ------
@@ -97,7 +96,7 @@ def integrate(
     """
     if not isinstance(system, LieGroupSystem):
         raise TypeError(f"`system` must be a lieint system (e.g. lieint.EulerTop); got {type(system).__name__}.")
-    stepper = get_method(method, coordinates=coordinates, dexpinv_degree=dexpinv_degree)
+    stepper = get_method(method, coordinates=coordinates, **_options(method, dexpinv_degree))
     y = system.validate_state(y0, "y0")
     t0, t1 = _check_t_span(t_span)
     if isinstance(save_every, bool) or not isinstance(save_every, (int, np.integer)) or save_every < 1:
@@ -106,18 +105,56 @@ def integrate(
         raise TypeError(f"`project` must be True or False; got {project!r}.")
     if backend not in ("auto", "numpy", "numba"):
         raise ValueError(f"`backend` must be one of ['auto', 'numpy', 'numba']; got {backend!r}.")
-    if isinstance(stepper, ScipyMethod):
-        return _integrate_scipy(system, y, t0, t1, h, stepper, project, save_every, rtol, atol, t_eval)
-    if stepper.kind == "adaptive":
-        return _integrate_adaptive(system, y, t0, t1, h, stepper, bool(project), int(save_every), rtol, atol, t_eval)
-    if h is None:
+    if h is not None:
+        h = check_finite_positive(h, "h")
+    if stepper.adaptive or stepper.self_controlled:
+        rtol = check_finite_positive(rtol, "rtol")
+        atol = check_finite_positive(atol, "atol")
+    elif h is None:
         raise ValueError(f"`h` (the step size) is required for the fixed-step method {stepper.name!r}.")
-    h = check_finite_positive(h, "h")
     if t_eval is not None:
-        raise ValueError("`t_eval` applies to scipy methods only; fixed-step methods save every `save_every` steps.")
-    sol = _integrate_fixed(system, y, t0, t1, h, stepper, bool(project), int(save_every), backend)
-    _warn_if_unresolved(system, sol, h)
+        if not stepper.self_controlled:
+            raise ValueError(
+                "`t_eval` applies to scipy methods only; Lie-group and classical methods save every `save_every` steps."
+            )
+        t_eval = _check_t_eval(t_eval, t0, t1)
+    driver = Driver(
+        system,
+        stepper,
+        (t0, t1),
+        h=h,
+        rtol=rtol,
+        atol=atol,
+        project=bool(project),
+        save_every=int(save_every),
+        t_eval=t_eval,
+        backend=backend,
+    )
+    sol = driver.run(y)
+    if driver.kind == "fixed":
+        _warn_if_unresolved(system, sol, h)
     return sol
+
+
+def _options(method, dexpinv_degree) -> dict:
+    """Build options to pass on: ``dexpinv_degree`` only when the user set it."""
+    if dexpinv_degree is AUTO or (isinstance(dexpinv_degree, str) and dexpinv_degree == "auto"):
+        return {}
+    return {"dexpinv_degree": dexpinv_degree}
+
+
+def _check_t_eval(t_eval, t0: float, t1: float) -> np.ndarray:
+    try:
+        t_save = np.asarray(t_eval, dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError(f"`t_eval` must be a 1-D array of times; got {type(t_eval).__name__}.") from None
+    if t_save.ndim != 1 or t_save.size < 2 or not np.all(np.isfinite(t_save)):
+        raise ValueError(f"`t_eval` must be a 1-D array of at least two finite times; got shape {t_save.shape}.")
+    if t_save[0] != t0 or t_save[-1] != t1 or np.any(np.diff(t_save) <= 0):
+        raise ValueError(
+            f"`t_eval` must increase strictly from t0 = {t0} to t1 = {t1}; got first {t_save[0]}, last {t_save[-1]}."
+        )
+    return t_save
 
 
 def _warn_if_unresolved(system, sol: Solution, h: float) -> None:
@@ -167,95 +204,3 @@ def _check_t_span(t_span) -> tuple[float, float]:
     if not t1 > t0:
         raise ValueError(f"`t_span` = (t0, t1) must have t1 > t0 (nonempty, forward in time); got {t_span!r}.")
     return t0, t1
-
-
-def _integrate_fixed(system, y, t0, t1, h, stepper, project, save_every, backend="numpy") -> Solution:
-    plan = Plan.make(t0, t1, h)
-    save_steps = plan.save_steps(save_every)
-    if project:
-        y = system.project(y)
-    engine = make_engine(system, stepper, plan, y, backend)
-    internal = engine.start(y)
-    cpu0 = time.process_time()
-    seg = engine.advance(internal, 0, plan.nsteps, plan, save_steps[1:], project)
-    cpu = time.process_time() - cpu0
-    states = {name: np.concatenate([y[name][None], seg.states[name]]) for name in seg.states}
-    m = states[next(iter(states))].shape[0]
-    t_saved = np.array([plan.time(int(k)) for k in save_steps[:m]])
-    message = seg.failure or f"Reached t1 = {t1} in {plan.nsteps} steps."
-    stats = {
-        "h": h,
-        "project": project,
-        "cpu_time": cpu,
-        "save_every": save_every,
-        "order": stepper.order,
-        "coordinates": stepper.coordinates,
-        "backend": engine.name,
-    }
-    return Solution(t_saved, states, system, stepper.name, seg.done, seg.nfev, seg.failure is None, message, stats)
-
-
-def _integrate_adaptive(system, y, t0, t1, h, stepper, project, save_every, rtol, atol, t_eval) -> Solution:
-    from .methods.adaptive import integrate_adaptive
-
-    rtol = check_finite_positive(rtol, "rtol")
-    atol = check_finite_positive(atol, "atol")
-    if h is not None:
-        h = check_finite_positive(h, "h")
-    if t_eval is not None:
-        raise ValueError("`t_eval` applies to scipy methods only; adaptive Lie-group methods save accepted steps.")
-    if project:
-        y = system.project(y)
-    cpu0 = time.process_time()
-    t, states, info = integrate_adaptive(system, y, t0, t1, h, stepper, project, save_every, rtol, atol)
-    cpu = time.process_time() - cpu0
-    failure = info["failure"]
-    message = failure or f"Reached t1 = {t1} in {info['accepted']} accepted steps ({info['rejected']} rejected)."
-    stats = {
-        "rtol": rtol,
-        "atol": atol,
-        "project": project,
-        "cpu_time": cpu,
-        "order": stepper.order,
-        "coordinates": stepper.coordinates,
-        "accepted": info["accepted"],
-        "rejected": info["rejected"],
-        "backend": "numpy",
-        "save_every": save_every,
-    }
-    return Solution(t, states, system, stepper.name, info["accepted"], info["nfev"], failure is None, message, stats)
-
-
-def _integrate_scipy(system, y, t0, t1, h, stepper, project, save_every, rtol, atol, t_eval) -> Solution:
-    rtol = check_finite_positive(rtol, "rtol")
-    atol = check_finite_positive(atol, "atol")
-    if t_eval is not None:
-        t_save = np.asarray(t_eval, dtype=float)
-        if t_save.ndim != 1 or t_save.size < 2 or not np.all(np.isfinite(t_save)):
-            raise ValueError(f"`t_eval` must be a 1-D array of at least two finite times; got {t_eval!r}.")
-        if t_save[0] != t0 or t_save[-1] != t1 or np.any(np.diff(t_save) <= 0):
-            raise ValueError(
-                f"`t_eval` must increase strictly from t0 = {t0} to t1 = {t1}; "
-                f"got first {t_save[0]}, last {t_save[-1]}."
-            )
-    elif h is not None:
-        h = check_finite_positive(h, "h")
-        plan = Plan.make(t0, t1, h)
-        t_save = np.array([plan.time(int(k)) for k in plan.save_steps(save_every)])
-    else:
-        t_save = np.linspace(t0, t1, 101)
-    if project:
-        y = system.project(y)
-    cpu0 = time.process_time()
-    states, nfev, success, message = stepper.solve(system, y, t_save, rtol, atol, bool(project))
-    cpu = time.process_time() - cpu0
-    m = next(iter(states.values())).shape[0]
-    stats = {
-        "rtol": rtol,
-        "atol": atol,
-        "project": bool(project),
-        "cpu_time": cpu,
-        "order": stepper.order,
-        "coordinates": None,
-    }
-    return Solution(t_save[:m], states, system, stepper.name, 0, int(nfev), bool(success), str(message), stats)

@@ -1,4 +1,4 @@
-"""The result of :func:`lieint.integrate`."""
+"""The result of :func:`lieint.integrate` (built in one place, :meth:`lieint.driver.Driver.solution`)."""
 
 from __future__ import annotations
 
@@ -7,6 +7,8 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+
+from .drift import drift as _drift
 
 __all__ = ["Invariants", "Solution"]
 
@@ -18,29 +20,27 @@ class Invariants(Mapping):
     pays only for the invariants it looks at.
     """
 
-    def __init__(self, system, t: np.ndarray, states: dict):
+    def __init__(self, system, t: np.ndarray, states: dict, batch_ndim: int):
         self._system = system
         self._t = t
         self._states = states
+        self._batch_ndim = batch_ndim
         self._cache: dict[str, np.ndarray] = {}
 
     def __getitem__(self, name: str) -> np.ndarray:
         if name not in self._cache:
-            funcs = self._system.invariant_functions
-            if name not in funcs:
-                raise KeyError(f"Unknown invariant {name!r}; this system provides {list(funcs)}.")
-            t = self._t.reshape(self._t.shape + (1,) * (len(self._states_batch())))
-            self._cache[name] = np.asarray(funcs[name](t, self._states))
+            declared = self._system.invariants
+            if name not in declared:
+                raise KeyError(f"Unknown invariant {name!r}; this system provides {list(declared)}.")
+            t = self._t.reshape(self._t.shape + (1,) * self._batch_ndim)
+            self._cache[name] = declared[name](t, self._states)
         return self._cache[name]
 
-    def _states_batch(self) -> tuple[int, ...]:
-        return self._system.batch_shape({k: v[0] for k, v in self._states.items()})
-
     def __iter__(self) -> Iterator[str]:
-        return iter(self._system.invariant_functions)
+        return iter(self._system.invariants)
 
     def __len__(self) -> int:
-        return len(self._system.invariant_functions)
+        return len(self._system.invariants)
 
     def __repr__(self) -> str:
         return f"Invariants({list(self)})"
@@ -60,57 +60,69 @@ class Solution:
         Lazily evaluated invariants, shape ``(m, *batch, ...)``.
     method : str
         The method's name.
-    nsteps : int
-        Steps taken (fixed-step methods) or 0 (scipy, see ``stats``).
-    nfev : int
-        Generator / vector-field evaluations (per batch: one evaluation moves all members).
+    stats : Stats
+        Steps, rejections, evaluations, CPU and wall time, back end and settings
+        (:class:`lieint.driver.Stats`).
     success : bool
         False if the run stopped early (non-finite state, solver failure).
     message : str
         What happened, and what to do about it when it failed.
-    stats : dict
-        Step size, projection flag, CPU time and other run details.
     """
 
     t: np.ndarray
     states: dict[str, np.ndarray]
     system: Any
     method: str
-    nsteps: int
-    nfev: int
+    stats: Any
     success: bool
     message: str
-    stats: dict[str, Any] = field(default_factory=dict)
     invariants: Invariants = field(init=False, repr=False)
 
     def __post_init__(self):
-        self.invariants = Invariants(self.system, self.t, self.states)
+        self.invariants = Invariants(self.system, self.t, self.states, len(self.batch_shape))
 
-    def drift(self, name: str, relative: bool = True) -> np.ndarray:
-        """Largest deviation of an invariant from its initial value, per batch member.
+    @property
+    def batch_shape(self) -> tuple[int, ...]:
+        """Leading batch shape of the ensemble (``()`` for one body)."""
+        return self.system.batch_shape({k: v[0] for k, v in self.states.items()})
 
-        ``max_t ‖I(t) − I(0)‖ / ‖I(0)‖`` (norms over the invariant's own axes); absolute when
-        ``relative=False`` or when ``I(0) = 0``. For a defect (``system.defects``, e.g.
-        ``orthogonality``, zero for the exact flow) this is the largest defect reached.
+    @property
+    def nsteps(self) -> int:
+        """Accepted steps (every method, scipy's included)."""
+        return self.stats.nsteps
+
+    @property
+    def nfev(self) -> int:
+        """Generator / vector-field evaluations (one evaluation moves all members)."""
+        return self.stats.nfev
+
+    def drift(self, name: str) -> np.ndarray | float:
+        """Drift of an invariant, per ensemble member (a float for one body).
+
+        Integrals: ``max_t ‖I(t) − I(0)‖ / ‖I(0)‖`` (norms over the invariant's own axes),
+        absolute where ``I(0) = 0``; defects (e.g. ``orthogonality``): ``max_t ‖D(t)‖``. The same
+        definition as the monitors of streamed runs, the plots and the study
+        (:mod:`lieint.drift`).
         """
-        values = self.invariants[name]
-        batch_ndim = len(self.system.batch_shape({k: v[0] for k, v in self.states.items()}))
-        extra = tuple(range(1 + batch_ndim, values.ndim))
-        if name in getattr(self.system, "defects", ()):
-            size = np.sqrt(np.sum(values * values, axis=extra)) if extra else np.abs(values)
-            return np.max(size, axis=0)
-        dev = values - values[:1]
-        err = np.sqrt(np.sum(dev * dev, axis=extra)) if extra else np.abs(dev)
-        err = np.max(err, axis=0)
-        if not relative:
-            return err
-        ref = values[0]
-        ref = np.sqrt(np.sum(ref * ref, axis=tuple(range(batch_ndim, ref.ndim)))) if extra else np.abs(ref)
-        return np.where(ref > 0, err / np.where(ref > 0, ref, 1.0), err)
+        declared = self.system.invariants
+        if name not in declared:
+            raise KeyError(f"Unknown invariant {name!r}; this system provides {list(declared)}.")
+        return _drift(self.invariants[name], declared[name].kind, len(self.batch_shape))
+
+    def outputs(self, names) -> dict[str, np.ndarray]:
+        """Named outputs or invariants of the system over the saved times."""
+        t = self.t.reshape(self.t.shape + (1,) * len(self.batch_shape))
+        return {
+            name: (
+                self.invariants[name]
+                if name in self.system.invariants
+                else self.system.evaluate_outputs(t, self.states, [name])[name]
+            )
+            for name in names
+        }
 
     def __repr__(self) -> str:
-        batch = self.system.batch_shape({k: v[0] for k, v in self.states.items()})
         return (
-            f"Solution(method={self.method!r}, saved={self.t.size}, batch={batch}, nsteps={self.nsteps}, "
+            f"Solution(method={self.method!r}, saved={self.t.size}, batch={self.batch_shape}, nsteps={self.nsteps}, "
             f"nfev={self.nfev}, success={self.success}, fields={list(self.states)})"
         )

@@ -1,8 +1,10 @@
 """Work–precision studies: what accuracy costs in time, per method, on one scene.
 
-For each method the study sweeps the step size (fixed-step methods) or the tolerance
-(adaptive Lie-group methods and scipy's ``solve_ivp`` solvers, the latter with and without
-projection; and the peer library lielab on the 3D top when it is installed), and measures
+For each method of the registry that applies to the scene's system (:func:`lieint.method_names`;
+a method added in one file joins the study without any edit here) the study sweeps the step
+size (fixed-step methods) or the tolerance (adaptive methods: the RKMK pairs and scipy's
+``solve_ivp`` solvers, the latter with and without projection of the saved copies; and the
+peer library lielab on the 3D top when it is installed), and measures
 
 * the global error — ``max_t ‖y(t) − y_ref(t)‖ / ‖y(0)‖`` on the scene's main field — against
   the exact solution where one exists (the 3D Euler top: Jacobi elliptic functions; the uniform
@@ -25,25 +27,71 @@ from pathlib import Path
 
 import numpy as np
 
-from .integrate import integrate
-from .methods.registry import get_method
+from .ivp import integrate
+from .methods.registry import get_method, method_specs
 from .scenes import Scene, build_system
 from .systems import EulerTop, RollingBall
 
-__all__ = ["StudyRow", "plot_long_run", "plot_work_precision", "reference_for", "run_study", "write_table"]
+__all__ = [
+    "DEFAULT_METHODS",
+    "StudyRow",
+    "plot_long_run",
+    "plot_work_precision",
+    "reference_for",
+    "run_study",
+    "study_plan",
+    "write_table",
+]
 
-FIXED = {
-    "rkmk4": (250, 500, 1000, 2000, 4000, 8000),
-    "rkmk6": (250, 500, 1000, 2000, 4000),
-    "rk4": (250, 500, 1000, 2000, 4000, 8000),
-}
-ADAPTIVE = {"rkmk45": (1e-5, 1e-7, 1e-9), "rkmk853": (1e-5, 1e-7, 1e-9, 1e-11)}
-SCIPY = {
-    "scipy:RK45": (1e-5, 1e-7, 1e-9),
-    "scipy:DOP853": (1e-5, 1e-7, 1e-9, 1e-11),
-    "scipy:Radau": (1e-5, 1e-7, 1e-9),
-    "scipy:LSODA": (1e-5, 1e-7, 1e-9),
-}
+#: the methods of the quick study (the README's main job); ``methods="all"`` runs every method
+DEFAULT_METHODS = (
+    "rkmk4",
+    "rkmk6",
+    "rk4",
+    "rkmk45",
+    "rkmk853",
+    "scipy:RK45",
+    "scipy:DOP853",
+    "scipy:Radau",
+    "scipy:LSODA",
+)
+#: steps over the span, by order of the method (fixed-step sweeps)
+STEPS_BY_ORDER = {1: (2000, 8000, 32000), 2: (1000, 4000, 16000), 3: (500, 2000, 8000)}
+STEPS_DEFAULT = (250, 500, 1000, 2000, 4000, 8000)
+TOLERANCES = (1e-5, 1e-7, 1e-9, 1e-11)
+#: scipy's implicit and variable-order solvers are slow at tight tolerances: stop at 1e-9
+TOLERANCES_IMPLICIT = (1e-5, 1e-7, 1e-9)
+_IMPLICIT = {"scipy:Radau", "scipy:BDF", "scipy:LSODA"}
+
+
+def study_plan(system, methods=None) -> dict[str, tuple]:
+    """method → its sweep (step counts of fixed-step methods, tolerances of adaptive ones), for
+    the registered methods that apply to ``system``: ``DEFAULT_METHODS``, every method
+    (``"all"``), or the names given."""
+    specs = method_specs()
+    if methods is None:
+        names = [m for m in DEFAULT_METHODS if m in specs]
+    elif methods == "all":
+        names = list(specs)
+    else:
+        unknown = [m for m in methods if m not in specs and m != "lielab"]
+        if unknown:
+            raise ValueError(f"`methods`: {unknown[0]!r} is not a method; choose from {list(specs)} or 'lielab'")
+        names = [m for m in methods if m != "lielab"]
+    plan = {}
+    for name in names:
+        spec = specs[name]
+        try:
+            get_method(name).check_system(system)
+        except ValueError:
+            if methods not in (None, "all"):
+                raise
+            continue
+        if spec.adaptive:
+            plan[name] = TOLERANCES_IMPLICIT if name in _IMPLICIT else TOLERANCES
+        else:
+            plan[name] = STEPS_BY_ORDER.get(spec.order, STEPS_DEFAULT)
+    return plan
 
 
 @dataclass
@@ -159,7 +207,8 @@ def lielab_top3(system, y0, span):
 
 
 def run_study(scene: Scene, *, quick: bool = True, repeats: int = 3, methods=None, progress=None):
-    """Sweep every method on the scene; returns ``(rows, reference kind)``."""
+    """Sweep the methods (``DEFAULT_METHODS``, ``"all"`` or the names given) on the scene;
+    returns ``(rows, reference kind)``."""
     scene = replace(scene, outputs=tuple(dict.fromkeys((*scene.outputs, "orientation"))))
     system, y0 = build_system(scene)
     field, ref, kind = reference_for(scene, system, y0)
@@ -167,20 +216,16 @@ def run_study(scene: Scene, *, quick: bool = True, repeats: int = 3, methods=Non
     span = (scene.t_start, scene.t_end)
     T = scene.t_end - scene.t_start
     rows = []
-    plan = {**FIXED, **ADAPTIVE, **SCIPY}
-    if methods:
-        unknown = [m for m in methods if m not in plan and m != "lielab"]
-        if unknown:
-            raise ValueError(f"`methods`: {unknown[0]!r} is not in the study; choose from {list(plan)}")
-        plan = {m: plan[m] for m in methods if m != "lielab"}
+    plan = study_plan(system, methods)
+    specs = method_specs()
     for method, settings in plan.items():
         if quick:
             settings = settings[::2] if len(settings) > 3 else settings
-        kind_m = get_method(method).kind
+        spec = specs[method]
         for value in settings:
-            projections = (False, True) if kind_m == "scipy" else (True,)
+            projections = (False, True) if spec.family == "scipy" else (True,)
             for proj in projections:
-                if kind_m in ("lie", "classical"):
+                if not spec.adaptive:
                     n = int(value)
                     save = max(1, n // 100)
 
@@ -188,7 +233,7 @@ def run_study(scene: Scene, *, quick: bool = True, repeats: int = 3, methods=Non
                         return integrate(system, y0, span, h=T / n, method=method, project=proj, save_every=save)
 
                     setting = f"h={T / n:.3g}"
-                elif kind_m == "adaptive":
+                elif spec.family != "scipy":
 
                     def fn(tol=value, proj=proj, method=method):
                         return integrate(
@@ -218,7 +263,7 @@ def run_study(scene: Scene, *, quick: bool = True, repeats: int = 3, methods=Non
                     progress(rows[-1])
     if (methods is None or "lielab" in methods) and isinstance(system, EulerTop) and system.n == 3:
         lielab = lielab_top3(system, y0, span)
-        for tol in (SCIPY["scipy:DOP853"][::2] if quick else SCIPY["scipy:DOP853"]) if lielab else ():
+        for tol in (TOLERANCES[::2] if quick else TOLERANCES) if lielab else ():
             lielab(tol)
             cpu, (t, A, steps) = _time(lambda tol=tol: lielab(tol), repeats)
             err = float(np.max(np.linalg.norm((A - ref(t)).reshape(t.size, -1), axis=1)) / scale)
@@ -259,12 +304,12 @@ def plot_work_precision(rows, path: Path, title: str) -> Path:
     colors = plt.get_cmap("tab20").colors
     groups: dict[str, list[StudyRow]] = {}
     for r in rows:
-        label = r.method + (" + projection" if r.projection and r.method.startswith("scipy:") else "")
+        label = r.method + (" + projected saves" if r.projection and r.method.startswith("scipy:") else "")
         groups.setdefault(label, []).append(r)
     for i, (label, rs) in enumerate(groups.items()):
         # in sweep order (coarse to fine), so each line runs from cheap and rough to dear and exact
         style = "-o" if not label.startswith(("scipy:", "lielab")) else "--s"
-        if rs[0].method != "lielab" and get_method(rs[0].method).kind == "adaptive":
+        if rs[0].method != "lielab" and not rs[0].method.startswith("scipy:") and get_method(rs[0].method).adaptive:
             style = "-^"
         ax.loglog(
             [r.cpu_time for r in rs],
@@ -285,14 +330,15 @@ def plot_work_precision(rows, path: Path, title: str) -> Path:
     return path
 
 
-def plot_long_run(scene: Scene, path: Path, factor: float = 10.0, h: float = 0.01) -> Path:
-    """Energy and Casimir drift against time over ``factor`` × the scene's span:
-    RKMK4 against classical RK4 at the same step and DOP853 at rtol 1e-9."""
+def plot_long_run(scene: Scene, path: Path, factor: float = 10.0, h: float | None = None) -> Path:
+    """Energy and Casimir drift against time over ``factor`` × the scene's span: RKMK4 against
+    classical RK4 at the same step (default: the scene's step) and DOP853 at rtol 1e-9."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    h = scene.step if h is None else h
     system, y0 = build_system(replace(scene, outputs=tuple(dict.fromkeys((*scene.outputs, "energy")))))
     span = (scene.t_start, scene.t_start + factor * (scene.t_end - scene.t_start))
     T = span[1] - span[0]
@@ -303,7 +349,7 @@ def plot_long_run(scene: Scene, path: Path, factor: float = 10.0, h: float = 0.0
             system, y0, span, method="scipy:DOP853", rtol=1e-9, atol=1e-11, t_eval=np.linspace(*span, 501)
         ),
     }
-    names = [n for n in ("energy", "casimirs") if n in system.invariant_functions]
+    names = [n for n in ("energy", "casimirs") if n in system.invariants]
     fig, axes = plt.subplots(1, len(names), figsize=(6 * len(names), 4.2))
     axes = np.atleast_1d(axes)
     for ax, name in zip(axes, names, strict=True):

@@ -11,35 +11,55 @@ import numpy as np
 from ..groups.base import bernoulli_dexpinv_coefficients
 from ..groups.bivectors import hat, vee
 
-__all__ = ["Top3Kernel", "supports", "within_range"]
+__all__ = ["Top3Kernel", "kernel_for"]
 
 
-def supports(system, stepper) -> bool:
-    """Whether a compiled kernel covers this system and method (else the generic path runs)."""
-    from ..systems.euler_top import EulerTop
+def kernel_for(system, method, y0, plan) -> tuple[object | None, str]:
+    """A compiled kernel for this run, or None with the reason none applies.
 
-    if type(system) is not EulerTop or system.n != 3:
-        return False
-    if stepper.kind == "lie":
-        return stepper.coordinates == "exp" and stepper.dexpinv_degree is not None
-    return stepper.kind == "classical"
+    Kernels are chosen by what system and method *declare* (``system.compiled()`` and
+    ``method.compiled()``), never by their class: a system from another package that declares
+    the same structure gets the same kernel.
+    """
+    sys_decl = system.compiled()
+    if sys_decl is None:
+        label = type(system).__name__
+        if isinstance(getattr(system, "n", None), int):
+            label += f" (n = {system.n})"
+        return None, f"{label} declares no compiled form"
+    meth_decl = method.compiled()
+    if meth_decl is None:
+        return (
+            None,
+            f"{method.name!r} has no compiled form (compiled: RKMK in exp coordinates with truncated dexp⁻¹, RK)",
+        )
+    if sys_decl.get("kind") != "top3":
+        return None, f"no kernel for the compiled form {sys_decl.get('kind')!r}"
+    if meth_decl["kind"] not in ("rkmk", "rk"):
+        return None, f"no 3D-top kernel for {meth_decl['kind']!r} methods"
+    if not within_range(sys_decl, meth_decl, y0, plan.h):
+        return None, (
+            f"h = {plan.h:g} may take an RKMK stage past the dexp⁻¹ series radius (a priori bound); the generic "
+            "path checks every stage exactly"
+        )
+    return Top3Kernel(sys_decl, meth_decl, y0, system.batch_shape(y0)), ""
 
 
-def within_range(system, stepper, y0, h) -> bool:
+def within_range(sys_decl: dict, meth_decl: dict, y0, h) -> bool:
     """Cheap a-priori bound that every stage increment stays inside the dexp⁻¹ radius.
 
     ``|Π|`` is conserved, so ``|w| ≤ |Π|/I_min``; a stage increment is at most
     ``h · max_i Σ_j |a_ij| · |k|``. Requiring this below π (half the radius 2π of so(3)) leaves
     room for the higher dexp⁻¹ terms; otherwise the generic path runs and checks exactly.
     """
-    if stepper.kind != "lie":
+    if meth_decl["kind"] != "rkmk":
         return True
     A = y0["A"]
     with np.errstate(over="ignore"):  # an overflowing bound simply sends the run to the generic path
         pi_norm = np.sqrt(0.5 * np.sum(A * A, axis=(-2, -1)))
-    wmax = float(np.max(pi_norm, initial=0.0)) / float(np.min(system.principal_moments))
-    rows = np.abs(stepper.tableau.A).sum(axis=1)
-    reach = h * wmax * max(float(np.max(rows)), float(np.abs(stepper.tableau.b).sum()))
+    wmax = float(np.max(pi_norm, initial=0.0)) / float(np.min(sys_decl["moments"]))
+    rows = np.abs(meth_decl["A"]).sum(axis=1)
+    reach = h * wmax * max(float(np.max(rows)), float(np.abs(meth_decl["b"]).sum()))
     return reach < np.pi
 
 
@@ -51,17 +71,29 @@ class Top3Kernel:
     #: ensembles of at least this many bodies run RKMK in SIMD lanes (:mod:`lieint.fast.lanes`)
     LANES_FROM = 64
 
-    def __init__(self, system, stepper, y):
-        self.system, self.stepper = system, stepper
-        self.batch = system.batch_shape(y)
+    def __init__(self, sys_decl: dict, meth_decl: dict, y, batch: tuple[int, ...]):
+        self.moments = np.asarray(sys_decl["moments"], dtype=float)
+        self.orientation = bool(sys_decl["orientation"])
+        self.method = meth_decl
+        self.lie = meth_decl["kind"] == "rkmk"
+        self.stages = int(np.asarray(meth_decl["b"]).size)
+        self.batch = batch
         bodies = int(np.prod(self.batch)) if self.batch else 1
         # the layout is fixed per run (and so per resume): Π as (N, 3) per body, or (3, N) in lanes
-        self.lanes = stepper.kind == "lie" and bodies >= self.LANES_FROM
-        P = system.P.copy()
+        self.lanes = self.lie and bodies >= self.LANES_FROM
+        P = np.array(sys_decl["P"], dtype=float)
         if np.linalg.det(P) < 0:  # a proper rotation keeps Π a vector (not a pseudo-vector)
             P[:, -1] *= -1.0
         self.P = P
-        self.coeffs = bernoulli_dexpinv_coefficients(stepper.dexpinv_degree) if stepper.kind == "lie" else (1.0,)
+        self.coeffs = bernoulli_dexpinv_coefficients(meth_decl["dexpinv_degree"]) if self.lie else (1.0,)
+        import numba
+
+        self.threads = int(numba.config.NUMBA_NUM_THREADS)
+
+    def describe(self) -> str:
+        """Which kernel runs."""
+        layout = "SIMD lanes (ensemble)" if self.lanes else "per body"
+        return f"compiled 3D-top kernel, {'RKMK' if self.lie else 'classical RK'}, {layout}"
 
     def start(self, y: dict) -> dict:
         A = y["A"].reshape(-1, 3, 3)
@@ -78,15 +110,15 @@ class Top3Kernel:
             return self._advance_lanes(internal, k_from, k_to, plan, save_steps, project)
         from .top3 import integrate_top3
 
-        tab = self.stepper.tableau
+        tab = self.method
         out_pi, out_R, fin_pi, fin_R = integrate_top3(
             internal["pi"],
             internal["R"],
-            self.system.principal_moments,
-            tab.A,
-            tab.b,
+            self.moments,
+            tab["A"],
+            tab["b"],
             self.coeffs,
-            self.stepper.kind == "lie",
+            self.lie,
             plan.h,
             plan.last_step,
             k_from,
@@ -100,17 +132,17 @@ class Top3Kernel:
     def _advance_lanes(self, internal, k_from, k_to, plan, save_steps, project):
         from .lanes import quaternion_to_matrix, run_lanes
 
-        tab = self.stepper.tableau
+        tab = self.method
         pi, q = internal["pi"].copy(), internal["q"].copy()
         m, N = len(save_steps), pi.shape[1]
         out_pi, out_q = np.empty((m, 3, N)), np.empty((m, 4, N))
         run_lanes(
             pi,
             q,
-            1.0 / self.system.principal_moments,
-            tab.A,
-            tab.b,
-            tab.c,
+            1.0 / self.moments,
+            tab["A"],
+            tab["b"],
+            tab["c"],
             np.asarray(self.coeffs),
             plan.h,
             plan.last_step,
@@ -128,7 +160,7 @@ class Top3Kernel:
     def _user(self, pi, R) -> dict:
         lead = pi.shape[:-2]
         states = {"A": (self.P @ (-hat(pi)) @ self.P.T).reshape(lead + self.batch + (3, 3))}
-        if "R" in self.system.fields:
+        if self.orientation:
             states["R"] = (R @ self.P.T).reshape(lead + self.batch + (3, 3))
         return states
 

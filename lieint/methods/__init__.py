@@ -1,20 +1,33 @@
-"""Integrators as data: tableaux, RKMK (Lie–Euler included), classical RK, scipy adapter."""
+"""Integrators as data: the stepper contract, tableaux, RKMK (Lie–Euler included), classical RK,
+the scipy adapter, and the registry of method names.
+
+Every module here registers its methods when imported; :func:`method_names` lists them and
+:func:`get_method` builds one by name.
+"""
 
 from . import tableaux
+from .base import Method, MethodSpec, StepResult
 from .classical import ClassicalRK
-from .lie import COORDINATES, LieMethod
-from .registry import get_method, methods
+from .registry import AUTO, get_method, method_names, method_specs, register
+from .rkmk import COORDINATES, RKMK
 from .scipy_ivp import SCIPY_SOLVERS, ScipyMethod
-from .tableau import ButcherTableau
+from .tableau import ButcherTableau, EmbeddedPair
 
 __all__ = [
+    "AUTO",
     "COORDINATES",
+    "RKMK",
     "SCIPY_SOLVERS",
     "ButcherTableau",
     "ClassicalRK",
-    "LieMethod",
+    "EmbeddedPair",
+    "Method",
+    "MethodSpec",
     "ScipyMethod",
+    "StepResult",
     "get_method",
-    "methods",
+    "method_names",
+    "method_specs",
+    "register",
     "tableaux",
 ]

@@ -82,7 +82,12 @@ class Method(ABC):
     group_action: bool = False
 
     def check_system(self, system) -> None:
-        """Raise ``ValueError`` naming ``method`` when this method cannot step ``system``."""
+        """Raise ``ValueError`` naming ``method`` when this method cannot step ``system``.
+
+        The default accepts every system; methods with requirements (a splitting, a
+        symplectic structure) override it.
+        """
+        return None
 
     def init(self, system, t0: float, y0: dict, h: float | None) -> Any:
         """The method's state before the first step (default: none)."""

@@ -8,14 +8,18 @@ except the optional projection applied by the driver after each step.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import partial
 
+from . import tableaux
+from .base import Method, MethodSpec, StepResult
+from .registry import register
 from .tableau import ButcherTableau
 
 __all__ = ["ClassicalRK"]
 
 
 @dataclass(frozen=True)
-class ClassicalRK:
+class ClassicalRK(Method):
     """An explicit Runge–Kutta method on the embedding space.
 
     Parameters
@@ -29,25 +33,24 @@ class ClassicalRK:
     name: str
     tableau: ButcherTableau
 
-    kind = "classical"
-    coordinates = None
-
     @property
-    def order(self) -> int:
+    def order(self) -> int:  # type: ignore[override]
         return self.tableau.order
 
     @property
     def stages(self) -> int:
         return self.tableau.stages
 
-    def step(self, system, t: float, y: dict, h: float) -> tuple[dict, int]:
-        """One step from ``(t, y)`` of size ``h``; returns ``(y₁, vector-field evaluations)``."""
+    def step(self, system, t: float, y: dict, h: float, state=None) -> StepResult:
         A, b, c = self.tableau.A, self.tableau.b, self.tableau.c
         ks: list[dict] = []
         for i in range(self.tableau.stages):
             yi = _axpy(y, A[i, :i], ks, h)
             ks.append(system.vector_field(t + c[i] * h, yi))
-        return _axpy(y, b, ks, h), self.tableau.stages
+        return StepResult(_axpy(y, b, ks, h), None, self.tableau.stages, None, dense=(ks, h))
+
+    def compiled(self):
+        return {"kind": "rk", "A": self.tableau.A, "b": self.tableau.b, "c": self.tableau.c}
 
 
 def _axpy(y: dict, coeffs, ks: list[dict], h: float) -> dict:
@@ -57,3 +60,18 @@ def _axpy(y: dict, coeffs, ks: list[dict], h: float) -> dict:
             for name in out:
                 out[name] = out[name] + (a * h) * k[name]
     return out
+
+
+def _build(name: str, tableau: ButcherTableau, coordinates: str | None = None) -> ClassicalRK:
+    return ClassicalRK(name, tableau)
+
+
+register(
+    MethodSpec(
+        "rk4",
+        "rk",
+        4,
+        partial(_build, "rk4", tableaux.RK4),
+        description="classical RK4 on the embedded equations (the baseline)",
+    )
+)

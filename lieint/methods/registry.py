@@ -1,85 +1,137 @@
-"""Method names that :func:`lieint.integrate` accepts, and how they are built."""
+"""The method registry: names users pass as ``method=``, with what each method is.
+
+Every module of :mod:`lieint.methods` registers its methods when it is imported, by calling
+:func:`register` with a :class:`~lieint.methods.base.MethodSpec`; the registry imports every
+module of the package the first time a name is looked up (so ``import lieint`` stays light and
+a method added in one new file is known everywhere: to :func:`lieint.integrate`, scenes, streamed
+runs, the study, ``lieint methods`` and the tests that iterate the registry).
+"""
 
 from __future__ import annotations
 
-from . import tableaux
-from .adaptive import ADAPTIVE_PAIRS, AdaptiveLieMethod, embedded_pair
-from .classical import ClassicalRK
-from .lie import COORDINATES, LieMethod
-from .scipy_ivp import SCIPY_SOLVERS, ScipyMethod
+import importlib
+import pkgutil
 
-__all__ = ["get_method", "methods"]
+from .base import Method, MethodSpec
 
-#: RKMK methods by name: name → tableau (the method has the tableau's order).
-LIE_TABLEAUX = {
-    "lie_euler": tableaux.EULER,
-    "rkmk2": tableaux.HEUN,
-    "rkmk3": tableaux.KUTTA3,
-    "rkmk4": tableaux.RK4,
-    "rkmk6": tableaux.BUTCHER6,
-}
-
-#: Classical RK baselines on the embedded equations.
-CLASSICAL_TABLEAUX = {"rk4": tableaux.RK4}
-
-_AUTO = "auto"
+__all__ = ["AUTO", "get_method", "method_names", "method_specs", "register"]
 
 
-def methods() -> list[str]:
+class _Auto:
+    """The default of options whose value depends on the method (e.g. dexp⁻¹ degree p − 2)."""
+
+    def __repr__(self) -> str:
+        return "'auto'"
+
+
+#: the "method decides" default of build options
+AUTO = _Auto()
+
+_SPECS: dict[str, MethodSpec] = {}
+_discovered = False
+
+
+def register(spec: MethodSpec) -> MethodSpec:
+    """Add a method to the registry (called at import time by the method's module)."""
+    if not isinstance(spec, MethodSpec):
+        raise TypeError(f"`spec` must be a MethodSpec; got {type(spec).__name__}.")
+    old = _SPECS.get(spec.name)
+    if old is not None and _origin(old) != _origin(spec):
+        raise ValueError(f"a method named {spec.name!r} is registered already by {_origin(old)} ({old.description!r}).")
+    _SPECS[spec.name] = spec
+    return spec
+
+
+def _origin(spec: MethodSpec) -> str:
+    """The module that defined a spec's builder (re-importing that module may register it again)."""
+    build = getattr(spec.build, "func", spec.build)
+    return getattr(build, "__module__", "?")
+
+
+def _discover() -> None:
+    global _discovered
+    if _discovered:
+        return
+    from .. import methods as package
+
+    for info in pkgutil.iter_modules(package.__path__):
+        if not info.name.startswith("_"):
+            importlib.import_module(f"{package.__name__}.{info.name}")
+    _discovered = True
+
+
+#: listing order of the families (others follow in alphabetical order, scipy's baselines last)
+_FAMILY_ORDER = ("rkmk", "rkmk-embedded", "rk")
+
+
+def _listing_key(spec: MethodSpec):
+    family = _FAMILY_ORDER.index(spec.family) if spec.family in _FAMILY_ORDER else len(_FAMILY_ORDER)
+    return (spec.family == "scipy", family, spec.family, spec.order or 0, spec.name)
+
+
+def method_specs() -> dict[str, MethodSpec]:
+    """Every registered method: name → :class:`~lieint.methods.base.MethodSpec` (Lie-group
+    methods first, by family and order; scipy's baselines last)."""
+    _discover()
+    return {spec.name: spec for spec in sorted(_SPECS.values(), key=_listing_key)}
+
+
+def method_names() -> list[str]:
     """The method names :func:`lieint.integrate` accepts.
 
     Examples
     --------
     >>> import lieint
-    >>> "rkmk4" in lieint.methods()
+    >>> "rkmk4" in lieint.method_names()
     True
     """
-    return [*LIE_TABLEAUX, *ADAPTIVE_PAIRS, *CLASSICAL_TABLEAUX, *(f"scipy:{s}" for s in SCIPY_SOLVERS)]
+    return list(method_specs())
 
 
-def get_method(method="rkmk4", coordinates: str | None = None, dexpinv_degree=_AUTO):
+def get_method(method="rkmk4", coordinates: str | None = None, **options) -> Method:
     """Build the method object for a name (or check and return a method object).
 
     Parameters
     ----------
-    method : str or LieMethod or ClassicalRK or ScipyMethod
-        A name from :func:`methods`, or a method object built by the user.
+    method : str or Method
+        A name from :func:`method_names`, or a method object built by the user.
     coordinates : {"exp", "cayley"}, optional
-        Coordinate map of Lie-group methods (default "exp"). Rejected for other methods.
-    dexpinv_degree : int, None or "auto"
-        dexp⁻¹ truncation of Lie-group methods: "auto" keeps degree ``p − 2`` (the least that
-        preserves order p), None uses the exact closed form.
+        Coordinate map of Lie-group methods (default: the method's first, "exp"). Refused for
+        methods without coordinates.
+    **options
+        Build options the method declares (e.g. ``dexpinv_degree`` of RKMK: "auto" keeps
+        degree ``p − 2``, the least that preserves order p; None uses the exact closed form).
+        An option equal to ``AUTO`` (or the string "auto") means the method's default.
     """
-    if isinstance(method, (LieMethod, AdaptiveLieMethod, ClassicalRK, ScipyMethod)):
-        if coordinates is not None and getattr(method, "coordinates", None) != coordinates:
+    options = {k: v for k, v in options.items() if not (v is AUTO or (isinstance(v, str) and v == "auto"))}
+    if isinstance(method, Method):
+        if coordinates is not None and method.coordinates != coordinates:
             raise ValueError(
                 f"`coordinates` = {coordinates!r} conflicts with the method object {method.name!r} "
                 f"(coordinates {method.coordinates!r}); set them on the method instead."
             )
+        if options:
+            raise ValueError(
+                f"options {sorted(options)} apply to method names only; {method.name!r} is a method object."
+            )
         return method
     if not isinstance(method, str):
         raise TypeError(f"`method` must be a method name or a method object; got {type(method).__name__}.")
-    if method in LIE_TABLEAUX:
-        coords = "exp" if coordinates is None else coordinates
-        if coords not in COORDINATES:
-            raise ValueError(f"`coordinates` must be one of {list(COORDINATES)}; got {coords!r}.")
-        tab = LIE_TABLEAUX[method]
-        degree = max(tab.order - 2, 0) if dexpinv_degree == _AUTO else dexpinv_degree
-        name = method if coords == "exp" else f"{method}[cayley]"
-        return LieMethod(name, tab, coordinates=coords, dexpinv_degree=degree)
-    if method in ADAPTIVE_PAIRS:
-        coords = "exp" if coordinates is None else coordinates
-        pair = embedded_pair(ADAPTIVE_PAIRS[method])
-        degree = pair.order - 2 if dexpinv_degree == _AUTO else dexpinv_degree
-        name = method if coords == "exp" else f"{method}[cayley]"
-        return AdaptiveLieMethod(name, pair, coordinates=coords, dexpinv_degree=degree)
-    if coordinates is not None and coordinates != "exp":
-        raise ValueError(
-            f"`coordinates` applies to Lie-group methods only ({[*LIE_TABLEAUX, *ADAPTIVE_PAIRS]}); "
-            f"got coordinates={coordinates!r} with method={method!r}."
-        )
-    if method in CLASSICAL_TABLEAUX:
-        return ClassicalRK(method, CLASSICAL_TABLEAUX[method])
-    if method.startswith("scipy:") and method[6:] in SCIPY_SOLVERS:
-        return ScipyMethod(method[6:])
-    raise ValueError(f"`method`: unknown method {method!r}; valid names are {methods()}.")
+    specs = method_specs()
+    spec = specs.get(method)
+    if spec is None:
+        raise ValueError(f"`method`: unknown method {method!r}; valid names are {list(specs)}.")
+    if coordinates is not None:
+        if not spec.coordinates:
+            with_coords = [name for name, s in specs.items() if s.coordinates]
+            raise ValueError(
+                f"`coordinates` = {coordinates!r} does not apply to {method!r}, which has no coordinate map; "
+                f"methods with coordinates: {with_coords}."
+            )
+        if coordinates not in spec.coordinates:
+            raise ValueError(f"`coordinates` must be one of {list(spec.coordinates)}; got {coordinates!r}.")
+    unknown = sorted(set(options) - set(spec.options))
+    if unknown:
+        allowed = f"its options are {list(spec.options)}" if spec.options else "it takes no options"
+        raise ValueError(f"`{unknown[0]}` does not apply to {method!r}: {allowed}.")
+    return spec.build(coordinates=coordinates, **options)

@@ -8,7 +8,7 @@ import numpy as np
 
 from .order_conditions import order_residuals, tree_size, tree_string
 
-__all__ = ["ButcherTableau"]
+__all__ = ["ButcherTableau", "EmbeddedPair"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -74,3 +74,54 @@ class ButcherTableau:
 
     def __repr__(self) -> str:
         return f"ButcherTableau({self.name!r}, stages={self.stages}, order={self.order})"
+
+
+@dataclass(frozen=True, eq=False)
+class EmbeddedPair:
+    """A tableau of order p with a second weight vector ``b_hat`` of order q < p.
+
+    Both weight vectors are checked against every rooted-tree condition of their order. A step
+    propagates the order-p solution; the difference of the two solutions estimates the error of
+    the order-q one, which a step-size controller uses (exponent ``1/(q + 1)``).
+
+    Parameters
+    ----------
+    tableau : ButcherTableau
+        The order-p method (its ``b``).
+    b_hat : array_like, shape (s,)
+        Embedded weights.
+    embedded_order : int
+        q, the order of ``b_hat``.
+    """
+
+    tableau: ButcherTableau
+    b_hat: np.ndarray
+    embedded_order: int
+
+    def __post_init__(self):
+        b_hat = np.asarray(self.b_hat, dtype=float)
+        if b_hat.shape != (self.tableau.stages,):
+            raise ValueError(f"`b_hat` must have {self.tableau.stages} weights; got shape {b_hat.shape}.")
+        if not 1 <= self.embedded_order < self.tableau.order:
+            raise ValueError(
+                f"`embedded_order` must be between 1 and {self.tableau.order - 1}; got {self.embedded_order!r}."
+            )
+        for tree, residual in order_residuals(self.tableau.A, b_hat, self.embedded_order):
+            if abs(residual) > 1e-12:
+                raise ValueError(
+                    f"embedded weights of {self.tableau.name!r} fail the order-{self.embedded_order} "
+                    f"condition for the tree {tree_string(tree)} by {residual:.3g}"
+                )
+        b_hat.setflags(write=False)
+        object.__setattr__(self, "b_hat", b_hat)
+
+    @property
+    def order(self) -> int:
+        return self.tableau.order
+
+    @property
+    def stages(self) -> int:
+        return self.tableau.stages
+
+    def __repr__(self) -> str:
+        return f"EmbeddedPair({self.tableau.name!r}, order={self.order}({self.embedded_order}))"

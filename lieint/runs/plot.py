@@ -46,6 +46,17 @@ def _read(path: Path):
         inv = {k: ds[::stride] for k, ds in f["invariants"].items()} if "invariants" in f else {}
         outputs = {k: ds[::stride] for k, ds in f["outputs"].items()} if "outputs" in f else {}
         attrs = {k: (v.decode() if isinstance(v, bytes) else v) for k, v in f.attrs.items()}
+        # what each dataset is (written by the run from the system's declarations)
+        meta = {}
+        for group in ("states", "invariants", "outputs"):
+            if group in f:
+                for k, ds in f[group].items():
+                    meta[(group, k)] = {
+                        a: (v.decode() if isinstance(v, bytes) else v)
+                        for a, v in ds.attrs.items()
+                        if a in ("kind", "trailing_ndim")
+                    }
+        attrs["_datasets"] = meta
     finally:
         f.close()
     return t, states, inv, outputs, attrs
@@ -83,9 +94,16 @@ def plot_run(path, out=None) -> Path:
     t, states, inv, outputs, attrs = _read(path)
     # invariants that measure a defect (zero for the exact flow), as the run recorded them
     defects = set(filter(None, str(attrs.get("defects", "")).split(",")))
-    field_ndim = {"A": 2, "R": 2, "Omega": 2, "Gamma": 1, "G": 1, "center": 1, "velocity": 1, "rotor": 1}
+    meta = attrs["_datasets"]
+    batch_ndim = int(attrs.get("batch_ndim", 0))
     first = next(iter(states))
-    members = _members(states[first], field_ndim.get(first, 1)).shape[1]
+
+    def tail(group: str, name: str, values: np.ndarray) -> int:
+        """Axes of one body's value: recorded by the run, else what is left after time and batch."""
+        recorded = meta.get((group, name), {}).get("trailing_ndim")
+        return int(recorded) if recorded is not None else values.ndim - 1 - batch_ndim
+
+    members = _members(states[first], tail("states", first, states[first])).shape[1]
     ensemble = members > 1
     ncols = 3 if ensemble else 2
     fig, axes = plt.subplots(1, ncols, figsize=(5.2 * ncols, 4.2))
@@ -98,8 +116,7 @@ def plot_run(path, out=None) -> Path:
     tt = t - t[0]
     keep = tt > 0
     for name, values in inv.items():
-        extra = values.ndim - 1 - (len(states[first].shape) - 1 - field_ndim.get(first, 1))
-        v = _members(values, extra)
+        v = _members(values, values.ndim - 1 - batch_ndim)
         axes_extra = tuple(range(2, v.ndim))
         if name in defects:
             d = np.sqrt(np.sum(v * v, axis=axes_extra)) if axes_extra else np.abs(v)
@@ -119,9 +136,13 @@ def plot_run(path, out=None) -> Path:
         ax.legend(fontsize=8)
 
     ax = axes[1]
-    path_xy = outputs.get("contact_path")
-    if path_xy is None and "center" in states:
-        path_xy = states["center"]
+    # the motion: a path of points where the run saved one (contact path, centre), else the
+    # orientation, else the first state field
+    points = [(g, k) for (g, k), m in meta.items() if m.get("kind") == "point" and g in ("outputs", "states")]
+    points.sort(key=lambda gk: (gk[1] != "contact_path", gk[0] != "outputs"))
+    path_xy = (outputs if points[0][0] == "outputs" else states)[points[0][1]] if points else None
+    if path_xy is None:
+        path_xy = outputs.get("contact_path", states.get("center"))
     if path_xy is not None:
         p = _members(path_xy, 1)
         for i in range(min(p.shape[1], 5)):
@@ -129,7 +150,7 @@ def plot_run(path, out=None) -> Path:
         ax.set_xlabel("x")
         ax.set_ylabel("y")
         ax.set_aspect("equal", adjustable="datalim")
-        ax.set_title("contact path" if "contact_path" in outputs else "centre path")
+        ax.set_title((points[0][1] if points else "centre").replace("_", " "))
     elif "R" in states:
         R = _members(states["R"], 2)
         for c in range(min(3, R.shape[-1])):
@@ -138,7 +159,7 @@ def plot_run(path, out=None) -> Path:
         ax.set_title("orientation: body axis e₁ in space" + (" (member 0)" if ensemble else ""))
         ax.legend(fontsize=8)
     else:
-        A = _members(states[first], field_ndim.get(first, 1))
+        A = _members(states[first], tail("states", first, states[first]))
         ax.plot(t, A[:, 0].reshape(len(t), -1))
         ax.set_xlabel("t")
         ax.set_title(f"{first} (no orientation saved)")

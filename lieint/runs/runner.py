@@ -2,16 +2,22 @@
 
 A run can be left overnight: memory stays flat (each segment's saved rows are written and
 dropped), checkpoints are atomic, Ctrl-C stops cleanly at the next segment boundary with
-everything flushed, and ``resume=True`` continues a run killed even by SIGKILL. Because the
-engine's state is exact across segment boundaries, the resumed result equals an uninterrupted
-run bit for bit, with no gaps and no duplicate rows (rows written after the last checkpoint
-are dropped and recomputed identically).
+everything flushed, and ``resume=True`` continues a run killed even by SIGKILL. The run is
+stepped by the one driver (:class:`lieint.driver.Driver`), whose carry is exact across segment
+boundaries, so the resumed result equals an uninterrupted run bit for bit, with no gaps and no
+duplicate rows (rows written after the last checkpoint are dropped and recomputed identically).
+scipy's solvers keep state that cannot be saved: their runs resume by recomputing from the start
+and skipping the rows on disk (the same bits, at the cost of the recomputation).
+
+:class:`StreamedRun` is one run (``start`` or ``resume``, ``segment``, ``checkpoint``,
+``finish``); :func:`run` drives it with progress, monitors, checkpoint timing and Ctrl-C.
 """
 
 from __future__ import annotations
 
 import hashlib
 import json
+import math
 import signal
 import sys
 import threading
@@ -21,12 +27,13 @@ from pathlib import Path
 
 import numpy as np
 
-from ..engine import Plan, make_engine
+from ..drift import DriftMonitor
+from ..driver import Carry, Driver, Segment
 from ..methods.registry import get_method
-from ..scenes import Scene, build_system, collect_outputs
+from ..scenes import Scene, build_system, scene_solver_options
 from .store import Checkpoint, OutputFile, StoreError
 
-__all__ = ["RunReport", "run", "scene_fingerprint"]
+__all__ = ["RunReport", "StreamedRun", "run", "scene_fingerprint"]
 
 _SEGMENT_SECONDS = 0.25  # aim for segments of about this wall time (progress, Ctrl-C latency)
 
@@ -38,7 +45,7 @@ class RunReport:
     path: Path
     status: str  # "complete" | "interrupted" | "stopped" | "failed"
     steps_done: int
-    nsteps: int
+    nsteps: int | None
     rows: int
     message: str
     drifts: dict[str, float] = field(default_factory=dict)
@@ -50,65 +57,253 @@ def scene_fingerprint(scene: Scene) -> str:
     for name, value in scene.__dict__.items():
         if name in ("source", "text", "description", "name"):
             continue
-        if isinstance(value, np.ndarray):
-            value = value.tolist()
-        elif isinstance(value, dict):
-            value = {k: (v.tolist() if isinstance(v, np.ndarray) else v) for k, v in value.items()}
-        elif isinstance(value, tuple):
-            value = list(value)
-        data[name] = value
+        data[name] = _plain(value)
     return hashlib.sha256(json.dumps(data, sort_keys=True, default=str).encode()).hexdigest()
+
+
+def _plain(value):
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, dict):
+        return {k: _plain(v) for k, v in value.items()}
+    if isinstance(value, (tuple, list)):
+        return [_plain(v) for v in value]
+    return value
 
 
 def _scene_text(scene: Scene) -> str:
     return scene.text if scene.text is not None else json.dumps({"scene": scene.name}, default=str)
 
 
-class _Monitor:
-    """Running maxima of each invariant's drift: relative to its first row (defects: size)."""
+class StreamedRun:
+    """One streamed run of a scene into an HDF5 file (see the module docstring).
 
-    def __init__(self, system, first: dict[str, np.ndarray], names):
-        self.names = list(names)
-        self.defects = set(getattr(system, "defects", ()))
-        self.first = first
-        self.worst = {name: 0.0 for name in self.names}
+    Build it with :meth:`start` (a new file) or :meth:`resume` (continue from the checkpoint),
+    then call :meth:`segment` until :attr:`done`, :meth:`checkpoint` when due, and :meth:`finish`.
+    """
 
-    def update(self, rows: dict[str, np.ndarray]) -> None:
-        for name in self.names:
-            v = rows[name]
-            if v.shape[0] == 0:
-                continue
-            axes = tuple(range(1, v.ndim))
-            if name in self.defects:
-                d = np.abs(v)
-            else:
-                ref = self.first[name]
-                scale = np.sqrt(np.sum(ref * ref)) if ref.size else 0.0
-                d = np.abs(v - ref) / (scale if scale > 0 else 1.0)
-            worst = float(np.max(d, axis=axes).max()) if axes else float(np.max(d))
-            self.worst[name] = max(self.worst[name], worst)
+    def __init__(self, scene: Scene, out: Path):
+        from .. import __version__
+
+        self.version = __version__
+        self.scene, self.out = scene, Path(out)
+        self.system, y0 = build_system(scene)
+        options = scene_solver_options(scene)
+        method = get_method(options.pop("method"), coordinates=options.pop("coordinates"))
+        self.driver = Driver(self.system, method, (scene.t_start, scene.t_end), **options)
+        self.y0 = self.driver.initial(y0)
+        self.batch_ndim = len(self.system.batch_shape(self.y0))
+        declared = self.system.invariants
+        self.invariant_names = [q for q in scene.outputs if q in declared]
+        self.output_names = [q for q in scene.outputs if q not in declared and q not in self.system.fields]
+        self.kinds = {name: declared[name].kind for name in self.invariant_names}
+        self.fingerprint = scene_fingerprint(scene)
+        self.checkpoint_file = Checkpoint(self.out)
+        self.carry: Carry | None = None
+        self.output: OutputFile | None = None
+        self.monitor: DriftMonitor | None = None
+
+    # -- rows -------------------------------------------------------------------------------
+    def rows_of(self, t: np.ndarray, states: dict) -> dict[str, dict[str, np.ndarray]]:
+        """States, invariants and derived outputs of saved rows, grouped as in the file."""
+        tt = t.reshape(t.shape + (1,) * self.batch_ndim)
+        groups = {"states": states}
+        if self.invariant_names:
+            groups["invariants"] = self.system.evaluate_invariants(tt, states, self.invariant_names)
+        if self.output_names:
+            groups["outputs"] = self.system.evaluate_outputs(tt, states, self.output_names)
+        return groups
+
+    def _dataset_attrs(self) -> dict:
+        attrs = {}
+        outputs = self.system.outputs
+        for name, shape in self.system.fields.items():
+            attrs[("states", name)] = {
+                "kind": outputs[name].kind if name in outputs else "",
+                "trailing_ndim": len(shape),
+            }
+        for name in self.invariant_names:
+            attrs[("invariants", name)] = {"kind": self.kinds[name]}
+        for name in self.output_names:
+            o = outputs[name]
+            attrs[("outputs", name)] = {"kind": o.kind, "trailing_ndim": len(o.shape)}
+        return attrs
+
+    # -- start and resume ---------------------------------------------------------------------
+    def start(self) -> None:
+        """Begin a new output file (the caller has made sure it may be written)."""
+        if self.out.exists():
+            self.out.unlink()
+        self.checkpoint_file.remove()
+        self.carry = self.driver.start(self.y0)
+        first = self.driver.loop.first_row(self.carry)
+        rows = self.rows_of(first.t, first.states)
+        self.output = OutputFile.create(
+            self.out,
+            {
+                "lieint_version": self.version,
+                "scene": _scene_text(self.scene),
+                "scene_fingerprint": self.fingerprint,
+                "scene_name": self.scene.name,
+                "method": self.driver.method.name,
+                "h": self.scene.step,
+                # −1 when the method chooses its own steps (adaptive and scipy methods)
+                "planned_steps": self.driver.total_steps() or -1,
+                "steps_done": 0,
+                "nfev": 0,
+                "nrejected": 0,
+                "backend": self.driver.backend,
+                "status": "running",
+                "save_every": self.scene.save_every,
+                "batch_ndim": self.batch_ndim,
+                # which saved invariants measure a defect (plots show their size, not a drift)
+                "defects": ",".join(sorted(n for n, k in self.kinds.items() if k == "defect")),
+            },
+            {g: {n: v[0] for n, v in a.items()} for g, a in rows.items() if a},
+            self.driver.t0,
+            self._dataset_attrs(),
+        )
+        initial = {n: v[0] for n, v in rows.get("invariants", {}).items()}
+        self.monitor = DriftMonitor(self.kinds, initial, self.batch_ndim)
+
+    def resume(self) -> str:
+        """Continue from the checkpoint; returns a line saying where the run resumes."""
+        arrays, attrs = self.checkpoint_file.read()
+        reasons = []
+        if attrs.get("scene_fingerprint") != self.fingerprint:
+            reasons.append("it was written for a different scene (its fingerprint differs)")
+        if attrs.get("lieint_version") != self.version:
+            reasons.append(f"it was written by lieint {attrs.get('lieint_version')}, this is {self.version}")
+        if reasons:
+            raise StoreError(f"refusing to resume from {str(self.checkpoint_file.path)!r}: " + "; ".join(reasons))
+        rows = int(attrs["rows"])
+        first = {k[6:]: v for k, v in arrays.items() if k.startswith("first:")}
+        self.monitor = DriftMonitor(self.kinds, first, self.batch_ndim)
+        if attrs.get("replay"):
+            return self._replay(rows)
+        # the same back end as the interrupted run: its carry is in that back end's representation
+        self.driver.backend_request = str(attrs["backend"])
+        self.carry = self.driver.start(self.y0)
+        self.carry.state = {k[6:]: v for k, v in arrays.items() if k.startswith("state:")}
+        method_state = {k[7:]: v for k, v in arrays.items() if k.startswith("method:")}
+        self.carry.method_state = method_state or None
+        self.carry.k, self.carry.t = int(attrs["k"]), float(attrs["t"])
+        self.carry.h = None if math.isnan(float(attrs["h"])) else float(attrs["h"])
+        self.carry.nfev, self.carry.nrejected = int(attrs["nfev"]), int(attrs["nrejected"])
+        for name in self.kinds:
+            self.monitor.worst[name] = arrays[f"drift:{name}"]
+        self.output = OutputFile.reopen(self.out, rows)
+        return f"resuming at step {self.carry.k} (t = {self.carry.t:.6g}) with {rows} saved rows"
+
+    def _replay(self, rows: int) -> str:
+        """scipy's solvers: recompute from the start, skipping the ``rows`` saved already."""
+        self.carry = self.driver.start(self.y0)
+        first = self.driver.loop.first_row(self.carry)
+        self.monitor.update(self.rows_of(first.t, first.states).get("invariants", {}))
+        self.output = OutputFile.reopen(self.out, rows)
+        have = 1
+        while have < rows and not self.driver.done(self.carry):
+            seg = self.driver.advance(self.carry, 1000)
+            keep = min(seg.rows, rows - have)
+            if keep:
+                part = self.rows_of(seg.t[:keep], {k: v[:keep] for k, v in seg.states.items()})
+                self.monitor.update(part.get("invariants", {}))
+            if keep < seg.rows:  # rows past what was saved: write them now
+                self._write(Segment(seg.t[keep:], {k: v[keep:] for k, v in seg.states.items()}))
+            have += seg.rows
+        return f"resuming {self.driver.method.name} by recomputing from t = {self.driver.t0:g} ({rows} rows on disk)"
+
+    # -- stepping -------------------------------------------------------------------------------
+    @property
+    def done(self) -> bool:
+        return self.driver.done(self.carry)
+
+    def segment(self, max_steps: int) -> Segment:
+        """Advance by at most ``max_steps`` accepted steps; write and monitor the saved rows."""
+        seg = self.driver.advance(self.carry, max_steps)
+        self._write(seg)
+        return seg
+
+    def _write(self, seg: Segment) -> None:
+        if seg.rows == 0:
+            return
+        groups = self.rows_of(seg.t, seg.states)
+        self.output.append(seg.t, {g: a for g, a in groups.items() if a})
+        if self.invariant_names:
+            self.monitor.update(groups["invariants"])
+
+    def checkpoint(self) -> None:
+        """Write the checkpoint atomically (the carry, the monitor, the rows written)."""
+        c = self.carry
+        arrays: dict[str, np.ndarray] = {f"first:{n}": v for n, v in self.monitor.initial.items()}
+        arrays.update({f"drift:{n}": np.asarray(v) for n, v in self.monitor.worst.items()})
+        replay = not self.driver.checkpointable
+        if not replay:
+            arrays.update({f"state:{k}": np.asarray(v) for k, v in c.state.items()})
+            arrays.update({f"method:{k}": np.asarray(v) for k, v in (c.method_state or {}).items()})
+        self.checkpoint_file.write(
+            arrays,
+            {
+                "lieint_version": self.version,
+                "scene_fingerprint": self.fingerprint,
+                "backend": self.driver.backend,
+                "replay": replay,
+                "k": c.k,
+                "t": c.t,
+                "h": float("nan") if c.h is None else c.h,
+                "nfev": c.nfev,
+                "nrejected": c.nrejected,
+                "rows": self.output.rows,
+            },
+        )
+        self._record_counts()
+
+    def _record_counts(self) -> None:
+        c = self.carry
+        self.output.set_attrs(steps_done=c.k, nfev=c.nfev, nrejected=c.nrejected)
+
+    def finish(self, status: str) -> None:
+        """Record how the run ended; a complete run drops its checkpoint."""
+        if status == "complete":
+            self._record_counts()
+            self.output.set_attrs(status="complete")
+            self.checkpoint_file.remove()
+        elif status == "failed":  # deterministic: resuming would fail again at the same step
+            self._record_counts()
+            self.output.set_attrs(status="failed")
+            self.checkpoint_file.remove()
+        else:
+            self.checkpoint()
+            self.output.set_attrs(status=status)
+
+    def close(self) -> None:
+        if self.output is not None:
+            self.output.close()
 
 
-def _progress(total: int, done: int, enabled, stream):
+# -- progress ------------------------------------------------------------------------------------
+
+
+def _progress(total: float, done: float, unit: str, enabled, stream):
     if not enabled:
         return None
     if enabled == "auto":
         enabled = hasattr(stream, "isatty") and stream.isatty()
         if not enabled:
-            return _PlainProgress(total, done, stream)
+            return _PlainProgress(total, done, unit, stream)
     from tqdm import tqdm
 
-    return tqdm(total=total, initial=done, unit="step", unit_scale=True, file=stream, smoothing=0.1, dynamic_ncols=True)
+    return tqdm(total=total, initial=done, unit=unit, unit_scale=True, file=stream, smoothing=0.1, dynamic_ncols=True)
 
 
 class _PlainProgress:
     """Periodic plain lines when not on a terminal (logs, CI)."""
 
-    def __init__(self, total: int, done: int, stream, every: float = 10.0):
-        self.total, self.n, self.stream, self.every = total, done, stream, every
+    def __init__(self, total: float, done: float, unit: str, stream, every: float = 10.0):
+        self.total, self.n, self.unit, self.stream, self.every = total, done, unit, stream, every
         self.start, self.start_n, self.last = time.monotonic(), done, 0.0
 
-    def update(self, k: int) -> None:
+    def update(self, k: float) -> None:
         self.n += k
         now = time.monotonic()
         if now - self.last >= self.every or self.n >= self.total:
@@ -116,13 +311,17 @@ class _PlainProgress:
             rate = (self.n - self.start_n) / max(now - self.start, 1e-9)
             eta = (self.total - self.n) / rate if rate > 0 else float("inf")
             print(
-                f"step {self.n}/{self.total} ({100 * self.n / self.total:.1f}%), {rate:.3g} steps/s, ETA {eta:.0f} s",
+                f"{self.unit} {self.n:.6g}/{self.total:.6g} ({100 * self.n / self.total:.1f}%), "
+                f"{rate:.3g} {'steps' if self.unit == 'step' else 'time units'}/s, ETA {eta:.0f} s",
                 file=self.stream,
                 flush=True,
             )
 
     def close(self) -> None:
         pass
+
+
+# -- the run ---------------------------------------------------------------------------------------
 
 
 def run(
@@ -136,6 +335,7 @@ def run(
     progress="auto",
     monitor_every: int | None = None,
     max_drift: dict[str, float] | None = None,
+    stop_after: int | None = None,
     stream=None,
 ) -> RunReport:
     """Integrate a scene, streaming the saved series into an HDF5 file.
@@ -158,11 +358,13 @@ def run(
     monitor_every : int, optional
         Print each saved invariant's drift so far every this many steps.
     max_drift : dict, optional
-        ``{name: value}``: stop with a clear message once an invariant's drift exceeds value.
+        ``{name: value}``: stop with a clear message once an invariant's drift (of any ensemble
+        member, :mod:`lieint.drift`) exceeds value.
+    stop_after : int, optional
+        Stop (resumable, like an interruption) after this many steps of this call.
     stream : file, optional
         Where progress and monitor lines go (default ``sys.stderr``).
     """
-    from .. import __version__
     from ..scenes import load_scene
 
     stream = sys.stderr if stream is None else stream
@@ -179,173 +381,115 @@ def run(
         raise StoreError(f"nothing to resume: the output {str(out)!r} does not exist")
     if not out.parent.exists():
         raise StoreError(f"the directory of the output {str(out)!r} does not exist")
+    for label, value in (
+        ("checkpoint_every", checkpoint_every),
+        ("monitor_every", monitor_every),
+        ("stop_after", stop_after),
+    ):
+        if value is not None and (isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1):
+            raise ValueError(f"`{label}` must be a positive integer; got {value!r}.")
+    if checkpoint_seconds is not None and not (checkpoint_seconds > 0):
+        raise ValueError(f"`checkpoint_seconds` must be a positive number; got {checkpoint_seconds!r}.")
 
-    system, y0 = build_system(scene)
-    stepper = get_method(
-        scene.method, coordinates=scene.coordinates if get_method(scene.method).kind == "lie" else None
-    )
-    plan = Plan.make(scene.t_start, scene.t_end, scene.step)
-    save_steps = plan.save_steps(scene.save_every)
-    invariant_names = [q for q in scene.outputs if q in system.invariant_functions]
-    derived = [q for q in scene.outputs if q in ("contact_path", "angular_velocity")]  # not state fields
-    max_drift = dict(max_drift or {})
-    unknown = [name for name in max_drift if name not in invariant_names]
-    if unknown:
-        raise ValueError(
-            f"`max_drift`: {unknown[0]!r} is not an invariant this run saves; saved invariants are "
-            f"{invariant_names} (add it to [output] quantities)"
-        )
-    fingerprint = scene_fingerprint(scene)
-    checkpoint = Checkpoint(out)
-    if scene.project:
-        y0 = system.project(y0)
-
-    def rows_of(states):
-        inv = system.invariants(None, states, invariant_names) if invariant_names else {}
-        extra = collect_outputs(system, _Fake(states), derived) if derived else {}
-        return {"states": states, "invariants": inv, "outputs": extra}
-
-    if resume:
-        arrays, attrs = checkpoint.read()
-        reasons = []
-        if attrs.get("scene_fingerprint") != fingerprint:
-            reasons.append("it was written for a different scene (its fingerprint differs)")
-        if attrs.get("lieint_version") != __version__:
-            reasons.append(f"it was written by lieint {attrs.get('lieint_version')}, this is {__version__}")
-        if reasons:
-            raise StoreError(f"refusing to resume from {str(checkpoint.path)!r}: " + "; ".join(reasons))
-        engine = make_engine(system, stepper, plan, y0, str(attrs["backend"]))
-        internal = {k: v for k, v in arrays.items() if not k.startswith("drift:") and not k.startswith("first:")}
-        k, rows, nfev = int(attrs["step"]), int(attrs["rows"]), int(attrs["nfev"])
-        output = OutputFile.reopen(out, rows)
-        first = {k[6:]: v for k, v in arrays.items() if k.startswith("first:")}
-        monitor = _Monitor(system, first, invariant_names)
-        monitor.worst.update({k[6:]: float(v) for k, v in arrays.items() if k.startswith("drift:")})
-    else:
-        if out.exists():
-            out.unlink()
-        checkpoint.remove()
-        engine = make_engine(system, stepper, plan, y0, "auto")
-        internal = engine.start(y0)
-        first_rows = rows_of({k: v[None] for k, v in y0.items()})
-        output = OutputFile.create(
-            out,
-            {
-                "lieint_version": __version__,
-                "scene": _scene_text(scene),
-                "scene_fingerprint": fingerprint,
-                "scene_name": scene.name,
-                "method": stepper.name,
-                "h": plan.h,
-                "nsteps": plan.nsteps,
-                "steps_done": 0,
-                "backend": engine.name,
-                "status": "running",
-                "save_every": scene.save_every,
-                # which saved invariants measure a defect (plots show their size, not a drift)
-                "defects": ",".join(sorted(set(getattr(system, "defects", ())) & set(invariant_names))),
-            },
-            {g: {n: v[0] for n, v in a.items()} for g, a in first_rows.items() if a},
-            plan.t0,
-        )
-        k, rows, nfev = 0, 1, 0
-        monitor = _Monitor(system, {n: v[0] for n, v in first_rows["invariants"].items()}, invariant_names)
-
-    def write_checkpoint():
-        arrays = dict(internal)
-        arrays.update({f"first:{n}": v for n, v in monitor.first.items()})
-        arrays.update({f"drift:{n}": np.array(v) for n, v in monitor.worst.items()})
-        checkpoint.write(
-            arrays,
-            {
-                "lieint_version": __version__,
-                "scene_fingerprint": fingerprint,
-                "backend": engine.name,
-                "step": k,
-                "rows": output.rows,
-                "nfev": nfev,
-            },
-        )
-        output.set_attrs(steps_done=k)
+    streamed = StreamedRun(scene, out)
+    limits = _check_limits(max_drift, streamed.invariant_names)
+    resumed_at = streamed.resume() if resume else (streamed.start() or "")
+    if resumed_at:
+        print(resumed_at, file=stream, flush=True)
+    driver = streamed.driver
 
     stop = threading.Event()
     previous = None
     if threading.current_thread() is threading.main_thread():
         previous = signal.signal(signal.SIGINT, lambda *_: stop.set())
-    bar = _progress(plan.nsteps, k, progress, stream)
+    total = driver.total_steps()
+    if total is not None:
+        bar = _progress(total, streamed.carry.k, "step", progress, stream)
+    else:
+        bar = _progress(driver.t1 - driver.t0, streamed.carry.t - driver.t0, "t", progress, stream)
     status, message = "complete", ""
-    chunk = max(1, min(plan.nsteps, 1000))
-    last_ckpt_time, last_ckpt_step, last_monitor = time.monotonic(), k, k
+    chunk = 1000 if total is None else max(1, min(total, 1000))
+    k_start = streamed.carry.k
+    last_ckpt_time, last_ckpt_step, last_monitor = time.monotonic(), streamed.carry.k, streamed.carry.k
     try:
-        write_checkpoint()
-        while k < plan.nsteps:
-            k_to = min(plan.nsteps, k + chunk)
-            seg_saves = save_steps[(save_steps > k) & (save_steps <= k_to)]
+        streamed.checkpoint()
+        while not streamed.done:
+            # segments end where a monitor line, a checkpoint or the stop is due, so they come on time
+            budget = chunk
+            if stop_after is not None:
+                budget = min(budget, k_start + stop_after - streamed.carry.k)
+            if monitor_every:
+                budget = min(budget, last_monitor + monitor_every - streamed.carry.k)
+            if checkpoint_every is not None:
+                budget = min(budget, last_ckpt_step + checkpoint_every - streamed.carry.k)
+            budget = max(budget, 1)
+            k0, t0 = streamed.carry.k, streamed.carry.t
             tic = time.monotonic()
-            seg = engine.advance(internal, k, k_to, plan, seg_saves, scene.project)
+            seg = streamed.segment(budget)
             wall = time.monotonic() - tic
-            m = seg.states[next(iter(seg.states))].shape[0]
-            groups = rows_of(seg.states) if m else {}
-            output.append(np.array([plan.time(int(s)) for s in seg_saves[:m]]), {g: a for g, a in groups.items() if a})
-            if m and invariant_names:
-                monitor.update(groups["invariants"])
-            nfev += seg.nfev
             if bar is not None:
-                bar.update(seg.done - k)
-            k = seg.done
-            chunk = max(1, min(plan.nsteps, int(chunk * min(4.0, max(0.25, _SEGMENT_SECONDS / max(wall, 1e-6))))))
+                bar.update(streamed.carry.k - k0 if total is not None else streamed.carry.t - t0)
+            chunk = max(1, int(chunk * min(4.0, max(0.25, _SEGMENT_SECONDS / max(wall, 1e-6)))))
+            k = streamed.carry.k
             if seg.failure:
                 status, message = "failed", seg.failure
                 break
-            exceeded = [(n, monitor.worst[n], v) for n, v in max_drift.items() if monitor.worst[n] > v]
+            worst = streamed.monitor.largest()
+            exceeded = [(n, worst[n], v) for n, v in limits.items() if not worst[n] <= v]
             if exceeded:
                 n, got, limit = exceeded[0]
                 status = "stopped"
                 message = (
                     f"{n} drift {got:.3g} exceeded --max-drift {n}={limit:g} by step {k} "
-                    f"(t = {plan.time(k):.6g}); the run stopped, the rows up to here are saved"
+                    f"(t = {streamed.carry.t:.6g}); the run stopped, the rows up to here are saved"
                 )
                 break
             if monitor_every and k - last_monitor >= monitor_every:
                 last_monitor = k
                 print(
-                    f"[monitor] step {k}: " + ", ".join(f"{n} {v:.3e}" for n, v in monitor.worst.items()),
+                    f"[monitor] step {k}: " + ", ".join(f"{n} {v:.3e}" for n, v in worst.items()),
                     file=stream,
                     flush=True,
                 )
-            if stop.is_set():
+            if stop.is_set() or (stop_after is not None and k - k_start >= stop_after and not streamed.done):
                 status = "interrupted"
-                message = f"interrupted at step {k} of {plan.nsteps}; continue with --resume"
+                message = f"interrupted at step {k} (t = {streamed.carry.t:.6g}); continue with --resume"
                 break
             now = time.monotonic()
             due_steps = checkpoint_every is not None and k - last_ckpt_step >= checkpoint_every
             due_time = checkpoint_seconds is not None and now - last_ckpt_time >= checkpoint_seconds
             if due_steps or due_time:
-                write_checkpoint()
+                streamed.checkpoint()
                 last_ckpt_time, last_ckpt_step = now, k
         if status == "complete":
-            message = f"complete: {plan.nsteps} steps, {output.rows} saved rows"
-            output.set_attrs(steps_done=k, status="complete")
-            checkpoint.remove()
-        else:
-            write_checkpoint()
-            output.set_attrs(status=status)
+            message = f"complete: {streamed.carry.k} steps, {streamed.output.rows} saved rows"
+        streamed.finish(status)
     finally:
         if bar is not None:
             bar.close()
         if previous is not None:
             signal.signal(signal.SIGINT, previous)
-        rows = output.rows
-        output.close()
-    return RunReport(out, status, k, plan.nsteps, rows, message, dict(monitor.worst))
+        rows = streamed.output.rows if streamed.output is not None else 0
+        streamed.close()
+    return RunReport(out, status, streamed.carry.k, total, rows, message, streamed.monitor.largest())
 
 
-class _Fake:
-    """The minimal Solution-like view `collect_outputs` needs for derived outputs."""
-
-    def __init__(self, states):
-        self.states = states
-        self.invariants = {}
+def _check_limits(max_drift, names) -> dict[str, float]:
+    limits = {}
+    for name, value in dict(max_drift or {}).items():
+        if name not in names:
+            raise ValueError(
+                f"`max_drift`: {name!r} is not an invariant this run saves; saved invariants are "
+                f"{names} (add it to [output] quantities)"
+            )
+        try:
+            v = float(value)
+        except (TypeError, ValueError):
+            raise ValueError(f"`max_drift`: the limit of {name!r} must be a number; got {value!r}") from None
+        if not (v >= 0 and math.isfinite(v)):
+            raise ValueError(f"`max_drift`: the limit of {name!r} must be a finite number >= 0; got {value!r}")
+        limits[name] = v
+    return limits
 
 
 def _resolve_scene(scene, load_scene):

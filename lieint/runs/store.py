@@ -42,7 +42,16 @@ class OutputFile:
 
     # -- creation and reopening ------------------------------------------------------------
     @classmethod
-    def create(cls, path, attrs: dict, first_rows: dict[str, dict[str, np.ndarray]], t0: float) -> OutputFile:
+    def create(
+        cls,
+        path,
+        attrs: dict,
+        first_rows: dict[str, dict[str, np.ndarray]],
+        t0: float,
+        dataset_attrs: dict[tuple[str, str], dict] | None = None,
+    ) -> OutputFile:
+        """A new output with its first row; ``dataset_attrs[(group, name)]`` are attributes of a
+        dataset (what it holds, e.g. ``kind = "defect"`` and ``trailing_ndim``, for readers)."""
         h5py = _h5py()
         try:
             f = h5py.File(path, "w", libver="latest")
@@ -62,6 +71,8 @@ class OutputFile:
                         name, data=row[None], maxshape=(None,) + row.shape, chunks=(chunk_rows,) + row.shape, dtype="f8"
                     )
                     cls._label(f, ds, group, name)
+                    for key, value in (dataset_attrs or {}).get((group, name), {}).items():
+                        ds.attrs[key] = value
             f.swmr_mode = True
             f.flush()
         except Exception:

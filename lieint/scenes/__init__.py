@@ -2,12 +2,11 @@
 
 from importlib import resources
 
-from .engine import STATE_OUTPUTS, SceneRun, build_system, collect_outputs, run_scene
+from .engine import SceneRun, build_system, collect_outputs, run_scene, scene_solver_options
 from .expressions import ExpressionError, evaluate
 from .schema import SUPPORTS, Scene, SceneError, load_scene, parse_scene
 
 __all__ = [
-    "STATE_OUTPUTS",
     "SUPPORTS",
     "ExpressionError",
     "Scene",
@@ -21,6 +20,7 @@ __all__ = [
     "load_scene",
     "parse_scene",
     "run_scene",
+    "scene_solver_options",
 ]
 
 

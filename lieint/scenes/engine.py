@@ -10,7 +10,13 @@ Only the effects the scene declares are simulated:
 * support ``free``: a :class:`FreeBody`;
 * R is integrated only if an output needs it (``orientation``, ``momentum``,
   ``orthogonality``, or the centre of a ball), the centre only if an output needs it
-  (``center``, ``contact_path``, ``velocity``, or the energy of a ball on an incline).
+  (``center``, ``contact_path``, ``velocity``, or the energy of a ball on an incline);
+* a body given as ``system = "name"`` is built by that system's factory
+  (:mod:`lieint.systems.catalog`), from the scene's parameters.
+
+The requested outputs are read through what the system declares (its ``outputs`` and
+``invariants``), so any system -- a built-in one or one another package installs -- runs,
+streams and plots the same way.
 """
 
 from __future__ import annotations
@@ -19,23 +25,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..integrate import integrate
+from ..ivp import integrate
 from ..solution import Solution
 from ..systems import ChaplyginBall, EulerTop, FreeBody, HeavyTop, RollingBall
+from ..systems.catalog import make_system
 from .schema import Scene, SceneError
 
-__all__ = ["STATE_OUTPUTS", "SceneRun", "build_system", "run_scene"]
+__all__ = ["SceneRun", "build_system", "collect_outputs", "run_scene", "scene_solver_options"]
 
-#: outputs read off the state, and the state field each needs
-STATE_OUTPUTS = {
-    "orientation": "R",
-    "angular_momentum": "A",
-    "angular_velocity": None,
-    "gamma": "Gamma",
-    "center": "center",
-    "contact_path": "center",
-    "velocity": "velocity",
-}
 _NEEDS_R = {"orientation", "momentum", "orthogonality"}
 _NEEDS_CENTER = {"center", "contact_path"}
 
@@ -52,6 +49,8 @@ class SceneRun:
 
 def build_system(scene: Scene):
     """The system and initial state the scene calls for (nothing more is simulated)."""
+    if scene.system is not None:
+        return _named_system(scene)
     wants = set(scene.outputs)
     need_R = bool(wants & _NEEDS_R)
     g = scene.gravity
@@ -124,22 +123,40 @@ def _top_state(system, ini):
     )
 
 
-def _available(system) -> set[str]:
-    names = set(system.invariant_functions)
-    for name, field in STATE_OUTPUTS.items():
-        if field is None or field in system.fields or (name == "orientation" and "R" in system.fields):
-            names.add(name)
-    if "center" not in system.fields and not isinstance(system, FreeBody):
-        names -= {"center", "contact_path"}
-    if not isinstance(system, (RollingBall, ChaplyginBall)):
-        names.discard("contact_path")
-    return names
+def _named_system(scene: Scene):
+    try:
+        system = make_system(scene.system, scene.parameters)
+        if not hasattr(system, "initial_state"):
+            raise ValueError(f"the system {scene.system!r} has no `initial_state` to build its state from [initial]")
+        _check_initial_keys(scene, system)
+        y0 = system.initial_state(**scene.initial)
+        y0 = system.validate_state(y0, "initial state")
+    except (TypeError, ValueError) as exc:
+        raise SceneError(f"{scene.source or '<scene>'}: {exc}") from None
+    _check_outputs(scene, system)
+    return system, y0
+
+
+def _check_initial_keys(scene: Scene, system) -> None:
+    """[initial] keys must be parameters of the system's ``initial_state``."""
+    import inspect
+
+    try:
+        params = inspect.signature(system.initial_state).parameters
+    except (TypeError, ValueError):  # a builtin or C callable: let the call report
+        return
+    if any(p.kind is p.VAR_KEYWORD for p in params.values()):
+        return
+    takes = [n for n, p in params.items() if p.kind in (p.KEYWORD_ONLY, p.POSITIONAL_OR_KEYWORD)]
+    unknown = sorted(set(scene.initial) - set(takes))
+    if unknown:
+        raise ValueError(
+            f"[initial] {unknown[0]}: not a parameter of {type(system).__name__}.initial_state, which takes {takes}"
+        )
 
 
 def _check_outputs(scene: Scene, system) -> None:
-    valid = _available(system) | _NEEDS_R | _NEEDS_CENTER
-    if isinstance(system, (EulerTop, HeavyTop)):
-        valid -= {"center", "contact_path"}
+    valid = set(system.outputs) | set(system.invariants)
     unknown = [q for q in scene.outputs if q not in valid]
     if unknown:
         raise SceneError(
@@ -148,49 +165,26 @@ def _check_outputs(scene: Scene, system) -> None:
         )
 
 
+def scene_solver_options(scene: Scene) -> dict:
+    """The keyword arguments of :func:`lieint.integrate` a scene's [integrator] sets."""
+    return {
+        "h": scene.step,
+        "method": scene.method,
+        "coordinates": scene.coordinates,
+        "project": scene.project,
+        "save_every": scene.save_every,
+        "rtol": scene.rtol,
+        "atol": scene.atol,
+    }
+
+
 def run_scene(scene: Scene) -> SceneRun:
     """Build and integrate the scene; return the solution and its requested outputs."""
     system, y0 = build_system(scene)
-    sol = integrate(
-        system,
-        y0,
-        (scene.t_start, scene.t_end),
-        h=scene.step,
-        method=scene.method,
-        coordinates=scene.coordinates if _is_lie(scene.method) else None,
-        project=scene.project,
-        save_every=scene.save_every,
-    )
+    sol = integrate(system, y0, (scene.t_start, scene.t_end), **scene_solver_options(scene))
     return SceneRun(scene, system, sol, collect_outputs(system, sol, scene.outputs))
 
 
-def _is_lie(method: str) -> bool:
-    from ..methods.registry import get_method
-
-    return get_method(method).kind == "lie"
-
-
 def collect_outputs(system, sol: Solution, names) -> dict[str, np.ndarray]:
-    """Requested outputs as arrays over the saved times."""
-    out = {}
-    for name in names:
-        if name in sol.invariants:
-            out[name] = sol.invariants[name]
-        elif name == "orientation":
-            out[name] = sol.states["R"]
-        elif name == "contact_path":
-            out[name] = system.contact_point(sol.states["center"])
-        elif name == "angular_velocity":
-            out[name] = _angular_velocity(system, sol.states)
-        else:
-            out[name] = sol.states[STATE_OUTPUTS[name]]
-    return out
-
-
-def _angular_velocity(system, states):
-    if "Omega" in states:
-        return states["Omega"]
-    if isinstance(system, ChaplyginBall):
-        return system.angular_velocity(states["A"], states["Gamma"])
-    top = system.top if isinstance(system, (HeavyTop, FreeBody)) else system
-    return top.angular_velocity(states["A"])
+    """Requested outputs (declared outputs or invariants of the system) over the saved times."""
+    return sol.outputs(names)

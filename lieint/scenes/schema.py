@@ -6,13 +6,19 @@ A scene declares the body, the support (``fixed_point`` | ``rolling`` | ``free``
     [scene]       name, description
     [body]        mass_tensor | principal_moments | uniform = true (+ dimension),
                   mass, center_of_mass, radius
+                  | system = "name", parameters = {…}  (a system by name, see below)
     [support]     type, normal
     [forces]      gravity = [gx, gy, gz] | {magnitude = 9.81, incline = "pi/6"}
     [initial]     angular_velocity (n = 3) | omega (bivector) | momentum (bivector),
                   orientation, center, velocity
-    [integrator]  method, step, t_end, t_start, coordinates, project, save_every
+    [integrator]  method, step, t_end, t_start, coordinates, project, save_every, rtol, atol
     [output]      quantities = ["energy", "orientation", "contact_path", ...]
     [ensemble]    count, seed, spread  (Gaussian spread of the initial angular velocity) | file
+
+A body given as ``system = "name"`` is built by that system's factory from the numeric
+``parameters`` (a built-in system such as ``"heavy_top"``, or one another package installs under
+the entry-point group ``lieint.systems``, see :mod:`lieint.systems.catalog`); then ``[support]``
+and ``[forces]`` are not used and the ``[initial]`` keys go to ``system.initial_state``.
 
 Every number may be written as a string in a small safe grammar (``"pi/4"``), see
 :mod:`lieint.scenes.expressions`; nothing in a scene is evaluated as code.
@@ -41,15 +47,25 @@ SUPPORTS = ("fixed_point", "rolling", "free")
 
 _TABLES: dict[str, set[str]] = {
     "scene": {"name", "description"},
-    "body": {"mass_tensor", "principal_moments", "uniform", "dimension", "mass", "center_of_mass", "radius"},
+    "body": {
+        "mass_tensor",
+        "principal_moments",
+        "uniform",
+        "dimension",
+        "mass",
+        "center_of_mass",
+        "radius",
+        "system",
+        "parameters",
+    },
     "support": {"type", "normal"},
     "forces": {"gravity"},
     "initial": {"angular_velocity", "omega", "momentum", "orientation", "center", "velocity"},
-    "integrator": {"method", "step", "t_end", "t_start", "coordinates", "project", "save_every"},
+    "integrator": {"method", "step", "t_end", "t_start", "coordinates", "project", "save_every", "rtol", "atol"},
     "output": {"quantities"},
     "ensemble": {"count", "seed", "spread", "file"},
 }
-_REQUIRED_TABLES = ("scene", "body", "support", "initial", "integrator", "output")
+_REQUIRED_TABLES = ("scene", "body", "initial", "integrator", "output")
 
 
 class SceneError(ValueError):
@@ -65,9 +81,9 @@ class Scene:
     """
 
     name: str
-    dimension: int
-    support: str
-    mass_tensor: np.ndarray
+    dimension: int | None
+    support: str | None
+    mass_tensor: np.ndarray | None
     mass: float | None = None
     center_of_mass: np.ndarray | None = None
     radius: float | None = None
@@ -78,7 +94,7 @@ class Scene:
     step: float = 0.01
     t_end: float = 10.0
     t_start: float = 0.0
-    coordinates: str = "exp"
+    coordinates: str | None = None
     project: bool = False
     save_every: int = 1
     outputs: tuple[str, ...] = ("energy",)
@@ -86,6 +102,10 @@ class Scene:
     description: str = ""
     source: str | None = None
     text: str | None = field(default=None, repr=False)
+    system: str | None = None
+    parameters: dict[str, Any] = field(default_factory=dict)
+    rtol: float = 1e-8
+    atol: float = 1e-10
 
 
 def load_scene(path) -> Scene:
@@ -143,14 +163,18 @@ class _Reader:
         return SceneError(f"{self.source}: {where}{at}: {message}")
 
     # -- typed readers -----------------------------------------------------------------
-    def table(self, name: str) -> dict:
+    def table(self, name: str, check_keys: bool = True) -> dict:
         value = self.data.get(name, {})
         if not isinstance(value, dict):
             raise self.fail(name, None, f"must be a table; got {type(value).__name__}")
+        if check_keys:
+            self.check_keys(name, value)
+        return value
+
+    def check_keys(self, name: str, value: dict) -> None:
         unknown = sorted(set(value) - _TABLES[name])
         if unknown:
             raise self.fail(name, unknown[0], f"unknown key {unknown[0]!r}; allowed keys are {sorted(_TABLES[name])}")
-        return value
 
     def number(self, table: str, key: str, value: Any) -> float:
         if isinstance(value, bool):
@@ -207,14 +231,22 @@ class _Reader:
             if name not in self.data:
                 raise SceneError(f"{self.source}: missing required table [{name}]")
         meta, body, support = self.table("scene"), self.table("body"), self.table("support")
-        forces, initial, integ, output = (self.table(t) for t in ("forces", "initial", "integrator", "output"))
+        forces, integ, output = (self.table(t) for t in ("forces", "integrator", "output"))
+        # a named system's [initial] keys are its initial_state's parameters (checked when built)
+        initial = self.table("initial", check_keys="system" not in body)
 
         name = self.string("scene", "name", self.required(meta, "scene", "name"))
         description = self.string("scene", "description", meta.get("description", ""))
+        if "system" in body:
+            return self.named_system_scene(name, description, body, initial, integ, output)
+        if "support" not in self.data:
+            raise SceneError(f"{self.source}: missing required table [support] (or name a [body] system)")
         kind = self.string("support", "type", self.required(support, "support", "type"), SUPPORTS)
 
         mass = self.positive("body", "mass", body["mass"]) if "mass" in body else None
         radius = self.positive("body", "radius", body["radius"]) if "radius" in body else None
+        if "parameters" in body:
+            raise self.fail("body", "parameters", 'applies to a body given as `system = "name"`')
         B = self.mass_tensor(body, mass, radius)
         n = self.n
         XG = self.array("body", "center_of_mass", body["center_of_mass"], (n,)) if "center_of_mass" in body else None
@@ -232,26 +264,8 @@ class _Reader:
         gravity = self.gravity(forces) if "gravity" in forces else None
 
         init = self.initial(initial, kind)
-        method = self.string("integrator", "method", self.required(integ, "integrator", "method"))
-        from ..methods.registry import methods
-
-        if method not in methods():
-            raise self.fail("integrator", "method", f"unknown method {method!r}; valid names are {methods()}")
-        step = self.positive("integrator", "step", self.required(integ, "integrator", "step"))
-        t_end = self.number("integrator", "t_end", self.required(integ, "integrator", "t_end"))
-        t_start = self.number("integrator", "t_start", integ.get("t_start", 0.0))
-        if not t_end > t_start:
-            raise self.fail("integrator", "t_end", f"must be greater than t_start = {t_start:g}; got {t_end:g}")
-        coordinates = self.string("integrator", "coordinates", integ.get("coordinates", "exp"), ("exp", "cayley"))
-        project = integ.get("project", False)
-        if not isinstance(project, bool):
-            raise self.fail("integrator", "project", f"expected true or false; got {project!r}")
-        save_every = integ.get("save_every", 1)
-        if isinstance(save_every, bool) or not isinstance(save_every, int) or save_every < 1:
-            raise self.fail("integrator", "save_every", f"expected a positive integer; got {save_every!r}")
-        quantities = self.required(output, "output", "quantities")
-        if not isinstance(quantities, list) or not quantities or not all(isinstance(q, str) for q in quantities):
-            raise self.fail("output", "quantities", f"expected a nonempty list of names; got {quantities!r}")
+        integrator = self.integrator(integ)
+        quantities = self.quantities(output)
         ensemble = self.ensemble(self.table("ensemble"), init) if "ensemble" in self.data else None
         return Scene(
             ensemble=ensemble,
@@ -265,18 +279,106 @@ class _Reader:
             normal=normal,
             gravity=gravity,
             initial=init,
-            method=method,
-            step=step,
-            t_end=t_end,
-            t_start=t_start,
-            coordinates=coordinates,
-            project=project,
-            save_every=save_every,
-            outputs=tuple(quantities),
+            outputs=quantities,
             description=description,
             source=self.source,
             text=self.text,
+            **integrator,
         )
+
+    def named_system_scene(self, name, description, body, initial, integ, output) -> Scene:
+        """A body given by a system's name and numeric parameters (see the module docstring)."""
+        system = self.string("body", "system", body["system"])
+        extra = sorted(set(body) - {"system", "parameters"})
+        if extra:
+            raise self.fail("body", extra[0], 'does not apply to a body given as `system = "name"`; use `parameters`')
+        for table in ("support", "forces"):
+            if self.data.get(table):
+                raise self.fail(table, None, f"does not apply to a body given as system = {system!r}")
+        params = body.get("parameters", {})
+        if not isinstance(params, dict):
+            raise self.fail("body", "parameters", f"expected a table of numbers; got {params!r}")
+        parameters = {k: self.plain_value("body", "parameters", v) for k, v in params.items()}
+        init = {k: self.plain_value("initial", k, v) for k, v in initial.items()}
+        if "ensemble" in self.data:
+            raise self.fail("ensemble", None, f"ensembles are not available for a body given as system = {system!r}")
+        return Scene(
+            name=name,
+            dimension=None,
+            support=None,
+            mass_tensor=None,
+            initial=init,
+            outputs=self.quantities(output),
+            description=description,
+            source=self.source,
+            text=self.text,
+            system=system,
+            parameters=parameters,
+            **self.integrator(integ),
+        )
+
+    def plain_value(self, table: str, key: str, value: Any):
+        """A number, an (n-dimensional) array of numbers, a boolean or a string, as data."""
+        if isinstance(value, (bool, str)) and not (isinstance(value, str) and _looks_numeric(value)):
+            return value
+        if isinstance(value, list):
+
+            def convert(v):
+                return [convert(x) for x in v] if isinstance(v, list) else self.number(table, key, v)
+
+            try:
+                return np.array(convert(value), dtype=float)
+            except ValueError:
+                raise self.fail(table, key, "expected a rectangular array of numbers; got a ragged array") from None
+        return self.number(table, key, value)
+
+    def integrator(self, integ: dict) -> dict:
+        from ..methods.registry import method_specs
+
+        specs = method_specs()
+        method = self.string("integrator", "method", self.required(integ, "integrator", "method"))
+        if method not in specs:
+            raise self.fail("integrator", "method", f"unknown method {method!r}; valid names are {list(specs)}")
+        spec = specs[method]
+        step = self.positive("integrator", "step", self.required(integ, "integrator", "step"))
+        t_end = self.number("integrator", "t_end", self.required(integ, "integrator", "t_end"))
+        t_start = self.number("integrator", "t_start", integ.get("t_start", 0.0))
+        if not t_end > t_start:
+            raise self.fail("integrator", "t_end", f"must be greater than t_start = {t_start:g}; got {t_end:g}")
+        coordinates = None
+        if "coordinates" in integ:
+            if not spec.coordinates:
+                raise self.fail(
+                    "integrator", "coordinates", f"does not apply to {method!r}, which has no coordinate map"
+                )
+            coordinates = self.string("integrator", "coordinates", integ["coordinates"], spec.coordinates)
+        project = integ.get("project", False)
+        if not isinstance(project, bool):
+            raise self.fail("integrator", "project", f"expected true or false; got {project!r}")
+        save_every = integ.get("save_every", 1)
+        if isinstance(save_every, bool) or not isinstance(save_every, int) or save_every < 1:
+            raise self.fail("integrator", "save_every", f"expected a positive integer; got {save_every!r}")
+        tolerances = {}
+        for key, default in (("rtol", 1e-8), ("atol", 1e-10)):
+            if key in integ and not spec.adaptive:
+                raise self.fail("integrator", key, f"applies to adaptive methods only; {method!r} has a fixed step")
+            tolerances[key] = self.positive("integrator", key, integ[key]) if key in integ else default
+        return {
+            "method": method,
+            "step": step,
+            "t_end": t_end,
+            "t_start": t_start,
+            "coordinates": coordinates,
+            "project": project,
+            "save_every": save_every,
+            **tolerances,
+        }
+
+    def quantities(self, output: dict) -> tuple[str, ...]:
+        quantities = self.required(output, "output", "quantities")
+        if not isinstance(quantities, list) or not quantities or not all(isinstance(q, str) for q in quantities):
+            raise self.fail("output", "quantities", f"expected a nonempty list of names; got {quantities!r}")
+        return tuple(quantities)
 
     def ensemble(self, ens: dict, init: dict) -> dict:
         """Many initial conditions: ``count`` members with a seeded Gaussian ``spread`` added to the
@@ -408,3 +510,12 @@ class _Reader:
         if "momentum" in initial and kind == "rolling":
             raise self.fail("initial", "momentum", "a rolling ball starts from 'omega' or 'angular_velocity'")
         return out
+
+
+def _looks_numeric(text: str) -> bool:
+    """Strings of the expression grammar ("pi/4") are numbers; other strings stay strings."""
+    try:
+        evaluate(text)
+    except ExpressionError:
+        return False
+    return True

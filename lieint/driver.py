@@ -1,0 +1,552 @@
+"""The one driver: steps a system with a method, saves, projects, counts, and builds the result.
+
+:func:`lieint.integrate`, streamed runs (:mod:`lieint.runs`), the work–precision study and the
+command line all run through :class:`Driver`:
+
+* ``start(y0) -> Carry`` — the exact state of a run between steps (what a checkpoint holds);
+* ``advance(carry, max_steps) -> Segment`` — continue for at most ``max_steps`` accepted steps
+  (or to the end), returning the rows saved on the way;
+* ``solution(y0, segments, carry, ...)`` — the one place that builds a :class:`~lieint.Solution`.
+
+How the steps are chosen depends on the method (see :mod:`lieint.methods.base`):
+
+* fixed-step methods walk the global grid of a :class:`~lieint.control.Plan` (a compiled kernel
+  takes over whole segments where one covers system and method, see :mod:`lieint.fast`);
+* methods with an error estimate (``adaptive``) are wrapped by a
+  :class:`~lieint.control.StepSizeController`;
+* scipy's solvers choose their own steps; the driver calls their ``step()`` and saves through
+  their dense output (``self_controlled``).
+
+Because the carry is exact across segment boundaries, a run split anywhere gives the same bits
+as one that is not.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from .control import Plan, StepSizeController
+from .groups.base import DexpinvRangeError
+
+__all__ = ["Carry", "Driver", "Segment", "Stats"]
+
+# How often (in steps) a long stretch between saves is checked for non-finite values.
+_FINITE_CHECK_EVERY = 256
+
+
+@dataclass
+class Stats:
+    """What a run cost and how it ran (every method, every front end).
+
+    Attributes
+    ----------
+    method : str
+        The method's name.
+    order : int or None
+        Its order.
+    coordinates : str or None
+        Coordinate map of Lie-group methods.
+    backend : str
+        "numba" (compiled kernel), "numpy" (generic path) or "scipy".
+    backend_reason : str
+        Why this back end ran (e.g. why no compiled kernel covers the run).
+    nsteps : int
+        Accepted steps.
+    nrejected : int
+        Rejected trial steps (adaptive methods).
+    nfev : int
+        Generator / vector-field evaluations (one evaluation moves the whole batch).
+    cpu_time, wall_time : float
+        Seconds spent stepping (process CPU time, all threads; and elapsed time).
+    h : float or None
+        Step of fixed-step methods.
+    rtol, atol : float or None
+        Tolerances of adaptive methods.
+    project : bool
+        Whether the state was projected onto its manifold.
+    save_every : int
+        Saving stride in steps.
+    threads : int
+        Threads the compiled kernel may use (1 on the generic path).
+    """
+
+    method: str
+    order: int | None
+    coordinates: str | None
+    backend: str
+    backend_reason: str = ""
+    nsteps: int = 0
+    nrejected: int = 0
+    nfev: int = 0
+    cpu_time: float = 0.0
+    wall_time: float = 0.0
+    h: float | None = None
+    rtol: float | None = None
+    atol: float | None = None
+    project: bool = False
+    save_every: int = 1
+    threads: int = 1
+
+    def __getitem__(self, key: str):
+        # a mapping view for readers of the earlier dict of statistics
+        return getattr(self, key)
+
+
+@dataclass
+class Carry:
+    """The exact state of a run between two steps.
+
+    ``state`` is the loop's own representation of the system state (the state dict on the
+    generic path, a compiled kernel's arrays otherwise); ``method_state`` is what the method
+    carries between steps.
+    """
+
+    k: int
+    t: float
+    state: dict
+    h: float | None = None
+    method_state: Any = None
+    nfev: int = 0
+    nrejected: int = 0
+
+
+@dataclass
+class Segment:
+    """What one :meth:`Driver.advance` produced: saved times ``(m,)``, saved states
+    ``(m, *batch, ...)`` per field, and a failure message when the run cannot go on."""
+
+    t: np.ndarray
+    states: dict[str, np.ndarray]
+    failure: str | None = None
+
+    @property
+    def rows(self) -> int:
+        return int(self.t.size)
+
+
+class Driver:
+    """Run ``method`` on ``system`` over ``t_span`` (arguments validated by the caller).
+
+    Parameters
+    ----------
+    system : LieGroupSystem
+    method : Method
+    t_span : (float, float)
+    h : float, optional
+        Step of fixed-step methods (required for them); first trial step of adaptive ones;
+        for scipy's solvers, the grid of save times.
+    rtol, atol : float
+        Tolerances of adaptive methods.
+    project : bool
+        Project the state onto its manifold after every step (scipy: the saved copies only).
+    save_every : int
+        Save every k-th step (and the last one).
+    t_eval : ndarray, optional
+        Save times of scipy's solvers.
+    backend : {"auto", "numpy", "numba"}
+    """
+
+    def __init__(
+        self,
+        system,
+        method,
+        t_span: tuple[float, float],
+        *,
+        h: float | None = None,
+        rtol: float = 1e-8,
+        atol: float = 1e-10,
+        project: bool = False,
+        save_every: int = 1,
+        t_eval=None,
+        backend: str = "auto",
+    ):
+        self.system, self.method = system, method
+        self.t0, self.t1 = float(t_span[0]), float(t_span[1])
+        self.h, self.rtol, self.atol = h, rtol, atol
+        self.project, self.save_every, self.backend_request = bool(project), int(save_every), backend
+        method.check_system(system)
+        if method.self_controlled:
+            self.kind = "scipy"
+            if t_eval is not None:
+                self.save_times = np.asarray(t_eval, dtype=float)
+            elif h is not None:
+                plan = Plan.make(self.t0, self.t1, h)
+                self.save_times = np.array([plan.time(int(k)) for k in plan.save_steps(self.save_every)])
+            else:
+                self.save_times = None
+        elif method.adaptive:
+            self.kind = "adaptive"
+            self.controller = StepSizeController(rtol, atol)
+        else:
+            if h is None:
+                raise ValueError(f"`h` (the step size) is required for the fixed-step method {method.name!r}.")
+            self.kind = "fixed"
+            self.plan = Plan.make(self.t0, self.t1, h)
+            self.save_steps = self.plan.save_steps(self.save_every)
+        self.loop = None
+
+    # -- the run -----------------------------------------------------------------------------
+    def start(self, y0: dict) -> Carry:
+        """The carry before the first step (``y0`` validated; projected first when asked)."""
+        y0 = self.initial(y0)
+        if self.kind == "fixed":
+            self.loop = _fixed_loop(self, y0)
+        elif self.kind == "adaptive":
+            self.loop = _AdaptiveLoop(self)
+        else:
+            self.loop = _ScipyLoop(self)
+        return self.loop.start(y0)
+
+    def initial(self, y0: dict) -> dict:
+        """The state the run starts from (projected when the run projects)."""
+        return self.system.project(y0) if self.project else y0
+
+    def done(self, carry: Carry) -> bool:
+        """True once the run has reached ``t1``."""
+        if self.kind == "fixed":
+            return carry.k >= self.plan.nsteps
+        return carry.t >= self.t1
+
+    def advance(self, carry: Carry, max_steps: int | None = None) -> Segment:
+        """Take at most ``max_steps`` accepted steps (all that remain by default)."""
+        if max_steps is not None and max_steps < 1:
+            raise ValueError(f"`max_steps` must be >= 1; got {max_steps!r}.")
+        return self.loop.advance(carry, max_steps)
+
+    def user_state(self, carry: Carry) -> dict:
+        """The state dict of the carry."""
+        return self.loop.user_state(carry)
+
+    @property
+    def backend(self) -> str:
+        return self.loop.name if self.loop is not None else "?"
+
+    @property
+    def backend_reason(self) -> str:
+        return getattr(self.loop, "reason", "")
+
+    @property
+    def checkpointable(self) -> bool:
+        """False for scipy's solvers, whose internal state cannot be saved (a resumed run
+        recomputes from the start and skips the rows written already)."""
+        return self.kind != "scipy"
+
+    def total_steps(self) -> int | None:
+        """Steps of the whole run when known in advance (fixed grids)."""
+        return self.plan.nsteps if self.kind == "fixed" else None
+
+    def progress(self, carry: Carry) -> float:
+        """Fraction of ``[t0, t1]`` covered."""
+        return min(1.0, (carry.t - self.t0) / (self.t1 - self.t0))
+
+    # -- the result ----------------------------------------------------------------------------
+    def stats(self, carry: Carry, cpu: float = 0.0, wall: float = 0.0) -> Stats:
+        m = self.method
+        return Stats(
+            method=m.name,
+            order=m.order,
+            coordinates=m.coordinates,
+            backend=self.backend,
+            backend_reason=self.backend_reason,
+            nsteps=carry.k,
+            nrejected=carry.nrejected,
+            nfev=carry.nfev,
+            cpu_time=cpu,
+            wall_time=wall,
+            h=self.h if self.kind == "fixed" else None,
+            rtol=self.rtol if self.kind != "fixed" else None,
+            atol=self.atol if self.kind != "fixed" else None,
+            project=self.project,
+            save_every=self.save_every,
+            threads=getattr(self.loop, "threads", 1),
+        )
+
+    def run(self, y0: dict):
+        """Integrate over the whole span; returns the :class:`~lieint.Solution`."""
+        cpu0, wall0 = time.process_time(), time.perf_counter()
+        carry = self.start(y0)
+        first = self.loop.first_row(carry)
+        segment = self.advance(carry)
+        cpu, wall = time.process_time() - cpu0, time.perf_counter() - wall0
+        return self.solution(first, [segment], carry, cpu, wall)
+
+    def solution(self, first: Segment, segments: list[Segment], carry: Carry, cpu: float, wall: float):
+        """The :class:`~lieint.Solution` of the rows ``first`` and ``segments`` saved."""
+        from .solution import Solution
+
+        parts = [first, *segments]
+        t = np.concatenate([p.t for p in parts])
+        states = {name: np.concatenate([p.states[name] for p in parts]) for name in first.states}
+        failure = next((s.failure for s in segments if s.failure), None)
+        stats = self.stats(carry, cpu, wall)
+        if failure:
+            message = failure
+        elif self.kind == "fixed":
+            message = f"Reached t1 = {self.t1:g} in {carry.k} steps."
+        else:
+            message = f"Reached t1 = {self.t1:g} in {carry.k} accepted steps ({carry.nrejected} rejected)."
+        return Solution(t, states, self.system, self.method.name, stats, failure is None, message)
+
+
+# -- loops ---------------------------------------------------------------------------------------
+
+
+def _fixed_loop(driver: Driver, y0: dict):
+    """The compiled kernel where one covers system, method and step, else the generic loop."""
+    if driver.backend_request == "numpy":
+        return _FixedLoop(driver, "backend='numpy' asked for the generic path")
+    from . import fast
+
+    kernel, reason = fast.kernel_for(driver.system, driver.method, y0, driver.plan)
+    if kernel is not None:
+        return _KernelLoop(driver, kernel)
+    if driver.backend_request == "numba":
+        raise ValueError(f"`backend='numba'`: no compiled kernel covers this run: {reason}. Use 'auto' or 'numpy'.")
+    return _FixedLoop(driver, reason)
+
+
+class _FixedLoop:
+    """Fixed steps on the global grid, generic numpy path (any system, any method)."""
+
+    name = "numpy"
+
+    def __init__(self, driver: Driver, reason: str):
+        self.d, self.reason = driver, reason
+
+    def start(self, y0: dict) -> Carry:
+        d = self.d
+        return Carry(0, d.t0, dict(y0), d.plan.h, d.method.init(d.system, d.t0, y0, d.plan.h))
+
+    def first_row(self, carry: Carry) -> Segment:
+        return Segment(np.array([self.d.t0]), {k: v[None] for k, v in carry.state.items()})
+
+    def user_state(self, carry: Carry) -> dict:
+        return carry.state
+
+    def advance(self, carry: Carry, max_steps: int | None) -> Segment:
+        d = self.d
+        system, method, plan = d.system, d.method, d.plan
+        k_to = plan.nsteps if max_steps is None else min(plan.nsteps, carry.k + max_steps)
+        saves = d.save_steps[(d.save_steps > carry.k) & (d.save_steps <= k_to)]
+        y = carry.state
+        saved = {name: np.empty((saves.size, *arr.shape)) for name, arr in y.items()}
+        slot, failure = 0, None
+        mstate = carry.method_state
+        with np.errstate(over="ignore", invalid="ignore"):  # overflow is reported as a failure
+            for k in range(carry.k, k_to):
+                tk, hk = plan.t0 + k * plan.h, plan.step_size(k)
+                try:
+                    result = method.step(system, tk, y, hk, mstate)
+                except np.linalg.LinAlgError as exc:  # a linear solve met a non-finite stage
+                    failure = (
+                        f"Step {k + 1} (t = {tk:.6g}) failed in a linear solve ({exc}): the stages became "
+                        f"non-finite, the step `h` = {plan.h:g} is far too large for this motion. Reduce `h`."
+                    )
+                    break
+                carry.nfev += result.nfev
+                y_new = system.project(result.y) if d.project else result.y
+                saving = slot < saves.size and saves[slot] == k + 1
+                if (saving or (k + 1) % _FINITE_CHECK_EVERY == 0) and not _all_finite(y_new):
+                    failure = _nonfinite(k + 1, plan.time(k + 1), f"Reduce the step `h` = {plan.h:g}")
+                    break
+                y, mstate = y_new, result.state
+                carry.k = k + 1
+                if saving:
+                    for name, arr in y.items():
+                        saved[name][slot] = arr
+                    slot += 1
+        carry.state, carry.method_state, carry.t = y, mstate, plan.time(carry.k)
+        return Segment(
+            np.array([plan.time(int(s)) for s in saves[:slot]]), {k: v[:slot] for k, v in saved.items()}, failure
+        )
+
+
+class _KernelLoop:
+    """A compiled kernel (:mod:`lieint.fast`) stepping whole segments of the grid."""
+
+    name = "numba"
+
+    def __init__(self, driver: Driver, kernel):
+        self.d, self.kernel = driver, kernel
+        self.reason = kernel.describe()
+        self.threads = kernel.threads
+
+    def start(self, y0: dict) -> Carry:
+        return Carry(0, self.d.t0, self.kernel.start(y0), self.d.plan.h)
+
+    def first_row(self, carry: Carry) -> Segment:
+        y = self.kernel.user_state(carry.state)
+        return Segment(np.array([self.d.t0]), {k: v[None] for k, v in y.items()})
+
+    def user_state(self, carry: Carry) -> dict:
+        return self.kernel.user_state(carry.state)
+
+    def advance(self, carry: Carry, max_steps: int | None) -> Segment:
+        d, plan = self.d, self.d.plan
+        k_to = plan.nsteps if max_steps is None else min(plan.nsteps, carry.k + max_steps)
+        saves = d.save_steps[(d.save_steps > carry.k) & (d.save_steps <= k_to)]
+        new, states = self.kernel.advance(carry.state, carry.k, k_to, plan, saves, d.project)
+        m = saves.size
+        finite = np.ones(m, dtype=bool)
+        for v in states.values():
+            finite &= np.isfinite(v.reshape(m, -1)).all(axis=1)
+        failure = None
+        if finite.all() and all(np.isfinite(v).all() for v in new.values()):
+            carry.state, done = new, k_to
+        else:
+            bad = int(np.argmin(finite)) if not finite.all() else m
+            states = {k: v[:bad] for k, v in states.items()}
+            saves = saves[:bad]
+            done = int(saves[-1]) if bad > 0 else carry.k
+            # the run stops here (a failed run is not resumed: the failure would recur)
+            failure = _nonfinite(done, plan.time(done), f"Reduce the step `h` = {plan.h:g}", after=True)
+        carry.nfev += self.kernel.stages * (done - carry.k)
+        carry.k, carry.t = done, plan.time(done)
+        return Segment(np.array([plan.time(int(s)) for s in saves]), states, failure)
+
+
+class _AdaptiveLoop:
+    """Accepted and rejected steps under the step-size controller (generic numpy path)."""
+
+    name = "numpy"
+    reason = "adaptive steps run on the generic path"
+
+    def __init__(self, driver: Driver):
+        self.d = driver
+        self.h_min = 1e-14 * max(1.0, abs(driver.t0), abs(driver.t1))
+
+    def start(self, y0: dict) -> Carry:
+        d = self.d
+        h = d.h if d.h is not None else d.controller.initial_step(d.system, d.t0, y0, d.t1)
+        return Carry(0, d.t0, dict(y0), min(h, d.t1 - d.t0), d.method.init(d.system, d.t0, y0, h))
+
+    def first_row(self, carry: Carry) -> Segment:
+        return Segment(np.array([self.d.t0]), {k: v[None] for k, v in carry.state.items()})
+
+    def user_state(self, carry: Carry) -> dict:
+        return carry.state
+
+    def advance(self, carry: Carry, max_steps: int | None) -> Segment:
+        d = self.d
+        system, method, ctrl = d.system, d.method, d.controller
+        q = method.error_order
+        t, y, h, mstate = carry.t, carry.state, carry.h, carry.method_state
+        times, rows = [], []
+        taken, failure = 0, None
+        while t < d.t1 and (max_steps is None or taken < max_steps):
+            h = min(h, d.t1 - t)
+            try:
+                with np.errstate(over="ignore", invalid="ignore"):
+                    result = method.step(system, t, y, h, mstate)
+                carry.nfev += result.nfev
+                err = ctrl.error_norm(y, result.y, result.error)
+            except DexpinvRangeError:
+                err = math.inf
+            if not math.isfinite(err) or err > 1.0:
+                carry.nrejected += 1
+                h *= ctrl.factor(err, q)
+                if h < self.h_min:
+                    failure = (
+                        f"the step size fell below {self.h_min:.3g} at t = {t:.6g} without meeting rtol = "
+                        f"{d.rtol:g}, atol = {d.atol:g}; loosen the tolerances or check the model"
+                    )
+                    break
+                continue
+            t = d.t1 if d.t1 - (t + h) <= self.h_min else t + h
+            y = system.project(result.y) if d.project else result.y
+            mstate = result.state
+            carry.k += 1
+            taken += 1
+            if carry.k % d.save_every == 0 or t == d.t1:
+                times.append(t)
+                rows.append(y)
+            h *= ctrl.factor(err, q)
+        carry.t, carry.state, carry.h, carry.method_state = t, y, h, mstate
+        return Segment(np.array(times), _stack(rows, y), failure)
+
+
+class _ScipyLoop:
+    """scipy's ``OdeSolver`` stepping itself; rows saved at accepted steps or, through its dense
+    output, at the requested save times (projected copies when the run projects)."""
+
+    name = "scipy"
+    reason = "scipy's solve_ivp solver"
+
+    def __init__(self, driver: Driver):
+        self.d = driver
+
+    def start(self, y0: dict) -> Carry:
+        d = self.d
+        solver, layout = d.method.start(d.system, d.t0, y0, d.t1, d.rtol, d.atol, first_step=None)
+        self.layout = layout
+        self.next_save = 1  # index into save_times (0 is t0)
+        return Carry(0, d.t0, {"solver": solver}, None)
+
+    def first_row(self, carry: Carry) -> Segment:
+        y0 = self.user_state(carry)
+        return Segment(np.array([self.d.t0]), {k: np.asarray(v)[None] for k, v in y0.items()})
+
+    def user_state(self, carry: Carry) -> dict:
+        return self.layout.unpack(carry.state["solver"].y.copy())
+
+    def _row(self, z: np.ndarray) -> dict:
+        y = self.layout.unpack(z)
+        return self.d.system.project(y) if self.d.project else y
+
+    def advance(self, carry: Carry, max_steps: int | None) -> Segment:
+        d = self.d
+        solver = carry.state["solver"]
+        times, rows = [], []
+        taken, failure = 0, None
+        nfev0 = solver.nfev
+        while solver.status == "running" and (max_steps is None or taken < max_steps):
+            t_old = solver.t
+            message = solver.step()
+            if solver.status == "failed":
+                failure = f"scipy's {d.method.name} failed at t = {t_old:.6g}: {message}"
+                break
+            taken += 1
+            carry.k += 1
+            if d.save_times is None:
+                if carry.k % d.save_every == 0 or solver.status == "finished":
+                    times.append(solver.t)
+                    rows.append(self._row(solver.y.copy()))
+                continue
+            st = d.save_times
+            stop = int(np.searchsorted(st, solver.t, side="right"))
+            if stop > self.next_save:
+                dense = solver.dense_output()
+                for j in range(self.next_save, stop):
+                    z = solver.y.copy() if st[j] == solver.t else dense(st[j])
+                    times.append(float(st[j]))
+                    rows.append(self._row(z))
+                self.next_save = stop
+        carry.nfev += solver.nfev - nfev0
+        carry.t = d.t1 if solver.status == "finished" else solver.t
+        return Segment(np.array(times), _stack(rows, self.user_state(carry)), failure)
+
+
+# -- helpers ---------------------------------------------------------------------------------------
+
+
+def _stack(rows: list[dict], like: dict) -> dict:
+    if rows:
+        return {name: np.stack([r[name] for r in rows]) for name in rows[0]}
+    return {name: np.empty((0, *np.shape(v))) for name, v in like.items()}
+
+
+def _all_finite(y: dict) -> bool:
+    return all(bool(np.isfinite(arr).all()) for arr in y.values())
+
+
+def _nonfinite(k: int, t: float, advice: str, after: bool = False) -> str:
+    where = f"after step {k}" if after else f"by step {k}"
+    return (
+        f"The state became non-finite (NaN or inf) {where} (t = {t:.6g}); the run stopped there. "
+        f"{advice} or check the initial state."
+    )
