@@ -43,7 +43,7 @@ def test_study_on_the_incline_uses_the_exact_acceleration(tmp_path, capsys):
 
 def test_unknown_method_and_scene_are_clear_errors(capsys, tmp_path):
     assert main(["compare", "--methods", "rk5", "--out-dir", str(tmp_path)]) == 2
-    assert "'rk5' is not in the study" in capsys.readouterr().err
+    assert "'rk5' is not a method" in capsys.readouterr().err
     assert main(["compare", "nowhere", "--out-dir", str(tmp_path)]) == 2
     assert "no scene file 'nowhere'" in capsys.readouterr().err
 

@@ -83,7 +83,11 @@ def test_bad_initial_state(top, kwargs, match):
         ({"method": "rk5"}, ValueError, r"`method`: unknown method 'rk5'; valid names are \['lie_euler', 'rkmk2'"),
         ({"method": 4}, TypeError, r"`method` must be a method name or a method object; got int"),
         ({"coordinates": "quat"}, ValueError, r"`coordinates` must be one of \['exp', 'cayley'\]; got 'quat'"),
-        ({"method": "rk4", "coordinates": "cayley"}, ValueError, r"`coordinates` applies to Lie-group methods only"),
+        (
+            {"method": "rk4", "coordinates": "cayley"},
+            ValueError,
+            r"`coordinates` = 'cayley' does not apply to 'rk4', which has no coordinate map",
+        ),
         ({"save_every": 0}, ValueError, r"`save_every` must be a positive integer; got 0"),
         ({"project": "yes"}, TypeError, r"`project` must be True or False; got 'yes'"),
         ({"dexpinv_degree": 1}, ValueError, r"`dexpinv_degree` = 1 caps an order-4 RKMK method at order 3"),

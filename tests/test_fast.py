@@ -41,7 +41,10 @@ def test_auto_uses_the_kernel_only_where_it_applies(rng):
     assert lieint.integrate(top, y0, (0, 1), h=0.1, coordinates="cayley").stats["backend"] == "numpy"
     assert lieint.integrate(top, y0, (0, 1), h=0.1, dexpinv_degree=None).stats["backend"] == "numpy"
     four = lieint.EulerTop(np.eye(4))
-    with pytest.raises(ValueError, match=r"`backend='numba'`: no compiled kernel covers EulerTop \(n = 4\)"):
+    with pytest.raises(
+        ValueError,
+        match=r"`backend='numba'`: no compiled kernel covers this run: EulerTop \(n = 4\) declares no compiled form",
+    ):
         lieint.integrate(four, four.initial_state(Omega=np.zeros((4, 4))), (0, 1), h=0.1, backend="numba")
     with pytest.raises(ValueError, match=r"`backend` must be one of"):
         lieint.integrate(top, y0, (0, 1), h=0.1, backend="gpu")

@@ -103,7 +103,7 @@ def test_cayley_method_object_and_method_names(top3):
     y0 = top3.initial_state(angular_velocity=[0.3, 1.0, 0.4])
     sol = lieint.integrate(top3, y0, (0, 1), h=0.1, method=m)
     assert sol.method == "rkmk4[cayley]"
-    names = lieint.methods()
+    names = lieint.method_names()
     assert {"lie_euler", "rkmk2", "rkmk3", "rkmk4", "rkmk6", "rk4", "scipy:DOP853"} <= set(names)
 
 

@@ -83,7 +83,7 @@ def wait_for_checkpoint(out, proc, min_step=1000, timeout=60.0):
         if ckpt.exists():
             try:
                 with h5py.File(ckpt, "r") as f:
-                    if int(f.attrs["step"]) >= min_step:
+                    if int(f.attrs["k"]) >= min_step:
                         return
             except OSError:
                 pass  # being replaced: the rename is atomic, try again
@@ -102,7 +102,7 @@ def reference(tmp_path_factory):
 
 def test_uninterrupted_run_writes_plain_hdf5(reference):
     data, attrs = reference
-    assert attrs["status"] == "complete" and attrs["steps_done"] == attrs["nsteps"] == 25_000
+    assert attrs["status"] == "complete" and attrs["steps_done"] == attrs["planned_steps"] == 25_000
     assert attrs["lieint_version"] == lieint.__version__ and "4D top, long" in attrs["scene"]
     assert attrs["method"] == "rkmk4" and len(attrs["scene_fingerprint"]) == 64
     m = data["t"].size

@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from lieint.methods import ButcherTableau, LieMethod, tableaux
+from lieint.methods import RKMK, ButcherTableau, tableaux
 from lieint.methods.order_conditions import order_residuals, rooted_trees
 
 
@@ -38,9 +38,9 @@ def test_tableau_is_immutable():
 
 def test_lie_method_rejects_a_truncation_that_caps_the_order():
     with pytest.raises(ValueError, match="caps an order-6 RKMK method at order 5"):
-        LieMethod("x", tableaux.BUTCHER6, dexpinv_degree=3)
+        RKMK("x", tableaux.BUTCHER6, dexpinv_degree=3)
     with pytest.raises(ValueError, match="`coordinates` must be one of"):
-        LieMethod("x", tableaux.RK4, coordinates="quaternion")
-    m = LieMethod("rkmk4-exact", tableaux.RK4, dexpinv_degree=None)
+        RKMK("x", tableaux.RK4, coordinates="quaternion")
+    m = RKMK("rkmk4-exact", tableaux.RK4, dexpinv_degree=None)
     assert m.order == 4 and m.stages == 4
     assert np.isclose(tableaux.RK4.b.sum(), 1.0)
