@@ -22,7 +22,7 @@ from ..groups.se import SE
 from ..groups.so import SO
 from .base import Invariant, LieGroupSystem, Output, State
 from .mass import solve_lyapunov_sym
-from .rigid import casimir_invariant, momentum_invariant, orthogonality_invariant
+from .rigid import casimir_invariant, momentum_outputs, pose_invariants
 from .rolling_ball import RollingPose, check_ball, rolling_initial_kinematics
 
 __all__ = ["ChaplyginBall"]
@@ -120,17 +120,15 @@ class ChaplyginBall(RollingPose, LieGroupSystem):
             ),
         }
         if "R" in self.fields:
-            declared["momentum"] = momentum_invariant("A")
-            declared["orthogonality"] = orthogonality_invariant()
+            declared.update(pose_invariants("A"))
         return declared
 
     @property
     def outputs(self) -> dict[str, Output]:
         n = self.n
         out = dict(super().outputs)
-        out["angular_momentum"] = Output(lambda t, y: y["A"], (n, n), "momentum about the contact A_K", "bivector")
-        out["angular_velocity"] = Output(
-            lambda t, y: self.angular_velocity(y["A"], y["Gamma"]), (n, n), "body angular velocity Ω", "bivector"
+        out.update(
+            momentum_outputs(n, lambda y: self.angular_velocity(y["A"], y["Gamma"]), "momentum about the contact A_K")
         )
         return self._pose_outputs(out)
 

@@ -16,9 +16,9 @@ from .mass import check_mass_tensor
 from .rigid import (
     InertiaOperator,
     casimir_invariant,
-    momentum_invariant,
+    momentum_outputs,
     orientation_output,
-    orthogonality_invariant,
+    pose_invariants,
 )
 
 __all__ = ["EulerTop", "check_mass_tensor"]
@@ -152,18 +152,14 @@ class EulerTop(LieGroupSystem):
             ),
         }
         if self.orientation:
-            declared["momentum"] = momentum_invariant("A")
-            declared["orthogonality"] = orthogonality_invariant()
+            declared.update(pose_invariants("A"))
         return declared
 
     @property
     def outputs(self) -> dict[str, Output]:
         n = self.n
         out = dict(super().outputs)
-        out["angular_momentum"] = Output(lambda t, y: y["A"], (n, n), "body angular momentum A", "bivector")
-        out["angular_velocity"] = Output(
-            lambda t, y: self.angular_velocity(y["A"]), (n, n), "body angular velocity Ω", "bivector"
-        )
+        out.update(momentum_outputs(n, lambda y: self.angular_velocity(y["A"])))
         if self.orientation:
             out["orientation"] = orientation_output(n)
         return out

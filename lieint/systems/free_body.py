@@ -11,7 +11,7 @@ from ..groups.so import SO
 from ..groups.vector import ProductGroup, VectorSpace
 from .base import Invariant, LieGroupSystem, Output, State
 from .euler_top import EulerTop
-from .rigid import casimir_invariant, momentum_invariant, orientation_output, orthogonality_invariant
+from .rigid import casimir_invariant, momentum_outputs, orientation_output, pose_invariants
 
 __all__ = ["FreeBody"]
 
@@ -97,18 +97,14 @@ class FreeBody(LieGroupSystem):
         if self.gravity is None:
             declared["linear_momentum"] = Invariant(lambda t, y: self.mass * y["velocity"], "integral", "M v")
         if self.orientation:
-            declared["momentum"] = momentum_invariant("A")
-            declared["orthogonality"] = orthogonality_invariant()
+            declared.update(pose_invariants("A"))
         return declared
 
     @property
     def outputs(self) -> dict[str, Output]:
         n = self.n
         out = dict(super().outputs)
-        out["angular_momentum"] = Output(lambda t, y: y["A"], (n, n), "body angular momentum A", "bivector")
-        out["angular_velocity"] = Output(
-            lambda t, y: self.top.angular_velocity(y["A"]), (n, n), "body angular velocity Ω", "bivector"
-        )
+        out.update(momentum_outputs(n, lambda y: self.top.angular_velocity(y["A"])))
         if self.orientation:
             out["orientation"] = orientation_output(n)
         return out

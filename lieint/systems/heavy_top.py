@@ -13,7 +13,7 @@ from ..groups.so import project_to_so
 from .base import Invariant, LieGroupSystem, Output, State
 from .euler_top import EulerTop
 from .invariants import skew_spectrum
-from .rigid import orientation_output, orthogonality_invariant
+from .rigid import momentum_outputs, orientation_output, pose_invariants
 
 __all__ = ["HeavyTop"]
 
@@ -164,7 +164,7 @@ class HeavyTop(LieGroupSystem):
             "gamma_norm": Invariant(lambda t, y: np.linalg.norm(y["Gamma"], axis=-1), "integral", "|Γ|"),
         }
         if self.orientation:
-            declared["orthogonality"] = orthogonality_invariant()
+            declared.update(pose_invariants(None))
         declared.update(self._extra)
         return declared
 
@@ -172,10 +172,7 @@ class HeavyTop(LieGroupSystem):
     def outputs(self) -> dict[str, Output]:
         n = self.n
         out = dict(super().outputs)
-        out["angular_momentum"] = Output(lambda t, y: y["A"], (n, n), "body angular momentum A", "bivector")
-        out["angular_velocity"] = Output(
-            lambda t, y: self.top.angular_velocity(y["A"]), (n, n), "body angular velocity Ω", "bivector"
-        )
+        out.update(momentum_outputs(n, lambda y: self.top.angular_velocity(y["A"])))
         out["gamma"] = Output(lambda t, y: y["Gamma"], (n,), "body gravity Γ = Rᵀg", "vector")
         if self.orientation:
             out["orientation"] = orientation_output(n)

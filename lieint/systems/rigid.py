@@ -104,3 +104,18 @@ def orthogonality_invariant() -> Invariant:
 def orientation_output(n: int) -> Output:
     """The orientation R ∈ SO(n) under its physical name."""
     return Output(lambda t, y: y["R"], (n, n), "orientation R (body to space)", "rotation")
+
+
+def pose_invariants(momentum_field: str | None = "A") -> dict[str, Invariant]:
+    """What every body carrying R keeps: the space momentum (when conserved) and RᵀR = I."""
+    out = {} if momentum_field is None else {"momentum": momentum_invariant(momentum_field)}
+    out["orthogonality"] = orthogonality_invariant()
+    return out
+
+
+def momentum_outputs(n: int, angular_velocity, description: str = "body angular momentum A") -> dict[str, Output]:
+    """``angular_momentum`` (the field A) and ``angular_velocity`` Ω = ``angular_velocity(y)``."""
+    return {
+        "angular_momentum": Output(lambda t, y: y["A"], (n, n), description, "bivector"),
+        "angular_velocity": Output(lambda t, y: angular_velocity(y), (n, n), "body angular velocity Ω", "bivector"),
+    }

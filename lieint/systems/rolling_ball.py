@@ -35,7 +35,7 @@ from ..groups.so import SO, project_to_so
 from ..groups.vector import ProductGroup, VectorSpace
 from .base import Invariant, LieGroupSystem, Output, State
 from .mass import check_mass_tensor, solve_lyapunov_sym
-from .rigid import orientation_output, orthogonality_invariant
+from .rigid import orientation_output, pose_invariants
 
 __all__ = ["RollingBall", "RollingPose", "check_ball", "rolling_initial_kinematics"]
 
@@ -308,7 +308,7 @@ class RollingBall(RollingPose, LieGroupSystem):
         if not self._tilted or self.track_center:
             declared["energy"] = Invariant(lambda t, y: self.energy(y), "integral", "H = T − U")
         if "R" in self.fields:
-            declared["orthogonality"] = orthogonality_invariant()
+            declared.update(pose_invariants(None))
         return declared
 
     @property
