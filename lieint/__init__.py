@@ -24,14 +24,28 @@ from .ivp import LieStepWarning, integrate
 from .methods import get_method, method_names
 from .runs import run
 from .solution import Solution
-from .systems import ChaplyginBall, EulerTop, FreeBody, HeavyTop, LieGroupSystem, RollingBall
+from .systems import (
+    AtomsBody,
+    CentralForceParticle,
+    ChaplyginBall,
+    ConstantForceParticle,
+    EulerTop,
+    FreeBody,
+    HeavyTop,
+    LieGroupSystem,
+    RollingBall,
+    SurfaceParticle,
+)
 
 __version__ = "0.2.0"
 
 __all__ = [
     "SE",
     "SO",
+    "AtomsBody",
+    "CentralForceParticle",
     "ChaplyginBall",
+    "ConstantForceParticle",
     "DexpinvRangeError",
     "EulerTop",
     "FreeBody",
@@ -41,6 +55,7 @@ __all__ = [
     "RollingBall",
     "Solution",
     "Stats",
+    "SurfaceParticle",
     "__version__",
     "get_method",
     "integrate",
