@@ -18,6 +18,7 @@ top (MATH.md §2) with ``B = Σ mᵢ XᵢXᵢᵀ`` about the centre of mass — 
 from __future__ import annotations
 
 from collections.abc import Mapping
+from types import MappingProxyType
 
 import numpy as np
 
@@ -74,7 +75,7 @@ class AtomsBody(LieGroupSystem):
 
     autonomous = True
     structure = frozenset({"atoms"})
-    field_kinds = {"q": "point", "v": "vector"}
+    field_kinds = MappingProxyType({"q": "point", "v": "vector"})
 
     def __init__(self, masses, positions):
         m = as_float_array(masses, "masses")
@@ -224,7 +225,10 @@ class AtomsBody(LieGroupSystem):
         q = c[..., None, :] + np.einsum("...jk,ik->...ij", Rm, X)
         v = vc[..., None, :] + np.einsum("...jk,ik->...ij", Rm @ Om, X)
         batch = np.broadcast_shapes(q.shape[:-2], v.shape[:-2])
-        return {"q": np.broadcast_to(q, batch + (self.N, n)).copy(), "v": np.broadcast_to(v, batch + (self.N, n)).copy()}
+        return {
+            "q": np.broadcast_to(q, batch + (self.N, n)).copy(),
+            "v": np.broadcast_to(v, batch + (self.N, n)).copy(),
+        }
 
     def euler_top(self) -> EulerTop:
         """The Euler top with ``B = Σ mᵢ XᵢXᵢᵀ`` these atoms should move as."""

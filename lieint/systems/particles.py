@@ -21,6 +21,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
+from types import MappingProxyType
 
 import numpy as np
 
@@ -50,7 +51,7 @@ class Particle(LieGroupSystem):
 
     autonomous = True
     structure = frozenset({"newtonian"})
-    field_kinds = {"q": "point", "v": "vector"}
+    field_kinds = MappingProxyType({"q": "point", "v": "vector"})
 
     def __init__(self, mass, n: int):
         self.mass = check_finite_positive(mass, "mass")
@@ -393,7 +394,9 @@ class SurfaceParticle(Particle):
         normal = np.abs(np.sum(g * y["v"], axis=-1))
         scale = np.linalg.norm(g, axis=-1) * np.linalg.norm(y["v"], axis=-1)
         if np.any(normal > 1e-9 * np.maximum(scale, 1e-300)):
-            raise ValueError(f"`velocity` must be tangent to the surface (⟨∇h, q̇⟩ = 0); got ⟨∇h, q̇⟩ = {describe(normal)}.")
+            raise ValueError(
+                f"`velocity` must be tangent to the surface (⟨∇h, q̇⟩ = 0); got ⟨∇h, q̇⟩ = {describe(normal)}."
+            )
         return self.project(y)
 
     def validate_state(self, y: Mapping[str, np.ndarray], name: str = "y0") -> State:
@@ -431,7 +434,5 @@ def surface_particle(
         n = np.size(force)
     if n is not None:
         n = int(n)
-    built = make_surface(
-        surface, n=n, radius=radius, semi_axes=semi_axes, profile=profile, axis=axis, centre=centre
-    )
+    built = make_surface(surface, n=n, radius=radius, semi_axes=semi_axes, profile=profile, axis=axis, centre=centre)
     return SurfaceParticle(mass, built, force)
