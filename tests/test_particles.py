@@ -225,7 +225,7 @@ def test_symplectic_methods_refuse_systems_they_cannot_step():
     with pytest.raises(ValueError, match="method 'verlet' steps Newton's equations"):
         lieint.integrate(top, y0, (0.0, 1.0), h=0.1, method="verlet")
     p, yp = egg_particle(3)
-    with pytest.raises(ValueError, match="method 'verlet'.*SurfaceParticle declares"):
+    with pytest.raises(ValueError, match=r"method 'verlet'.*SurfaceParticle declares"):
         lieint.integrate(p, yp, (0.0, 1.0), h=0.1, method="verlet")
     kepler = lieint.CentralForceParticle(1.0, [0, 0, 0])
     yk = kepler.initial_state(position=[1.0, 0.0, 0.0], velocity=[0.0, 1.0, 0.0])
