@@ -103,3 +103,20 @@ def test_atoms_with_rkmk4_reach_order_four_against_the_top(rng):
 def test_bad_atoms_are_named(masses, positions, match):
     with pytest.raises(ValueError, match=match):
         lieint.AtomsBody(masses, positions)
+
+
+def test_projection_is_the_nearest_rigid_state_and_keeps_the_momenta(rng):
+    body = random_body(rng, 4, 6)
+    y = body.initial_state(Omega=random_skew(rng, 4), velocity=[0.1, 0.2, 0.3, 0.4])
+    assert np.max(np.abs(body.project(y)["q"] - y["q"])) <= 1e-14  # a rigid state is its own projection
+    assert np.max(np.abs(body.project(y)["v"] - y["v"])) <= 1e-14
+    noisy = {"q": y["q"] + 1e-3 * rng.normal(size=y["q"].shape), "v": y["v"] + 1e-3 * rng.normal(size=y["v"].shape)}
+    p = body.project(noisy)
+    inv = body.invariants
+    assert np.max(np.abs(inv["distances"](0.0, p))) <= 1e-14
+    # rigid velocities: ⟨qᵢ − qⱼ, q̇ᵢ − q̇ⱼ⟩ = 0 on every pair
+    d, w = p["q"][:, None] - p["q"][None], p["v"][:, None] - p["v"][None]
+    assert np.max(np.abs(np.sum(d * w, axis=-1))) <= 1e-14
+    for name in ("linear_momentum",):
+        np.testing.assert_allclose(inv[name](0.0, p), inv[name](0.0, noisy), atol=1e-14)
+    np.testing.assert_allclose(body.space_momentum(p["q"], p["v"]), body.space_momentum(p["q"], noisy["v"]), atol=1e-13)

@@ -24,9 +24,11 @@ import numpy as np
 
 from .._validation import as_float_array, check_vector, describe
 from ..groups.bivectors import wedge
+from ..groups.so import project_to_so
 from ..groups.vector import ProductGroup, VectorSpace
 from .base import Invariant, LieGroupSystem, Output, State
 from .euler_top import EulerTop
+from .rigid import InertiaOperator
 
 __all__ = ["AtomsBody", "reaction_pairs"]
 
@@ -97,6 +99,7 @@ class AtomsBody(LieGroupSystem):
         if np.linalg.matrix_rank(self.mass_tensor) < n:
             raise ValueError("`positions` must span Rⁿ: the atoms lie in a hyperplane (the mass tensor is singular).")
         self.pairs = reaction_pairs(N, n)
+        self._inertia = InertiaOperator(self.mass_tensor, "mass tensor of the atoms")
         self._coupling = self._coupling_matrix()
         self._incidence = np.zeros((len(self.pairs), N))
         self._incidence[np.arange(len(self.pairs)), self.pairs[:, 0]] = 1.0
@@ -152,6 +155,21 @@ class AtomsBody(LieGroupSystem):
 
     def infinitesimal_action(self, xi, y: State) -> State:
         return {"q": xi[0], "v": xi[1]}
+
+    def project(self, y: State) -> State:
+        """The nearest rigid state in the mass-weighted norm: ``qᵢ ← q_G + R Xᵢ`` with R the
+        rotation nearest to ``Σ mᵢ (qᵢ − q_G) Xᵢᵀ`` (polar factor), then ``q̇ᵢ ← v_G + ω (qᵢ − q_G)``
+        with ω from the momentum ``a = −(bω + ωb)``, ``b = R B Rᵀ`` (the least-squares rigid
+        velocity). The centre of mass, its velocity and a are kept."""
+        q, v = y["q"], y["v"]
+        qG, vG = self.centre_of_mass(q), self.centre_of_mass(v)
+        d = q - qG[..., None, :]
+        R = project_to_so(np.einsum("i,...ij,ik->...jk", self.masses, d, self.body_positions))
+        Y = np.einsum("...jk,ik->...ij", R, self.body_positions)
+        a = np.einsum("i,...ijk->...jk", self.masses, wedge(Y, v - vG[..., None, :]))
+        Rt = np.swapaxes(R, -1, -2)
+        w = R @ self._inertia.angular_velocity(Rt @ a @ R) @ Rt
+        return {"q": qG[..., None, :] + Y, "v": vG[..., None, :] + np.einsum("...jk,...ik->...ij", w, Y)}
 
     # -- rigid-body quantities ---------------------------------------------------------
     def centre_of_mass(self, q: np.ndarray) -> np.ndarray:
