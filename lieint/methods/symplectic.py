@@ -53,7 +53,8 @@ def _require(system, tag: str, method: str, needs: str) -> None:
 class VelocityVerlet(Method):
     """Velocity Verlet (Störmer–Verlet) for ``q̈ = a(t, q)`` (see the module docstring).
 
-    The method state carries ``(q, a(q))`` of the last step's end point; it is used only when
+    The method state carries ``{"q": q, "a": a(q)}`` of the last step's end point (a dict of
+    arrays, so that a streamed run checkpoints it); it is used only when
     the next step starts from that same q (a projection or a resume with another state makes
     it evaluate a afresh).
     """
@@ -70,15 +71,15 @@ class VelocityVerlet(Method):
     def step(self, system, t, y, h, state=None) -> StepResult:
         q0, v0 = y["q"], y["v"]
         nfev = 0
-        if state is not None and np.array_equal(state[0], q0):
-            a0 = state[1]
+        if state is not None and np.array_equal(state["q"], q0):
+            a0 = state["a"]
         else:
             a0, nfev = system.acceleration(t, q0), 1
         v_half = v0 + (0.5 * h) * a0
         q1 = q0 + h * v_half
         a1 = system.acceleration(t + h, q1)
         v1 = v_half + (0.5 * h) * a1
-        return StepResult({"q": q1, "v": v1}, None, nfev + 1, (q1, a1))
+        return StepResult({"q": q1, "v": v1}, None, nfev + 1, {"q": q1, "a": a1})
 
 
 @dataclass(frozen=True)
