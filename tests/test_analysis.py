@@ -98,6 +98,22 @@ def test_particle_in_a_central_field_count(rng):
     assert count.equation() == "6 − 1 − 3 − 1 = 1"
 
 
+@pytest.mark.parametrize("n, equation", [(3, "4 − 1 − 1 − 1 = 1"), (4, "6 − 1 − 3 − 1 = 1")])
+def test_particle_on_a_surface_of_revolution_count(n, equation):
+    """Clairaut's integral makes the particle on a surface of revolution integrable."""
+    e = np.eye(n)[-1]
+    egg = lieint.systems.SurfaceOfRevolution([0.0, 0.0, 1.0, 0.3], e)
+    p = lieint.SurfaceParticle(1.0, egg, -e)
+    v = np.zeros(n)
+    v[1:-1] = [0.8, 0.3][: n - 2]
+    y = p.initial_state(position=egg.point(np.eye(n)[0] + 0.2 * e), velocity=v)
+    assert integrability_count(p, y).equation() == equation
+    # no axis of symmetry (an ellipsoid): no chart, a clear refusal
+    q = lieint.SurfaceParticle(1.0, lieint.systems.Ellipsoid([1.0, 2.0, 3.0]))
+    with pytest.raises(ValueError, match="`system`: the count needs a chart"):
+        integrability_count(q, q.initial_state(position=[1.0, 0.0, 0.0]))
+
+
 def test_report_prints_the_lecture_form(rng, capsys):
     top, y = generic_top(rng, 3)
     integrability_count(top, y, verbose=True)

@@ -16,7 +16,11 @@ import lieint.cli
         ("manakov_4d", "Euler top n = 4: 12 − 1 − 6 − 2 = 3", "→ holonomic"),
         ("chaplygin_ball", "Chaplygin ball n = 3: 8 − 1 − 3 − 2 − 1 = 1", "reach 5 (depth 1) → nonholonomic"),
         ("kepler", "particle in a central field n = 3: 6 − 1 − 3 − 1 = 1", "→ holonomic"),
-        ("clairaut_egg", "count toward integrability: not available", "admissible velocities 2, Lie brackets reach 2"),
+        (
+            "clairaut_egg",
+            "surface of revolution n = 3: 4 − 1 − 1 − 1 = 1",
+            "admissible velocities 2, Lie brackets reach 2",
+        ),
         ("atoms_top", "count toward integrability: not available", "admissible velocities 6, Lie brackets reach 6"),
     ],
 )

@@ -19,8 +19,9 @@ lecture's:
 * For a nonholonomic system with an invariant measure (Chaplygin's ball) the measure counts
   one (Jacobi's last multiplier).
 
-Charts are known for :class:`~lieint.EulerTop`, :class:`~lieint.ChaplyginBall` and
-:class:`~lieint.CentralForceParticle`.
+Charts are known for :class:`~lieint.EulerTop`, :class:`~lieint.ChaplyginBall`,
+:class:`~lieint.CentralForceParticle` and a :class:`~lieint.SurfaceParticle` on a surface of
+revolution with the force along its axis (Clairaut's integral).
 """
 
 from __future__ import annotations
@@ -285,7 +286,7 @@ def phase_chart(system, state: dict, *, integrals: str = "momentum") -> PhaseCha
     CentralForceParticle); a clear error for other systems."""
     from ..systems.chaplygin import ChaplyginBall
     from ..systems.euler_top import EulerTop
-    from ..systems.particles import CentralForceParticle
+    from ..systems.particles import CentralForceParticle, SurfaceParticle
 
     state = {k: np.asarray(v, dtype=float) for k, v in state.items()}
     if integrals == "manakov" and not isinstance(system, EulerTop):
@@ -296,9 +297,12 @@ def phase_chart(system, state: dict, *, integrals: str = "momentum") -> PhaseCha
         return _chaplygin_chart(system, state)
     if isinstance(system, CentralForceParticle):
         return _central_chart(system, state)
+    if isinstance(system, SurfaceParticle) and system.axis is not None and system.n >= 3:
+        return _surface_chart(system, state)
     raise ValueError(
-        "`system`: the count needs a chart of the phase space, known for EulerTop, ChaplyginBall and "
-        f"CentralForceParticle; got {type(system).__name__}."
+        "`system`: the count needs a chart of the phase space, known for EulerTop, ChaplyginBall, "
+        "CentralForceParticle and a SurfaceParticle with an axis of symmetry; "
+        f"got {system!r}."
     )
 
 
@@ -432,4 +436,40 @@ def _chaplygin_chart(ball, state: dict) -> PhaseChart:
         hamiltonian=False,
         measure=True,
         isotropy_description=f"{n - 1} translations of the plane + dim{{ξ ∈ so({n - 1}) : [ξ, a] = 0}}",
+    )
+
+
+def _surface_chart(particle, state: dict) -> PhaseChart:
+    from ..systems.multivectors import trivector
+
+    n, C, e = particle.n, particle.surface.centre, particle.axis
+    q0, v0 = state["q"], state["v"]
+    _single(state, ("q", "v"))
+    # an orthonormal basis of the tangent space at q₀; the chart retracts onto the surface
+    g = particle.surface.gradient(q0)
+    Q, _ = np.linalg.qr(np.column_stack([g, np.eye(n)]))
+    T = Q[:, 1:n]  # (n, n − 1)
+
+    def point(z):
+        return particle.project({"q": q0 + T @ z[: n - 1], "v": v0 + T @ z[n - 1 :]})
+
+    def clairaut(y):
+        return trivector(y["q"] - C, y["v"], e)
+
+    # rotations keeping the axis: so(n − 1) on the hyperplane ⟂ e, acting on u ∧ v ∧ e as a derivation
+    P, _ = np.linalg.qr(np.column_stack([e, np.eye(n)]))
+    plane = P[:, 1:n].T
+    rotations = [np.outer(u, w) - np.outer(w, u) for i, u in enumerate(plane) for w in plane[i + 1 :]]
+    u, w = q0 - C, v0
+    action = np.array([trivector(X @ u, w, e) + trivector(u, X @ w, e) for X in rotations])
+    return PhaseChart(
+        name=f"particle on a surface of revolution n = {n}",
+        dimension=2 * (n - 1),
+        point=point,
+        integrals={"energy": lambda y: np.atleast_1d(particle.energy(y)), "Clairaut (q − C) ∧ q̇ ∧ e": clairaut},
+        symmetry=f"so({n - 1}) (rotations about the axis)",
+        symmetry_action=action.reshape(len(rotations), -1),
+        hamiltonian=True,
+        measure=False,
+        isotropy_description=f"dim{{ξ ∈ so({n - 1}) : ξ·((q − C) ∧ q̇ ∧ e) = 0}}",
     )
