@@ -18,24 +18,16 @@ the one driving loop, :class:`Solution`) → front ends (``ivp.integrate``, ``sc
 ``study``, ``cli``).
 """
 
+from . import analysis
 from .driver import Stats
 from .groups import SE, SO, DexpinvRangeError
 from .ivp import LieStepWarning, integrate
 from .methods import get_method, method_names
 from .runs import run
 from .solution import Solution
-from .systems import (
-    AtomsBody,
-    CentralForceParticle,
-    ChaplyginBall,
-    ConstantForceParticle,
-    EulerTop,
-    FreeBody,
-    HeavyTop,
-    LieGroupSystem,
-    RollingBall,
-    SurfaceParticle,
-)
+from .systems import ChaplyginBall, EulerTop, FreeBody, HeavyTop, LieGroupSystem, RollingBall
+from .systems.atoms import AtomsBody
+from .systems.particles import CentralForceParticle, ConstantForceParticle, SurfaceParticle
 
 __version__ = "0.2.0"
 
@@ -57,6 +49,7 @@ __all__ = [
     "Stats",
     "SurfaceParticle",
     "__version__",
+    "analysis",
     "get_method",
     "integrate",
     "method_names",
