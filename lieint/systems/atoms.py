@@ -55,7 +55,7 @@ class AtomsBody(LieGroupSystem):
     ----------
     mass_tensor : ndarray, shape (n, n)
         ``B = Σ mᵢ XᵢXᵢᵀ`` about the centre of mass: the Euler top these atoms are.
-    pairs : ndarray, shape (|S|, 2)
+    pairs : ndarray, shape ``(|S|, 2)``
         The reaction pairs S.
 
     Invariants: ``energy`` ``½ Σ mᵢ|q̇ᵢ|²``, ``linear_momentum`` ``Σ mᵢ q̇ᵢ``,
