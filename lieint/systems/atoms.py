@@ -17,7 +17,6 @@ top (MATH.md §2) with ``B = Σ mᵢ XᵢXᵢᵀ`` about the centre of mass — 
 
 from __future__ import annotations
 
-from collections.abc import Mapping
 from types import MappingProxyType
 
 import numpy as np
@@ -251,9 +250,6 @@ class AtomsBody(LieGroupSystem):
     def euler_top(self) -> EulerTop:
         """The Euler top with ``B = Σ mᵢ XᵢXᵢᵀ`` these atoms should move as."""
         return EulerTop(self.mass_tensor, orientation=True)
-
-    def validate_state(self, y: Mapping[str, np.ndarray], name: str = "y0") -> State:
-        return super().validate_state(y, name)
 
     def __repr__(self) -> str:
         return f"AtomsBody(N={self.N}, n={self.n}, masses={describe(self.masses)})"
