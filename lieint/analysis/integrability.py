@@ -198,7 +198,7 @@ def integrability_count(
     integrals: str = "momentum",
     threshold: float = RANK_THRESHOLD,
     step: float = DIFFERENCE_STEP,
-    verbose: bool = False,
+    verbose: bool = True,
 ) -> IntegrabilityCount:
     """The lecture's count toward integrability at ``state`` (module docstring; MATH.md §7).
 
@@ -214,8 +214,8 @@ def integrability_count(
         Relative SVD threshold of the ranks.
     step : float
         Central-difference step in the chart.
-    verbose : bool
-        Print the report.
+    verbose : bool, default True
+        Print the report in the lecture's form (the returned object's ``report()``).
 
     Returns
     -------
@@ -227,8 +227,11 @@ def integrability_count(
     >>> from lieint.analysis import integrability_count
     >>> top = lieint.EulerTop.from_principal_moments([1.0, 2.0, 3.0])
     >>> y = top.initial_state(angular_velocity=[0.3, 1.0, 0.4])
-    >>> integrability_count(top, y).equation()
-    '6 − 1 − 3 − 1 = 1'
+    >>> count = integrability_count(top, y)  # doctest: +ELLIPSIS
+    Euler top n = 3: 6 − 1 − 3 − 1 = 1  →  integrable (reduced to dimension ≤ 1)
+    ...
+    >>> count.result, count.integrals, count.isotropy
+    (1, 4, 1)
     """
     if integrals not in ("momentum", "manakov"):
         raise ValueError(f'`integrals` must be "momentum" or "manakov"; got {integrals!r}.')

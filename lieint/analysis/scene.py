@@ -21,7 +21,7 @@ def analyze(system, state: dict, *, integrals: str = "momentum") -> dict:
     one = {k: np.asarray(v)[(0,) * (np.ndim(v) - len(system.fields[k]))] for k, v in state.items()}
     out: dict = {"count": None, "count_error": None, "holonomy": None, "holonomy_error": None}
     try:
-        out["count"] = integrability_count(system, one, integrals=integrals)
+        out["count"] = integrability_count(system, one, integrals=integrals, verbose=False)
     except ValueError as exc:
         out["count_error"] = str(exc)
     try:
