@@ -18,6 +18,7 @@ the one driving loop, :class:`Solution`) → front ends (``ivp.integrate``, ``sc
 ``study``, ``cli``).
 """
 
+from . import analysis
 from .driver import Stats
 from .groups import SE, SO, DexpinvRangeError
 from .ivp import LieStepWarning, integrate
@@ -25,13 +26,18 @@ from .methods import get_method, method_names
 from .runs import run
 from .solution import Solution
 from .systems import ChaplyginBall, EulerTop, FreeBody, HeavyTop, LieGroupSystem, RollingBall
+from .systems.atoms import AtomsBody
+from .systems.particles import CentralForceParticle, ConstantForceParticle, SurfaceParticle
 
 __version__ = "0.2.0"
 
 __all__ = [
     "SE",
     "SO",
+    "AtomsBody",
+    "CentralForceParticle",
     "ChaplyginBall",
+    "ConstantForceParticle",
     "DexpinvRangeError",
     "EulerTop",
     "FreeBody",
@@ -41,7 +47,9 @@ __all__ = [
     "RollingBall",
     "Solution",
     "Stats",
+    "SurfaceParticle",
     "__version__",
+    "analysis",
     "get_method",
     "integrate",
     "method_names",

@@ -144,6 +144,18 @@ def _build_parser() -> argparse.ArgumentParser:
         description="List the embedded example scenes, or print one with --show.",
     )
     scenes.add_argument("--show", metavar="NAME", help="print the TOML text of one embedded scene")
+    analyze = sub.add_parser(
+        "analyze",
+        help="count toward integrability and decide holonomy for a scene's system",
+        description="At the scene's initial state: the lecture's reduction equation dim(phase space) - "
+        "#independent integrals - isotropy - (1 if an invariant measure), with the numerical ranks, and "
+        "whether the velocity constraint is holonomic (Frobenius test by Lie brackets). Nothing is integrated.",
+    )
+    analyze.add_argument("scene", help="a scene TOML file or an embedded scene's name")
+    analyze.add_argument(
+        "--integrals", choices=("momentum", "manakov"), default="momentum", help="which first integrals to count"
+    )
+    analyze.add_argument("--json", action="store_true", help="print JSON instead of the lecture's form")
     return parser
 
 
@@ -167,6 +179,8 @@ def main(argv: list[str] | None = None) -> int:
         return _run_streamed(args) if args.out else _run(args)
     if args.command == "plot":
         return _plot(args)
+    if args.command == "analyze":
+        return _analyze(args)
     parser.print_help()
     return 0
 
@@ -354,3 +368,28 @@ def _run(args) -> int:
 
 if __name__ == "__main__":  # pragma: no cover
     sys.exit(main())
+
+
+def _analyze(args) -> int:
+    import json
+    from pathlib import Path
+
+    from .analysis.scene import analysis_json, analyze_scene, format_analysis
+    from .scenes import SceneError, embedded_scenes, load_scene
+
+    try:
+        if Path(args.scene).exists() or args.scene.endswith(".toml"):
+            scene = load_scene(args.scene)
+        else:
+            known = embedded_scenes()
+            if args.scene not in known:
+                raise SceneError(
+                    f"no scene file {args.scene!r} and no embedded scene of that name (embedded: {sorted(known)})"
+                )
+            scene = known[args.scene]
+        result = analyze_scene(scene, integrals=args.integrals)
+    except (SceneError, ValueError) as exc:
+        print(f"lieint analyze: {exc}", file=sys.stderr)
+        return 2
+    print(json.dumps(analysis_json(result), indent=2, ensure_ascii=False) if args.json else format_analysis(result))
+    return 0

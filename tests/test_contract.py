@@ -49,6 +49,32 @@ SYSTEM_CASES = {
         {"angular_velocity": [0.3, 1.0, 0.4]},
     ),
     "chaplygin_ball": ({"mass_tensor": B_BALL, "mass": 1.0, "radius": 1.0}, {"angular_velocity": [0.3, 1.0, 0.4]}),
+    "central_force_particle": (
+        {"mass": 1.0, "centre": [0.0, 0.0, 0.1], "potential": "kepler", "strength": 1.0},
+        {"position": [1.0, 0.0, 0.1], "velocity": [0.0, 1.1, 0.2]},
+    ),
+    "constant_force_particle": (
+        {"mass": 2.0, "force": [0.0, 0.5, -9.81]},
+        {"position": [0.0, 0.0, 1.0], "velocity": [1.0, 0.0, 2.0]},
+    ),
+    # the egg ρ² + z² + 0.3 z³ = 1 under gravity along its axis; (1, 0, 0) lies on it
+    "surface_particle": (
+        {
+            "mass": 1.0,
+            "surface": "revolution",
+            "profile": [0.0, 0.0, 1.0, 0.3],
+            "axis": [0.0, 0.0, 1.0],
+            "force": [0.0, 0.0, -1.0],
+        },
+        {"position": [1.0, 0.0, 0.0], "velocity": [0.0, 0.8, 0.3]},
+    ),
+    "atoms_body": (
+        {
+            "masses": [1.0, 2.0, 1.5, 1.0, 0.7],
+            "positions": [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [-1.0, -1.0, -1.0], [0.5, -0.3, 0.2]],
+        },
+        {"angular_velocity": [0.3, 1.0, 0.4], "velocity": [0.2, 0.0, -0.1]},
+    ),
 }
 
 
@@ -81,8 +107,27 @@ def exact_top_problem():
     return top, y0, T, lambda y: y["A"], top.exact_solution([T], y0)["A"][-1]
 
 
+def harmonic_particle_problem():
+    """A particle in the field V = ½ k r² against its exact ellipse."""
+    k, m, T = 2.0, 0.5, 5.0
+    osc = lieint.CentralForceParticle(m, [0.0, 0.0, 0.0], "harmonic", strength=k)
+    q0, v0 = np.array([1.0, 0.2, 0.0]), np.array([0.0, 0.7, 0.3])
+    w = np.sqrt(k / m)
+    exact = q0 * np.cos(w * T) + v0 / w * np.sin(w * T)
+    return osc, osc.initial_state(position=q0, velocity=v0), T, lambda y: y["q"], exact
+
+
+def great_circle_problem():
+    """A free particle on a sphere against its exact great circle."""
+    r, speed, T = 1.7, 1.3, 4.0
+    p = lieint.SurfaceParticle(1.0, lieint.systems.Sphere(3, r))
+    u, w = np.array([1.0, 2.0, 2.0]) / 3.0, np.array([2.0, -2.0, 1.0]) / 3.0
+    exact = r * (np.cos(speed / r * T) * u + np.sin(speed / r * T) * w)
+    return p, p.initial_state(position=r * u, velocity=speed * w), T, lambda y: y["q"], exact
+
+
 #: problems with an exact solution; a method takes the first one it applies to
-ORDER_PROBLEMS = [exact_top_problem]
+ORDER_PROBLEMS = [exact_top_problem, harmonic_particle_problem, great_circle_problem]
 
 
 def fixed_steps(method, system, y0, T, n):
@@ -228,10 +273,20 @@ def read_run(path):
         return data, dict(f.attrs)
 
 
+def first_applicable_system(name) -> str:
+    """The first built-in system case the method applies to."""
+    method = lieint.get_method(name)
+    for system_name in SYSTEM_CASES:
+        if applies(method, build(system_name)[0]):
+            return system_name
+    pytest.fail(f"no built-in system case applies to {name!r}; add one to SYSTEM_CASES")
+
+
 @pytest.mark.parametrize("name", METHODS)
 def test_every_method_runs_a_scene_streamed_and_resumed(name, tmp_path, capsys):
     # long enough for an adaptive method to take several steps before the stop
-    scene = write_scene(tmp_path, "euler_top", name, t_end=3.0 if SPECS[name].adaptive else 0.6)
+    system_name = first_applicable_system(name)
+    scene = write_scene(tmp_path, system_name, name, t_end=3.0 if SPECS[name].adaptive else 0.6)
     assert lieint.cli.main(["run", str(scene)]) == 0
     assert f"with {name}" in capsys.readouterr().out
     whole, interrupted = tmp_path / "whole.h5", tmp_path / "parts.h5"

@@ -29,10 +29,12 @@ ENTRY_POINT_GROUP = "lieint.systems"
 
 
 def _builtin() -> dict[str, Callable]:
+    from .atoms import AtomsBody
     from .chaplygin import ChaplyginBall
     from .euler_top import EulerTop
     from .free_body import FreeBody
     from .heavy_top import HeavyTop
+    from .particles import CentralForceParticle, constant_force_particle, surface_particle
     from .rolling_ball import RollingBall
 
     return {
@@ -41,6 +43,10 @@ def _builtin() -> dict[str, Callable]:
         "free_body": FreeBody,
         "rolling_ball": RollingBall,
         "chaplygin_ball": ChaplyginBall,
+        "central_force_particle": CentralForceParticle,
+        "constant_force_particle": constant_force_particle,
+        "surface_particle": surface_particle,
+        "atoms_body": AtomsBody,
     }
 
 
