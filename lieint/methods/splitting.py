@@ -25,11 +25,14 @@ action, so the methods are Poisson (symplectic on the leaves), keep the Casimirs
 ``|Γ|`` to round-off and have bounded energy error; the free-top splitting also keeps the
 space momentum (each piece does). Orders 4 and 6 compose ``S`` symmetrically:
 
-* ``"yoshida"`` (default): the triple jump ``S(γ₁h) S(γ₂h) S(γ₁h)``,
-  ``γ₁ = 1/(2 − 2^{1/(p+1)})``, ``γ₂ = 1 − 2γ₁`` (Yoshida 1990), applied once for order 4
-  (3 basic steps) and twice for order 6 (9);
+* ``"yoshida"`` (default, Yoshida 1990): order 4 the triple jump ``S(γ₁h) S(γ₂h) S(γ₁h)``,
+  ``γ₁ = 1/(2 − 2^{1/3})``, ``γ₂ = 1 − 2γ₁`` (3 basic steps); order 6 Yoshida's 7-step
+  symmetric composition "solution A", ``w₁ = −1.17767998417887``, ``w₂ = 0.235573213359357``,
+  ``w₃ = 0.784513610477560``, ``w₀ = 1 − 2(w₁ + w₂ + w₃)``, steps ``w₃ w₂ w₁ w₀ w₁ w₂ w₃``;
+* ``"triple_jump"``: the triple jump applied recursively, ``γ₁ = 1/(2 − 2^{1/(q+1)})`` raising
+  the order from q to q + 2 (9 basic steps for order 6; large error constants);
 * ``"suzuki"``: the fractal ``S(p h)² S((1 − 4p) h) S(p h)²``, ``p = 1/(4 − 4^{1/(q+1)})``
-  (Suzuki 1990; 5 basic steps for order 4, 25 for order 6), smaller error constants.
+  (Suzuki 1990; 5 basic steps for order 4, 25 for order 6), the smallest error constants per step.
 """
 
 from __future__ import annotations
@@ -46,7 +49,9 @@ from .registry import AUTO, register
 __all__ = ["COMPOSITIONS", "Splitting", "composition_coefficients"]
 
 #: composition schemes of the higher orders
-COMPOSITIONS = ("yoshida", "suzuki")
+COMPOSITIONS = ("yoshida", "triple_jump", "suzuki")
+#: Yoshida's (1990) sixth-order 7-step symmetric composition, "solution A"
+_YOSHIDA6 = (0.784513610477560, 0.235573213359357, -1.17767998417887)
 _STRUCTURES = ("free_top", "heavy_top")
 
 
@@ -54,9 +59,12 @@ def composition_coefficients(order: int, scheme: str = "yoshida") -> np.ndarray:
     """Fractions of h of the basic symmetric steps of a composition of the given (even) order."""
     if scheme not in COMPOSITIONS:
         raise ValueError(f"`composition` must be one of {list(COMPOSITIONS)}; got {scheme!r}.")
+    if scheme == "yoshida" and order == 6:
+        w3, w2, w1 = _YOSHIDA6
+        return np.array([w3, w2, w1, 1.0 - 2.0 * (w1 + w2 + w3), w1, w2, w3])
     c = np.array([1.0])
     for q in range(2, order, 2):  # raise the order from q to q + 2
-        if scheme == "yoshida":
+        if scheme in ("yoshida", "triple_jump"):
             g1 = 1.0 / (2.0 - 2.0 ** (1.0 / (q + 1)))
             weights = [g1, 1.0 - 2.0 * g1, g1]
         else:
@@ -92,7 +100,7 @@ class Splitting(Method):
         n = 3: the order of the principal axes ("123", "213", …; axis k is column k of
         ``system.inertia.P``, the body axis itself when B is diagonal). None: the planes
         ``(i, j)``, i < j, in lexicographic order ("123" for n = 3).
-    composition : {"yoshida", "suzuki"}
+    composition : {"yoshida", "triple_jump", "suzuki"}
         Composition scheme of orders 4 and 6.
 
     Examples
