@@ -16,7 +16,9 @@ magnitude with the moments of inertia (``benchmarks/long_time.py`` measures it).
 
 **Heavy top, any n.** ``H = T − U`` with ``U = M⟨Γ, X_G⟩``: the free part as above, and the
 gravity *kick* ``Ȧ = M X_G ∧ Γ`` (Γ, R fixed), exact as ``A ↦ A + τ M X_G ∧ Γ`` — the SE(n)
-action of ``(I, τ M X_G)``.
+action of ``(I, τ M X_G)``. With ``free="exact"`` (n = 3) the free part is one exact flow of the
+free top (:func:`~lieint.methods.exact_flow.free_top_increment`) instead of the rotations: the
+splitting then has only the error of separating kinetic and potential energy.
 
 The basic step ``S_h`` is Strang's symmetric composition of the pieces (heavy top: kick h/2,
 free part h, kick h/2; free part: ``T₁(h/2) … T_{m−1}(h/2) T_m(h) T_{m−1}(h/2) … T₁(h/2)``),
@@ -48,6 +50,8 @@ from .registry import AUTO, register
 
 __all__ = ["COMPOSITIONS", "Splitting", "composition_coefficients"]
 
+#: how the free part is integrated
+FREE_PARTS = ("rotations", "exact")
 #: composition schemes of the higher orders
 COMPOSITIONS = ("yoshida", "triple_jump", "suzuki")
 #: Yoshida's (1990) sixth-order 7-step symmetric composition, "solution A"
@@ -102,13 +106,17 @@ class Splitting(Method):
         ``(i, j)``, i < j, in lexicographic order ("123" for n = 3).
     composition : {"yoshida", "triple_jump", "suzuki"}
         Composition scheme of orders 4 and 6.
+    free : {"rotations", "exact"}
+        The free part as a Strang composition of the plane rotations, or (n = 3) its exact
+        elliptic flow.
 
     Examples
     --------
     >>> import lieint
     >>> top = lieint.EulerTop.from_principal_moments([1.0, 2.0, 3.0])
     >>> y0 = top.initial_state(angular_velocity=[0.3, 1.0, 0.4])
-    >>> sol = lieint.integrate(top, y0, (0.0, 10.0), h=0.1, method="splitting4", split="213")
+    >>> method = lieint.get_method("splitting4", split="213")
+    >>> sol = lieint.integrate(top, y0, (0.0, 10.0), h=0.1, method=method)
     >>> bool(sol.drift("casimirs").max() < 1e-13)
     True
     """
@@ -117,6 +125,7 @@ class Splitting(Method):
     order: int
     split: str | None = None
     composition: str = "yoshida"
+    free: str = "rotations"
 
     group_action = True
 
@@ -128,6 +137,10 @@ class Splitting(Method):
                 raise TypeError(f"`split` must be a string such as '123' or '213'; got {type(self.split).__name__}.")
             _planes(3, self.split)
         composition_coefficients(self.order, self.composition)  # validates the scheme
+        if self.free not in FREE_PARTS:
+            raise ValueError(f"`free` must be one of {list(FREE_PARTS)}; got {self.free!r}.")
+        if self.free == "exact" and self.split is not None:
+            raise ValueError("`split` names the order of the rotations; it does not apply with free='exact'.")
 
     @property
     def coefficients(self) -> np.ndarray:
@@ -144,9 +157,14 @@ class Splitting(Method):
             )
         if self.split is not None:
             _planes(system.inertia.n, self.split)
+        if self.free == "exact" and system.inertia.n != 3:
+            raise ValueError(
+                f"`method` {self.name!r} with free='exact' needs a 3D body (the elliptic flow); "
+                f"got n = {system.inertia.n}."
+            )
 
     def step(self, system, t: float, y: dict, h: float, state=None) -> StepResult:
-        pieces = _Pieces(system, self.split)
+        pieces = _Pieces(system, self.split, self.free == "exact")
         for c in self.coefficients:
             y = pieces.strang(y, c * h)
         return StepResult(y, None, len(self.coefficients), None)
@@ -155,8 +173,8 @@ class Splitting(Method):
 class _Pieces:
     """The exact flows of one system: plane rotations and (heavy top) the gravity kick."""
 
-    def __init__(self, system, split):
-        self.system = system
+    def __init__(self, system, split, exact: bool = False):
+        self.system, self.exact = system, exact
         inertia = system.inertia
         self.n, self.b, self.P, self.diagonal = inertia.n, inertia.b, inertia.P, inertia.diagonal
         self.planes = _planes(self.n, split)
@@ -193,6 +211,10 @@ class _Pieces:
         return out
 
     def free(self, y: dict, h: float) -> dict:
+        if self.exact:
+            from .exact_flow import free_top_increment
+
+            return self.system.act(self._element(free_top_increment(self.system.inertia, y["A"], h)), y)
         planes = self.planes
         for p in planes[:-1]:
             y = self.rotate(y, p, 0.5 * h)
@@ -210,11 +232,16 @@ class _Pieces:
 # -- the registry's entries -------------------------------------------------------------------
 
 
-def _build(name: str, order: int, coordinates: str | None = None, split=AUTO, composition=AUTO) -> Splitting:
+def _build(
+    name: str, order: int, coordinates: str | None = None, split=AUTO, composition=AUTO, free=AUTO
+) -> Splitting:
     split = None if split is AUTO else split
     composition = "yoshida" if composition is AUTO else composition
+    free = "rotations" if free is AUTO else free
     label = name if split is None else f"{name}[{split}]"
-    return Splitting(label, order, split, composition)
+    if free != "rotations":
+        label = f"{label}[free={free}]"
+    return Splitting(label, order, split, composition, free)
 
 
 for _order in (2, 4, 6):
@@ -227,6 +254,6 @@ for _order in (2, 4, 6):
             _order,
             partial(_build, _name, _order),
             description=f"{_how} splitting into exact rotations (free top) + gravity kick (heavy top), order {_order}",
-            options=("split", "composition"),
+            options=("split", "composition", "free"),
         )
     )
