@@ -73,6 +73,8 @@ class ExactFlow(Method):
     order: int | None = None
 
     group_action = True
+    #: exact at any step: no step-size warning applies
+    any_step = True
 
     def check_system(self, system) -> None:
         require_free_top3(self.name, system)

@@ -30,7 +30,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .euler_top_exact import _setup, jacobi_elliptic
+from .euler_top_exact import _setup, energy_momentum_gaps, jacobi_elliptic
 
 __all__ = ["euler_top_rotation"]
 
@@ -102,9 +102,7 @@ def euler_top_rotation(moments, w0, t) -> np.ndarray:
     u = e.u0 + e.lam * t
     sn, cn, dn = jacobi_elliptic(u, e.p)
     Pi = np.stack([I1 * a1 * cn, I2 * a2 * sn, I3 * a3 * dn], axis=-1)
-    # 2E I₃ − G² and G² − 2E I₁ from the components (no cancellation, as in _setup)
-    d3 = I1 * (I3 - I1) * wp0[0] ** 2 + I2 * (I3 - I2) * wp0[1] ** 2
-    d1 = I2 * (I2 - I1) * wp0[1] ** 2 + I3 * (I3 - I1) * wp0[2] ** 2
+    d1, _, d3 = energy_momentum_gaps((I1, I2, I3), wp0)  # G² − 2E I₁, 2E I₃ − G², exactly rounded
     psi = (G / I1) * t
     if d3 != 0.0:  # (both d3 and d1 are negative when the axes are relabelled in descending order)
         nu = -I1 * d3 / (I3 * d1)
