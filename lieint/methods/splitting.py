@@ -10,9 +10,10 @@ angular velocity ``Ω_ij = −Ã_ij/(b_i + b_j)`` (``Ã_ij`` does not change und
 flow over a time τ is the group action ``(A, R) ↦ (QᵀAQ, RQ)`` with
 ``Q = P exp(τ Ω_ij e_i∧e_j) Pᵀ``, a plane rotation by the angle ``τ Ω_ij``. For n = 3 these are
 the rotations about the principal axes (McLachlan 1993; Touma & Wisdom 1994): plane (2, 3) is
-axis 1, and so on. The split is named by the order of the axes, "123" (default), "213",
-"312", …; Fassò (2003) shows that the energy error depends on this choice by orders of
-magnitude with the moments of inertia (``benchmarks/long_time.py`` measures it).
+axis 1, and so on. The split is named by the order of the axes, "123", "213", "312", …
+(default: the planes in lexicographic order, "321"); Fassò (2003) shows that the energy
+error depends on this choice by orders of magnitude with the moments of inertia
+(``benchmarks/long_time.py`` measures it).
 
 **Heavy top, any n.** ``H = T − U`` with ``U = M⟨Γ, X_G⟩``: the free part as above, and the
 gravity *kick* ``Ȧ = M X_G ∧ Γ`` (Γ, R fixed), exact as ``A ↦ A + τ M X_G ∧ Γ`` — the SE(n)
@@ -103,7 +104,8 @@ class Splitting(Method):
     split : str or None
         n = 3: the order of the principal axes ("123", "213", …; axis k is column k of
         ``system.inertia.P``, the body axis itself when B is diagonal). None: the planes
-        ``(i, j)``, i < j, in lexicographic order ("123" for n = 3).
+        ``(i, j)``, i < j, in lexicographic order (for n = 3 that is "321": planes (1, 2),
+        (1, 3), (2, 3) are the axes 3, 2, 1).
     composition : {"yoshida", "triple_jump", "suzuki"}
         Composition scheme of orders 4 and 6.
     free : {"rotations", "exact"}
