@@ -8,9 +8,10 @@ with ``f`` the system's vector field on the embedding space: ``Ȧ = [A, Ω(A)]``
 for the heavy top), ``Γ̇ = −ΩΓ``, ``Ṙ = RΩ``. The rule is symmetric, of order 2, and keeps
 every quadratic first integral of the equations to the solver's tolerance: the energy
 ``T = ¼ tr(ΩA)`` (heavy top: ``T − M⟨Γ, X_G⟩``), ``tr A²``, ``|Γ|²``, the n = 3 Casimir
-``⟨Π, Γ⟩`` and ``RᵀR = I`` — for R the update is exactly ``R₁ = R₀ cay(hΩ(A_m))``. It is not a
-Lie-group method: Casimirs of degree > 2 (``tr A⁴`` in n ≥ 4) and the space momentum
-``R A Rᵀ`` are kept only to the order of the method (with bounded error).
+``⟨Π, Γ⟩`` and ``RᵀR = I`` — for R the update is exactly ``R₁ = R₀ cay(hΩ(A_m))``. In n = 3
+and 4 every Casimir of the free top is quadratic (n = 4: ``tr A²`` and the Pfaffian), so the
+spectrum of A is kept; in n ≥ 5 ``tr A⁴`` is not. It is not a Lie-group method: the space
+momentum ``R A Rᵀ`` is kept only to the order of the method.
 
 The midpoint is found by fixed-point iteration started from the explicit Euler half step. Its
 contraction factor is about ``(h/2)‖∂f/∂y‖`` (``h‖Ω‖/2`` for the free top), so it converges

@@ -105,23 +105,30 @@ def moser_veselov_increment(inertia, A: np.ndarray, h: float) -> tuple[np.ndarra
     scale = max(float(np.max(np.abs(rhs))), np.finfo(float).tiny)
     last = np.inf
     it = 0
-    while it < _MAX_NEWTON:
-        it += 1
-        omega, W = _cay(X)
-        F = B @ np.swapaxes(omega, -1, -2) - omega @ B - rhs
-        # d cay_X(E_k) = ½ W E_k (I + cay X); dF = B dωᵀ − dω B
-        domega = 0.5 * W[..., None, :, :] @ E @ (eye + omega)[..., None, :, :]
-        dF = B @ np.swapaxes(domega, -1, -2) - domega @ B  # (..., d, n, n)
-        J = np.swapaxes(_coords(dF), -1, -2)  # (..., d, d): column k = dF(E_k)
-        delta = np.linalg.solve(J, -_coords(F)[..., None])[..., 0]
-        X = X + _skew(delta, n)
-        size = float(np.max(np.abs(delta)))
-        if size <= 4.0 * _EPS * max(float(np.max(np.abs(X))), np.finfo(float).tiny) or size >= last:
-            break
-        last = size
-    omega, _ = _cay(X)
-    residual = float(np.max(np.abs(B @ np.swapaxes(omega, -1, -2) - omega @ B - rhs)))
-    if residual > 1e3 * _EPS * max(scale, float(np.max(np.abs(B)))):
+    residual = np.inf
+    with np.errstate(all="ignore"):  # a diverging iteration is reported below, not as warnings
+        try:
+            while it < _MAX_NEWTON:
+                it += 1
+                omega, W = _cay(X)
+                F = B @ np.swapaxes(omega, -1, -2) - omega @ B - rhs
+                # d cay_X(E_k) = ½ W E_k (I + cay X); dF = B dωᵀ − dω B
+                domega = 0.5 * W[..., None, :, :] @ E @ (eye + omega)[..., None, :, :]
+                dF = B @ np.swapaxes(domega, -1, -2) - domega @ B  # (..., d, n, n)
+                J = np.swapaxes(_coords(dF), -1, -2)  # (..., d, d): column k = dF(E_k)
+                delta = np.linalg.solve(J, -_coords(F)[..., None])[..., 0]
+                X = X + _skew(delta, n)
+                size = float(np.max(np.abs(delta)))
+                if not np.isfinite(size):
+                    break
+                if size <= 4.0 * _EPS * max(float(np.max(np.abs(X))), np.finfo(float).tiny) or size >= last:
+                    break
+                last = size
+            omega, _ = _cay(X)
+            residual = float(np.max(np.abs(B @ np.swapaxes(omega, -1, -2) - omega @ B - rhs)))
+        except np.linalg.LinAlgError:
+            pass
+    if not residual <= 1e3 * _EPS * max(scale, float(np.max(np.abs(B)))):
         raise RuntimeError(
             f"Moser–Veselov step h = {h:g}: Newton did not reach round-off after {it} iterations "
             f"(residual {residual:.3g}); take a smaller `h`."
