@@ -39,6 +39,10 @@ def fitted_order(method, system, y0, T, ns):
 ORDER_CASES = [
     ("moser_veselov", "top3", 2, (40, 80, 160)),
     ("moser_veselov", "top4", 2, (40, 80, 160)),
+    ("moser_veselov4", "top3", 4, (40, 80, 160)),
+    ("moser_veselov4", "top4", 4, (40, 80, 160)),
+    ("moser_veselov6", "top3", 6, (20, 40, 80)),
+    ("moser_veselov6", "top4", 6, (20, 40, 80)),
     ("lie_midpoint", "top3", 2, (40, 80, 160)),
     ("lie_midpoint", "top4", 2, (40, 80, 160)),
     ("lie_midpoint", "heavy", 2, (60, 120, 240)),
@@ -89,6 +93,20 @@ def test_moser_veselov_keeps_energy_casimirs_manakov_and_momentum_to_round_off(n
     for name in ("energy", "casimirs", "manakov", "momentum"):
         assert np.max(sol.drift(name)) < 1e-13, (name, np.max(sol.drift(name)))
     assert np.max(sol.drift("orthogonality")) < 1e-13
+
+
+def test_moser_veselov_compositions_keep_what_moser_veselov_keeps():
+    for name in ("moser_veselov4", "moser_veselov6"):
+        sol = lieint.integrate(TOP4, Y4, (0.0, 20.0), h=0.1, method=name)
+        for inv in ("energy", "casimirs", "manakov", "momentum"):
+            assert np.max(sol.drift(inv)) < 1e-13, (name, inv)
+
+
+def test_moser_veselov_is_symmetric(rng):
+    y1 = lieint.get_method("moser_veselov").step(TOP3, 0.0, Y3, 0.3, None).y
+    back = lieint.get_method("moser_veselov").step(TOP3, 0.3, y1, -0.3, None).y
+    for k in Y3:
+        np.testing.assert_allclose(back[k], Y3[k], atol=1e-14)
 
 
 def test_moser_veselov_solves_its_equation_to_round_off(rng):

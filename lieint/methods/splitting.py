@@ -32,6 +32,7 @@ space momentum (each piece does). Orders 4 and 6 compose ``S`` symmetrically:
   ``γ₁ = 1/(2 − 2^{1/3})``, ``γ₂ = 1 − 2γ₁`` (3 basic steps); order 6 Yoshida's 7-step
   symmetric composition "solution A", ``w₁ = −1.17767998417887``, ``w₂ = 0.235573213359357``,
   ``w₃ = 0.784513610477560``, ``w₀ = 1 − 2(w₁ + w₂ + w₃)``, steps ``w₃ w₂ w₁ w₀ w₁ w₂ w₃``;
+  higher orders apply triple jumps to it (order 8: 21 basic steps);
 * ``"triple_jump"``: the triple jump applied recursively, ``γ₁ = 1/(2 − 2^{1/(q+1)})`` raising
   the order from q to q + 2 (9 basic steps for order 6; large error constants);
 * ``"suzuki"``: the fractal ``S(p h)² S((1 − 4p) h) S(p h)²``, ``p = 1/(4 − 4^{1/(q+1)})``
@@ -64,11 +65,13 @@ def composition_coefficients(order: int, scheme: str = "yoshida") -> np.ndarray:
     """Fractions of h of the basic symmetric steps of a composition of the given (even) order."""
     if scheme not in COMPOSITIONS:
         raise ValueError(f"`composition` must be one of {list(COMPOSITIONS)}; got {scheme!r}.")
-    if scheme == "yoshida" and order == 6:
+    if isinstance(order, bool) or not isinstance(order, (int, np.integer)) or order < 2 or order % 2:
+        raise ValueError(f"`order` of a symmetric composition must be an even integer >= 2; got {order!r}.")
+    c, start = np.array([1.0]), 2
+    if scheme == "yoshida" and order >= 6:
         w3, w2, w1 = _YOSHIDA6
-        return np.array([w3, w2, w1, 1.0 - 2.0 * (w1 + w2 + w3), w1, w2, w3])
-    c = np.array([1.0])
-    for q in range(2, order, 2):  # raise the order from q to q + 2
+        c, start = np.array([w3, w2, w1, 1.0 - 2.0 * (w1 + w2 + w3), w1, w2, w3]), 6
+    for q in range(start, order, 2):  # raise the order from q to q + 2
         if scheme in ("yoshida", "triple_jump"):
             g1 = 1.0 / (2.0 - 2.0 ** (1.0 / (q + 1)))
             weights = [g1, 1.0 - 2.0 * g1, g1]
