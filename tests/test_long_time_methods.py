@@ -40,9 +40,12 @@ ORDER_CASES = [
     ("moser_veselov", "top3", 2, (40, 80, 160)),
     ("moser_veselov", "top4", 2, (40, 80, 160)),
     ("moser_veselov4", "top3", 4, (40, 80, 160)),
-    ("moser_veselov4", "top4", 4, (40, 80, 160)),
-    ("moser_veselov6", "top3", 6, (40, 80, 160)),
-    ("moser_veselov6", "top4", 6, (40, 80, 160)),
+    ("moser_veselov6", "top3", 6, (20, 40, 80)),
+    ("moser_veselov8", "top3", 8, (10, 20, 40)),
+    ("moser_veselov_composed4", "top3", 4, (40, 80, 160)),
+    ("moser_veselov_composed4", "top4", 4, (40, 80, 160)),
+    ("moser_veselov_composed6", "top3", 6, (40, 80, 160)),
+    ("moser_veselov_composed6", "top4", 6, (40, 80, 160)),
     ("lie_midpoint", "top3", 2, (40, 80, 160)),
     ("lie_midpoint", "top4", 2, (40, 80, 160)),
     ("lie_midpoint", "heavy", 2, (60, 120, 240)),
@@ -96,7 +99,7 @@ def test_moser_veselov_keeps_energy_casimirs_manakov_and_momentum_to_round_off(n
 
 
 def test_moser_veselov_compositions_keep_what_moser_veselov_keeps():
-    for name in ("moser_veselov4", "moser_veselov6"):
+    for name in ("moser_veselov_composed4", "moser_veselov_composed6"):
         sol = lieint.integrate(TOP4, Y4, (0.0, 20.0), h=0.1, method=name)
         for inv in ("energy", "casimirs", "manakov", "momentum"):
             assert np.max(sol.drift(inv)) < 1e-13, (name, inv)

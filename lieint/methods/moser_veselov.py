@@ -182,9 +182,9 @@ the identity once ``h‖Ω‖`` approaches 1 for a flat body.) Each substep
     is a Moser–Veselov step, so everything it keeps — energy, Casimirs, Manakov integrals,
     space momentum, symplecticity — the composition keeps, in any n.
 
-    These are compositions, not the modified-moment ("preprocessed") Moser–Veselov methods
-    of McLachlan & Zanna (2005) and Hairer & Vilmart (2006), which reach the higher orders at
-    the cost of one Moser–Veselov step.
+    These are compositions (any n), not the modified-moment Moser–Veselov methods of
+    McLachlan & Zanna (2005) and Hairer & Vilmart (2006) (``moser_veselov4/6/8``, n = 3), which
+    reach the higher orders at the cost of one Moser–Veselov step.
     """
 
     name: str
@@ -221,7 +221,7 @@ def _build(coordinates: str | None = None) -> MoserVeselov:
 
 def _build_composition(order: int, coordinates: str | None = None, composition=AUTO) -> MoserVeselovComposition:
     composition = "yoshida" if composition is AUTO else composition
-    name = f"moser_veselov{order}" + ("" if composition == "yoshida" else f"[{composition}]")
+    name = f"moser_veselov_composed{order}" + ("" if composition == "yoshida" else f"[{composition}]")
     return MoserVeselovComposition(name, order, composition)
 
 
@@ -237,7 +237,7 @@ register(
 for _order in (4, 6):
     register(
         MethodSpec(
-            f"moser_veselov{_order}",
+            f"moser_veselov_composed{_order}",
             "moser-veselov",
             _order,
             partial(_build_composition, _order),
