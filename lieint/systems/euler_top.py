@@ -227,7 +227,7 @@ class EulerTop(LieGroupSystem):
 
     # -- exact solution ----------------------------------------------------------------
     def exact_solution(self, t, y0: State) -> State:
-        """Exact body momentum ``A(t)`` for n = 3 (Jacobi elliptic functions).
+        """Exact body momentum ``A(t)`` for n = 3 (Jacobi elliptic functions) and the attitude R(t).
 
         Parameters
         ----------
@@ -239,8 +239,11 @@ class EulerTop(LieGroupSystem):
         Returns
         -------
         dict
-            ``{"A": (m, *batch, 3, 3), "Omega": (m, *batch, 3, 3)}``. The orientation has no
-            elliptic closed form here; compare it through the invariant space momentum.
+            ``{"A": (m, *batch, 3, 3), "Omega": (m, *batch, 3, 3)}`` and, when the top carries
+            its orientation, ``"R": (m, *batch, 3, 3)``: ``R(t) = R(0) P Q̃(t) Pᵀ`` with the body
+            increment Q̃ of the principal frame from an elliptic integral of the third kind
+            (:func:`~lieint.systems.euler_top_attitude.euler_top_rotation`, after Celledoni,
+            Fassò, Säfström & Zanna 2008).
         """
         if self.n != 3:
             raise ValueError(f"The exact solution is implemented for n = 3; this top has n = {self.n}.")
@@ -255,7 +258,17 @@ class EulerTop(LieGroupSystem):
         w = np.stack([euler_top_angular_velocity(I, wi, t) for wi in flat], axis=1)
         Om_principal = hat(w).reshape((t.size,) + batch + (3, 3))
         Om = Om_principal if self._diagonal else P @ Om_principal @ P.T
-        return {"A": self.momentum(Om), "Omega": Om}
+        out = {"A": self.momentum(Om), "Omega": Om}
+        if self.orientation:
+            from .euler_top_attitude import euler_top_rotation
+
+            Q = np.stack([euler_top_rotation(I, wi, t) for wi in flat], axis=1)  # (m, members, 3, 3)
+            Q = Q.reshape((t.size,) + batch + (3, 3))
+            if not self._diagonal:
+                Q = P @ Q @ P.T
+            R0 = self.validate_state(y0, "y0")["R"]
+            out["R"] = R0 @ Q
+        return out
 
     def __repr__(self) -> str:
         return f"EulerTop(n={self.n}, b={describe(self.b)}, orientation={self.orientation})"

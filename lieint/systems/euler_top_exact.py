@@ -22,9 +22,6 @@ import numpy as np
 
 __all__ = ["euler_top_angular_velocity", "euler_top_flip_times", "jacobi_elliptic"]
 
-# Below this complementary parameter the initial phase is found from the quarter period.
-_NEAR_SEPARATRIX = 1e-3
-
 
 def jacobi_elliptic(u, p):
     """``sn, cn, dn`` of ``(u | m)`` with the parameter given by its complement ``p = 1 − m``.
@@ -59,19 +56,44 @@ def jacobi_elliptic(u, p):
 def _initial_argument(w, a1, a2, a3, m, p) -> float:
     """u₀ with ``(cn, sn, dn)(u₀) = (w₁/a₁, w₂/a₂, w₃/a₃)``.
 
-    Away from the separatrix, ``u₀ = F(φ₀|m)`` with ``φ₀ = atan2(sn, cn)``. Near it (small p)
-    ``φ₀ → ±π/2`` where F is ill-conditioned; there ``u₀ = ±(K − v₀)`` with
-    ``sd(v₀ | m) = cn(u₀)/√p`` (from ``cn(K − v) = √p sd v``), ``K = ellipkm1(p)``.
+    ``|u₀| = F(φ|m)`` for ``cn u₀ ≥ 0`` and ``2K − F(φ|m)`` for ``cn u₀ < 0``, with
+    ``φ = atan2(|sn|, |cn|) ∈ [0, π/2]`` and the sign of sn. F is Carlson's
+    ``F(φ|m) = sin φ · R_F(cos²φ, cos²φ + p sin²φ, 1)`` and ``K = R_F(0, p, 1)``: the argument
+    ``1 − m sin²φ`` is formed from the complementary parameter p, never from the rounded m.
+    Near the separatrix (p → 0, φ → π/2) ``F(·|m)`` of scipy, which takes m, is off by
+    ``~ε/p`` (measured: 4e-12 in u₀ at p = 4e-6, 4e-9 at p = 1e-10, through an earlier
+    arcsin-based formula); this form is accurate to a few ulps of u₀ for every p.
     """
-    from scipy.special import ellipkinc, ellipkm1
+    from scipy.special import elliprf
 
-    if p >= _NEAR_SEPARATRIX or p == 0.0:
-        phi0 = np.arctan2(w[1] / a2 if a2 > 0 else 0.0, w[0] / a1)
-        return float(ellipkinc(phi0, m))
-    sd = (w[0] / a1) / np.sqrt(p)
-    chi = np.arcsin(sd / np.sqrt(1.0 + m * sd * sd))  # sn v₀ = sin χ from sd = sn/dn
-    v0 = float(ellipkinc(chi, m))
-    return float(np.copysign(ellipkm1(p) - v0, w[1]))
+    sn0 = w[1] / a2 if a2 > 0 else 0.0
+    cn0 = w[0] / a1
+    rho = np.hypot(sn0, cn0)
+    s, c = abs(sn0) / rho, abs(cn0) / rho
+    F = s * float(elliprf(c * c, c * c + p * s * s, 1.0))
+    if cn0 < 0.0:
+        F = 2.0 * float(elliprf(0.0, p, 1.0)) - F
+    return float(np.copysign(F, sn0))
+
+
+def energy_momentum_gaps(moments, w) -> tuple[float, float, float]:
+    """``G² − 2E I₁``, ``G² − 2E I₂``, ``2E I₃ − G²`` correctly rounded from the doubles given.
+
+    Each is formed from the components (``G² − 2E I_k = Σ_i I_i (I_i − I_k) w_i²``, the k-th
+    term cancelling exactly) in exact rational arithmetic: near the separatrix ``G² − 2E I₂``
+    is a small difference of O(1) terms, and floating-point evaluation would leave it — and
+    the complementary parameter ``p = 1 − m`` and the period with it — only ``ε/p`` accurate
+    (measured: 1e-10 phase errors over t = 1000 at ``p ≈ 1e-6``).
+    """
+    from fractions import Fraction
+
+    I = [Fraction(float(x)) for x in moments]
+    w2 = [Fraction(float(x)) ** 2 for x in w]
+
+    def gap(k):
+        return float(sum(I[i] * (I[i] - I[k]) * w2[i] for i in range(3)))
+
+    return gap(0), gap(1), -gap(2)
 
 
 def _parity(perm) -> float:
@@ -102,11 +124,7 @@ def _setup(moments, w0) -> _Elliptic | None:
     sgn = _parity(perm)
     I1, I2, I3 = I[perm]
     w = sgn * w0[perm]
-    # The differences 2E I₃ − G², G² − 2E I₁ and G² − 2E I₂ are formed from the components
-    # (the w₃ resp. w₁, w₂ terms cancel exactly), which keeps 1 − m accurate near the separatrix.
-    d3 = I1 * (I3 - I1) * w[0] ** 2 + I2 * (I3 - I2) * w[1] ** 2  # 2E I₃ − G²
-    d1 = I2 * (I2 - I1) * w[1] ** 2 + I3 * (I3 - I1) * w[2] ** 2  # G² − 2E I₁
-    d2 = I1 * (I1 - I2) * w[0] ** 2 + I3 * (I3 - I2) * w[2] ** 2  # G² − 2E I₂
+    d1, d2, d3 = energy_momentum_gaps((I1, I2, I3), w)
     a1 = np.sqrt(d3 / (I1 * (I3 - I1)))
     a2 = np.sqrt(d3 / (I2 * (I3 - I2))) if I3 != I2 else 0.0
     a3 = np.copysign(np.sqrt(d1 / (I3 * (I3 - I1))), w[2])
