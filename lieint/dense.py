@@ -80,11 +80,14 @@ class LieHermite:
         The step's increment, ``y₁ = ρ(exp(u₁), y₀)``.
     xi0, xi1 : algebra elements
         The generator ``ξ`` at ``(t₀, y₀)`` and ``(t₁, y₁)``.
+    y1 : dict, optional
+        The state at ``t1``, returned there as it is (``exp(log g)`` may differ from ``g`` by
+        round-off).
     """
 
-    def __init__(self, system, t0: float, t1: float, y0: dict, u1, xi0, xi1):
+    def __init__(self, system, t0: float, t1: float, y0: dict, u1, xi0, xi1, y1: dict | None = None):
         group = system.group
-        self.system, self.t0, self.t1, self.y0 = system, float(t0), float(t1), y0
+        self.system, self.t0, self.t1, self.y0, self.y1 = system, float(t0), float(t1), y0, y1
         self.h = self.t1 - self.t0
         self.u1 = u1
         self.v0 = group.lincomb([self.h], [xi0])
@@ -97,6 +100,8 @@ class LieHermite:
         return self.system.group.lincomb([h10, h01, h11], [self.v0, self.u1, self.v1])
 
     def __call__(self, t: float) -> dict:
+        if self.y1 is not None and float(t) == self.t1:
+            return self.y1
         theta = (float(t) - self.t0) / self.h
         return self.system.act(self.system.group.exp(self.algebra(theta)), self.y0)
 

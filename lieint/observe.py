@@ -95,7 +95,7 @@ class StepObserver:
         self.nfev += 1
         self._cache = (t1, y1, d1, lie)
         if lie:
-            return LieHermite(system, t0, t1, y0, result.dense.algebra(system.group), d0, d1)
+            return LieHermite(system, t0, t1, y0, result.dense.algebra(system.group), d0, d1, y1)
         return EmbeddedHermite(t0, t1, y0, y1, d0, d1)
 
     # -- the result ------------------------------------------------------------------------
