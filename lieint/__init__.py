@@ -25,6 +25,7 @@ from .methods import get_method, method_names
 from .runs import run
 from .solution import Solution
 from .systems import ChaplyginBall, EulerTop, FreeBody, HeavyTop, LieGroupSystem, RollingBall
+from .systems.prescribed import PrescribedRotation
 
 __version__ = "0.2.0"
 
@@ -38,6 +39,7 @@ __all__ = [
     "HeavyTop",
     "LieGroupSystem",
     "LieStepWarning",
+    "PrescribedRotation",
     "RollingBall",
     "Solution",
     "Stats",

@@ -7,6 +7,7 @@ from .euler_top_exact import euler_top_angular_velocity
 from .free_body import FreeBody
 from .heavy_top import HeavyTop
 from .mass import check_mass_tensor
+from .prescribed import PrescribedRotation
 from .rolling_ball import RollingBall
 
 __all__ = [
@@ -15,6 +16,7 @@ __all__ = [
     "FreeBody",
     "HeavyTop",
     "LieGroupSystem",
+    "PrescribedRotation",
     "RollingBall",
     "State",
     "check_mass_tensor",
