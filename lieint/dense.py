@@ -11,8 +11,10 @@ curve ``u(θ)``, ``θ ∈ [0, 1]``, is the cubic Hermite polynomial with
 
 and ``y(t₀ + θh) = ρ(exp(u(θ)), y₀)``. The interpolant therefore lies on the orbit of ``y₀``
 (R orthogonal, the spectrum of A kept, to round-off), matches the step's end points exactly,
-and has a local error ``O(h⁴)``: the dense solution is of order ``min(p, 4)`` for a method of
-order p (the method's order up to p = 4, one less for p = 5).
+and has a local error ``O(h⁴)``. For methods of order p > 4 the curve also passes through the
+last one (p ≤ 6) or two (p ≤ 8) earlier step ends in the chart of ``y₀``, with their
+derivatives (degree 5 or 7, local error ``O(h⁶)`` or ``O(h⁸)``), so the dense solution has
+the method's order (except on the first steps of a run, where fewer earlier ends exist).
 
 Methods without a group increment (classical Runge–Kutta on the embedding) get the same cubic
 Hermite interpolant on the state arrays with the vector field at both ends. scipy's solvers
@@ -67,7 +69,7 @@ def _hermite(theta: float) -> tuple[float, float, float, float]:
 
 
 class LieHermite:
-    """``y(t₀ + θh) = ρ(exp(u(θ)), y₀)`` with ``u`` the cubic Hermite curve of the module docstring.
+    """``y(t₀ + θh) = ρ(exp(u(θ)), y₀)`` with ``u`` the Hermite curve of the module docstring.
 
     Parameters
     ----------
@@ -83,21 +85,43 @@ class LieHermite:
     y1 : dict, optional
         The state at ``t1``, returned there as it is (``exp(log g)`` may differ from ``g`` by
         round-off).
+    earlier : sequence of (t_j, v_j, ξ_j)
+        Earlier step ends in the chart of ``y₀``: ``y(t_j) = ρ(exp(v_j), y₀)`` with the
+        generator ``ξ_j`` there. Each adds two conditions (``u(θ_j) = v_j``,
+        ``u′(θ_j) = h dexp⁻¹_{−v_j}(ξ_j)``), raising the degree by two and the order of the
+        interpolant by two (cubic: 4, quintic: 6, degree 7: 8).
     """
 
-    def __init__(self, system, t0: float, t1: float, y0: dict, u1, xi0, xi1, y1: dict | None = None):
+    def __init__(self, system, t0: float, t1: float, y0: dict, u1, xi0, xi1, y1: dict | None = None, earlier=()):
         group = system.group
         self.system, self.t0, self.t1, self.y0, self.y1 = system, float(t0), float(t1), y0, y1
-        self.h = self.t1 - self.t0
-        self.u1 = u1
-        self.v0 = group.lincomb([self.h], [xi0])
-        # exact dexp⁻¹ (no truncation: the interpolant's order must not depend on a degree)
-        self.v1 = group.lincomb([self.h], [group.dexpinv(group.negate(u1), xi1, None)])
+        self.h = h = self.t1 - self.t0
+
+        def slope(v, xi):
+            # exact dexp⁻¹ (no truncation: the interpolant's order must not depend on a degree)
+            return group.lincomb([h], [group.dexpinv(group.negate(v), xi, None)])
+
+        # conditions: (θ, derivative order, algebra element or None for the zero value at θ = 0)
+        conditions = [(0.0, 0, None), (0.0, 1, group.lincomb([h], [xi0])), (1.0, 0, u1), (1.0, 1, slope(u1, xi1))]
+        for tj, vj, xij in earlier:
+            theta = (float(tj) - self.t0) / h
+            conditions += [(theta, 0, vj), (theta, 1, slope(vj, xij))]
+        m = len(conditions)
+        M = np.zeros((m, m))
+        for row, (theta, d, _) in enumerate(conditions):
+            powers = np.arange(m)
+            if d == 0:
+                M[row] = theta**powers
+            else:
+                M[row, 1:] = powers[1:] * theta ** (powers[1:] - 1)
+        self._coefficients = np.linalg.inv(M)  # polynomial coefficients per condition
+        self._data = [(i, x) for i, (_, _, x) in enumerate(conditions) if x is not None]
+        self.degree = m - 1
 
     def algebra(self, theta: float):
         """``u(θ)``."""
-        _, h10, h01, h11 = _hermite(theta)
-        return self.system.group.lincomb([h10, h01, h11], [self.v0, self.u1, self.v1])
+        w = (float(theta) ** np.arange(self.degree + 1)) @ self._coefficients
+        return self.system.group.lincomb([float(w[i]) for i, _ in self._data], [x for _, x in self._data])
 
     def __call__(self, t: float) -> dict:
         if self.y1 is not None and float(t) == self.t1:

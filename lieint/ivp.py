@@ -135,6 +135,7 @@ def integrate(
         dense_output=bool(dense_output),
         events=events,
         project=bool(project),
+        order=stepper.order,
     )
     driver = Driver(
         system,

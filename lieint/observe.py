@@ -33,10 +33,18 @@ class StepObserver:
         See :mod:`lieint.events`.
     project : bool
         Project the ``t_eval`` rows onto the manifold (as the driver does for saved rows).
+    order : int, optional
+        The method's order p: Lie-group interpolants then also match the last one (p = 5, 6)
+        or two (p ≥ 7) earlier step ends, so that the dense output has order min(p, 8)
+        (cubic, quintic, degree 7; the first steps of a run have fewer earlier ends).
     """
 
-    def __init__(self, system, t0: float, *, t_eval=None, dense_output: bool = False, events=None, project=False):
+    def __init__(
+        self, system, t0: float, *, t_eval=None, dense_output: bool = False, events=None, project=False, order=None
+    ):
         self.system, self.t0 = system, float(t0)
+        self.extra_nodes = 0 if not order or order <= 4 else 1 if order <= 6 else 2
+        self.history: list[tuple] = []  # (t_j, ξ_j, u_j) of the last steps, newest last
         self.t_eval = None if t_eval is None else np.asarray(t_eval, dtype=float)
         self.dense = DenseOutput(t0) if dense_output else None
         self.log = EventLog(as_events(events))
@@ -95,7 +103,17 @@ class StepObserver:
         self.nfev += 1
         self._cache = (t1, y1, d1, lie)
         if lie:
-            return LieHermite(system, t0, t1, y0, result.dense.algebra(system.group), d0, d1, y1)
+            group = system.group
+            u = result.dense.algebra(group)
+            earlier, g = [], None
+            for tj, xij, uj in reversed(self.history):
+                back = group.exp(group.negate(uj))
+                # y_j = ρ(exp(−u_{n−1}) ⋯ exp(−u_j), y_n) for a right action
+                g = back if g is None else group.multiply(g, back)
+                earlier.append((tj, group.negate(uj) if len(earlier) == 0 else group.log(g), xij))
+            if self.extra_nodes:
+                self.history = [*self.history, (t0, d0, u)][-self.extra_nodes :]
+            return LieHermite(system, t0, t1, y0, u, d0, d1, y1, earlier)
         return EmbeddedHermite(t0, t1, y0, y1, d0, d1)
 
     # -- the result ------------------------------------------------------------------------
