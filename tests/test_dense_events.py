@@ -171,3 +171,13 @@ def test_bad_events_are_refused():
     batch = TOP.initial_state(angular_velocity=[[0.3, 1.0, 0.4], [0.1, 1.0, 0.2]])
     with pytest.raises(ValueError, match="one number"):
         lieint.integrate(TOP, batch, (0.0, 1.0), h=0.1, events=lambda t, y: y["A"][..., 0, 1])
+
+
+def test_watched_runs_take_the_generic_path():
+    with pytest.raises(ValueError, match="`backend='numba'`: dense output, events and `t_eval`"):
+        lieint.integrate(TOP, Y0, (0.0, 1.0), h=0.1, backend="numba", dense_output=True)
+    sol = lieint.integrate(TOP, Y0, (0.0, 1.0), h=0.1, t_eval=[0.0, 0.5, 1.0])
+    assert sol.stats.backend == "numpy" and "watch every step" in sol.stats.backend_reason
+    # one extra generator evaluation per step for the interpolant's end
+    plain = lieint.integrate(TOP, Y0, (0.0, 1.0), h=0.1, backend="numpy")
+    assert sol.nfev == plain.nfev + plain.nsteps + 1
