@@ -28,6 +28,7 @@ from .solution import Solution
 from .systems import ChaplyginBall, EulerTop, FreeBody, HeavyTop, LieGroupSystem, RollingBall
 from .systems.atoms import AtomsBody
 from .systems.particles import CentralForceParticle, ConstantForceParticle, SurfaceParticle
+from .systems.prescribed import PrescribedRotation
 
 __version__ = "0.2.0"
 
@@ -44,6 +45,7 @@ __all__ = [
     "HeavyTop",
     "LieGroupSystem",
     "LieStepWarning",
+    "PrescribedRotation",
     "RollingBall",
     "Solution",
     "Stats",

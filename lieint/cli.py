@@ -347,6 +347,9 @@ def _run(args) -> int:
         f"CPU {sol.stats.cpu_time:.3f} s, {sol.stats.backend}"
         f"{'' if sol.success else ' — STOPPED: ' + sol.message}"
     )
+    for ev, times in zip(scene.events, sol.t_events or [], strict=False):
+        shown = np.array2string(times[:10], precision=10, separator=", ")
+        print(f"  event {ev['name']!r}: {times.size} times {shown}{' …' if times.size > 10 else ''}")
     for name, values in result.outputs.items():
         if name in system.invariants:
             drift = np.max(sol.drift(name))

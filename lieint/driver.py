@@ -149,6 +149,9 @@ class Driver:
     t_eval : ndarray, optional
         Save times of scipy's solvers.
     backend : {"auto", "numpy", "numba"}
+    observer : StepObserver, optional
+        Dense output, events and ``t_eval`` rows of lieint's methods (:mod:`lieint.observe`);
+        it sees every accepted step (so the run takes the generic path) and may stop the run.
     """
 
     def __init__(
@@ -164,8 +167,10 @@ class Driver:
         save_every: int = 1,
         t_eval=None,
         backend: str = "auto",
+        observer=None,
     ):
         self.system, self.method = system, method
+        self.observer = observer if observer is not None and observer.active else None
         self.t0, self.t1 = float(t_span[0]), float(t_span[1])
         self.h, self.rtol, self.atol = h, rtol, atol
         self.project, self.save_every, self.backend_request = bool(project), int(save_every), backend
@@ -200,14 +205,19 @@ class Driver:
             self.loop = _AdaptiveLoop(self)
         else:
             self.loop = _ScipyLoop(self)
-        return self.loop.start(y0)
+        carry = self.loop.start(y0)
+        if self.observer is not None:
+            self.observer.start(self.t0, self.loop.user_state(carry))
+        return carry
 
     def initial(self, y0: dict) -> dict:
         """The state the run starts from (projected when the run projects)."""
         return self.system.project(y0) if self.project else y0
 
     def done(self, carry: Carry) -> bool:
-        """True once the run has reached ``t1``."""
+        """True once the run has reached ``t1`` (or a terminal event stopped it)."""
+        if self.observer is not None and self.observer.stop is not None:
+            return True
         if self.kind == "fixed":
             return carry.k >= self.plan.nsteps
         return carry.t >= self.t1
@@ -284,13 +294,19 @@ class Driver:
         states = {name: np.concatenate([p.states[name] for p in parts]) for name in first.states}
         failure = next((s.failure for s in segments if s.failure), None)
         stats = self.stats(carry, cpu, wall)
+        stop = self.observer.stop if self.observer is not None else None
         if failure:
             message = failure
+        elif stop is not None:
+            message = f"A terminal event stopped the run at t = {stop[0]:.12g} after {carry.k} steps."
         elif self.kind == "fixed":
             message = f"Reached t1 = {self.t1:g} in {carry.k} steps."
         else:
             message = f"Reached t1 = {self.t1:g} in {carry.k} accepted steps ({carry.nrejected} rejected)."
-        return Solution(t, states, self.system, self.method.name, stats, failure is None, message)
+        sol = Solution(t, states, self.system, self.method.name, stats, failure is None, message)
+        if self.observer is not None:
+            self.observer.finish(sol)
+        return sol
 
 
 # -- loops ---------------------------------------------------------------------------------------
@@ -300,6 +316,10 @@ def _fixed_loop(driver: Driver, y0: dict):
     """The compiled kernel where one covers system, method and step, else the generic loop."""
     if driver.backend_request == "numpy":
         return _FixedLoop(driver, "backend='numpy' asked for the generic path")
+    if driver.observer is not None:
+        if driver.backend_request == "numba":
+            raise ValueError("`backend='numba'`: dense output, events and `t_eval` need the generic path; use 'auto'.")
+        return _FixedLoop(driver, "dense output, events or t_eval watch every step")
     from . import fast
 
     kernel, reason = fast.kernel_for(driver.system, driver.method, y0, driver.plan)
@@ -354,15 +374,21 @@ class _FixedLoop:
                 if (saving or (k + 1) % _FINITE_CHECK_EVERY == 0) and not _all_finite(y_new):
                     failure = _nonfinite(k + 1, plan.time(k + 1), f"Reduce the step `h` = {plan.h:g}")
                     break
-                y, mstate = y_new, result.state
+                y_prev, y, mstate = y, y_new, result.state
                 carry.k = k + 1
+                if d.observer is not None and d.observer.step(tk, y_prev, plan.time(k + 1), y, result):
+                    break
                 if saving:
                     for name, arr in y.items():
                         saved[name][slot] = arr
                     slot += 1
         carry.state, carry.method_state, carry.t = y, mstate, plan.time(carry.k)
-        return Segment(
-            np.array([plan.time(int(s)) for s in saves[:slot]]), {k: v[:slot] for k, v in saved.items()}, failure
+        return _stopped(
+            d,
+            carry,
+            Segment(
+                np.array([plan.time(int(s)) for s in saves[:slot]]), {k: v[:slot] for k, v in saved.items()}, failure
+            ),
         )
 
 
@@ -457,17 +483,20 @@ class _AdaptiveLoop:
                     )
                     break
                 continue
+            t_prev, y_prev = t, y
             t = d.t1 if d.t1 - (t + h) <= self.h_min else t + h
             y = system.project(result.y) if d.project else result.y
             mstate = result.state
             carry.k += 1
             taken += 1
+            if d.observer is not None and d.observer.step(t_prev, y_prev, t, y, result):
+                break
             if carry.k % d.save_every == 0 or t == d.t1:
                 times.append(t)
                 rows.append(y)
             h *= ctrl.factor(err, q)
         carry.t, carry.state, carry.h, carry.method_state = t, y, h, mstate
-        return Segment(np.array(times), _stack(rows, y), failure)
+        return _stopped(d, carry, Segment(np.array(times), _stack(rows, y), failure))
 
 
 class _ScipyLoop:
@@ -512,13 +541,20 @@ class _ScipyLoop:
                 break
             taken += 1
             carry.k += 1
+            t_reach, stopped = solver.t, False
+            if d.observer is not None:
+                y_new = self.layout.unpack(solver.y.copy())
+                stopped = d.observer.step_with(t_old, solver.t, y_new, self._dense(solver))
+                t_reach = d.observer.stop[0] if stopped else t_reach
+            if stopped and d.save_times is None:
+                break
             if d.save_times is None:
                 if carry.k % d.save_every == 0 or solver.status == "finished":
                     times.append(solver.t)
                     rows.append(self._row(solver.y.copy()))
                 continue
             st = d.save_times
-            stop = int(np.searchsorted(st, solver.t, side="right"))
+            stop = int(np.searchsorted(st, t_reach, side="right"))
             if stop > self.next_save:
                 dense = solver.dense_output()
                 for j in range(self.next_save, stop):
@@ -526,12 +562,36 @@ class _ScipyLoop:
                     times.append(float(st[j]))
                     rows.append(self._row(z))
                 self.next_save = stop
+            if stopped:
+                break
         carry.nfev += solver.nfev - nfev0
         carry.t = d.t1 if solver.status == "finished" else solver.t
-        return Segment(np.array(times), _stack(rows, self.user_state(carry)), failure)
+        return _stopped(d, carry, Segment(np.array(times), _stack(rows, self.user_state(carry)), failure))
+
+    def _dense(self, solver):
+        """scipy's interpolant of the last step, as states."""
+        dense, unpack = solver.dense_output(), self.layout.unpack
+        return lambda t: unpack(dense(t))
 
 
 # -- helpers ---------------------------------------------------------------------------------------
+
+
+def _stopped(d: Driver, carry: Carry, segment: Segment) -> Segment:
+    """After a terminal event: the run ends at the event (its state is the last row)."""
+    stop = d.observer.stop if d.observer is not None else None
+    if stop is None or (carry.t == stop[0] and segment.rows and segment.t[-1] == stop[0]):
+        return segment
+    t_stop, y_stop = stop
+    if d.kind != "scipy":
+        carry.state = y_stop
+    carry.t = t_stop
+    keep = segment.t < t_stop
+    return Segment(
+        np.append(segment.t[keep], t_stop),
+        {k: np.concatenate([v[keep], np.asarray(y_stop[k])[None]]) for k, v in segment.states.items()},
+        segment.failure,
+    )
 
 
 def _stack(rows: list[dict], like: dict) -> dict:

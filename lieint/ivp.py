@@ -10,6 +10,7 @@ import numpy as np
 from ._validation import check_finite_positive
 from .driver import Driver
 from .methods.registry import AUTO, get_method
+from .observe import StepObserver
 from .solution import Solution
 from .systems.base import LieGroupSystem
 
@@ -42,6 +43,8 @@ def integrate(
     atol: float = 1e-10,
     t_eval=None,
     backend: str = "auto",
+    dense_output: bool = False,
+    events=None,
 ) -> Solution:
     """Integrate ``system`` from ``y0`` over ``t_span``.
 
@@ -60,7 +63,9 @@ def integrate(
         methods the initial step (default: estimated); for scipy methods only the save grid.
     method : str or Method
         A name from :func:`lieint.method_names` ("lie_euler", "rkmk2", "rkmk3", "rkmk4",
-        "rkmk6", the adaptive "rkmk23", "rkmk45", "rkmk853", "rk4", "scipy:DOP853", …) or a
+        "rkmk6", the adaptive "rkmk23", "rkmk45", "rkmk853", the commutator-free "cf3", "cf4",
+        the Crouch–Grossman "cg3", "cg4a", the Magnus "magnus4", "magnus6" (generators of t
+        only), "rk4", "scipy:DOP853", …) or a
         method object (:class:`~lieint.methods.Method`).
     coordinates : {"exp", "cayley"}, optional
         Coordinate map of methods that have one (default: the method's, "exp"); refused for
@@ -76,12 +81,21 @@ def integrate(
         Tolerances of adaptive and scipy methods (adaptive Lie-group methods measure the error
         on the state: ``|y − ŷ| / (atol + rtol·|y|)`` in the RMS norm).
     t_eval : array_like, optional
-        Save times of scipy methods (default: the grid of ``h`` and ``save_every``, else every
-        ``save_every``-th accepted step).
+        Save times, increasing from ``t0`` to ``t1`` (every method; lieint's methods save them
+        from the dense output on the group, :mod:`lieint.dense`). Default: the grid of ``h``
+        and ``save_every``, else every ``save_every``-th accepted step.
     backend : {"auto", "numpy", "numba"}
         "auto" runs a compiled kernel where one covers the system and method (the 3D Euler
         top with RKMK in exponential coordinates or classical RK), else the generic numpy path;
         "numpy" forces the generic path (the reference); "numba" requires the kernel.
+    dense_output : bool, default False
+        Keep a continuous solution ``sol.sol(t)`` (:class:`lieint.dense.DenseOutput`): for
+        Lie-group methods interpolated in the Lie algebra of each step, so its states lie on
+        the manifold.
+    events : callable or list of callables, optional
+        Event functions ``g(t, y)`` with scipy's ``terminal`` and ``direction`` attributes,
+        located on the dense output to 1e-12 in time (:mod:`lieint.events`); the result has
+        ``t_events`` and ``y_events``.
 
     Returns
     -------
@@ -112,12 +126,19 @@ def integrate(
         atol = check_finite_positive(atol, "atol")
     elif h is None:
         raise ValueError(f"`h` (the step size) is required for the fixed-step method {stepper.name!r}.")
+    if not isinstance(dense_output, (bool, np.bool_)):
+        raise TypeError(f"`dense_output` must be True or False; got {dense_output!r}.")
     if t_eval is not None:
-        if not stepper.self_controlled:
-            raise ValueError(
-                "`t_eval` applies to scipy methods only; Lie-group and classical methods save every `save_every` steps."
-            )
         t_eval = _check_t_eval(t_eval, t0, t1)
+    observer = StepObserver(
+        system,
+        t0,
+        t_eval=None if stepper.self_controlled else t_eval,
+        dense_output=bool(dense_output),
+        events=events,
+        project=bool(project),
+        order=stepper.order,
+    )
     driver = Driver(
         system,
         stepper,
@@ -129,6 +150,7 @@ def integrate(
         save_every=int(save_every),
         t_eval=t_eval,
         backend=backend,
+        observer=observer,
     )
     sol = driver.run(y)
     if driver.kind == "fixed" and not getattr(stepper, "any_step", False):  # exact flows take any step

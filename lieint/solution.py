@@ -67,6 +67,13 @@ class Solution:
         False if the run stopped early (non-finite state, solver failure).
     message : str
         What happened, and what to do about it when it failed.
+    sol : DenseOutput or None
+        With ``dense_output=True``: the continuous solution ``sol.sol(t)`` on the group
+        (:class:`lieint.dense.DenseOutput`); None otherwise.
+    t_events : list of ndarray or None
+        With ``events``: the times of each event (:mod:`lieint.events`); None otherwise.
+    y_events : list of dict or None
+        With ``events``: the states at those times (dicts of ``(k, ...)`` arrays).
     """
 
     t: np.ndarray
@@ -77,6 +84,9 @@ class Solution:
     success: bool
     message: str
     invariants: Invariants = field(init=False, repr=False)
+    sol: Any = field(default=None, repr=False)
+    t_events: Any = field(default=None, repr=False)
+    y_events: Any = field(default=None, repr=False)
 
     def __post_init__(self):
         self.invariants = Invariants(self.system, self.t, self.states, len(self.batch_shape))

@@ -26,6 +26,7 @@ from functools import partial
 
 import numpy as np
 
+from ..dense import Increment
 from . import tableaux
 from .base import Method, MethodSpec, StepResult
 from .registry import AUTO, register
@@ -119,12 +120,16 @@ class RKMK(Method):
     def step(self, system, t: float, y: dict, h: float, state=None) -> StepResult:
         group = system.group
         ks = self.stage_increments(system, t, y, h)
-        y1 = system.act(coordinate_map(group, self.coordinates, _combine(group, self.butcher.b, ks, h)), y)
+        u = _combine(group, self.butcher.b, ks, h)
+        g = coordinate_map(group, self.coordinates, u)
+        y1 = system.act(g, y)
         error = None
         if isinstance(self.tableau, EmbeddedPair):
             y_hat = system.act(coordinate_map(group, self.coordinates, _combine(group, self.tableau.b_hat, ks, h)), y)
             error = {name: y1[name] - y_hat[name] for name in y1}
-        return StepResult(y1, error, self.stages, None, dense=(ks, h))
+        # dense output interpolates in exponential coordinates (a Cayley step's element is logged)
+        increment = Increment(u=u, data=(ks, h)) if self.coordinates == "exp" else Increment(g=g, data=(ks, h))
+        return StepResult(y1, error, self.stages, None, dense=increment)
 
     def compiled(self):
         """RKMK in exponential coordinates with a truncated dexp⁻¹ has compiled kernels."""

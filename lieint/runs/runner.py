@@ -30,7 +30,7 @@ import numpy as np
 from ..drift import DriftMonitor
 from ..driver import Carry, Driver, Segment
 from ..methods.registry import get_method
-from ..scenes import Scene, build_system, scene_solver_options
+from ..scenes import Scene, SceneError, build_system, scene_solver_options
 from .store import Checkpoint, OutputFile, StoreError
 
 __all__ = ["RunReport", "StreamedRun", "run", "scene_fingerprint"]
@@ -87,6 +87,11 @@ class StreamedRun:
 
         self.version = __version__
         self.scene, self.out = scene, Path(out)
+        if scene.events:
+            raise SceneError(
+                f"{scene.source or '<scene>'}: [[events]] are located by `lieint run` without --out (and by "
+                "lieint.scenes.run_scene); streamed runs do not record them"
+            )
         self.system, y0 = build_system(scene)
         options = scene_solver_options(scene)
         method = get_method(options.pop("method"), coordinates=options.pop("coordinates"))

@@ -31,7 +31,7 @@ from ..systems import ChaplyginBall, EulerTop, FreeBody, HeavyTop, RollingBall
 from ..systems.catalog import make_system
 from .schema import Scene, SceneError
 
-__all__ = ["SceneRun", "build_system", "collect_outputs", "run_scene", "scene_solver_options"]
+__all__ = ["SceneRun", "build_system", "collect_outputs", "run_scene", "scene_events", "scene_solver_options"]
 
 _NEEDS_R = {"orientation", "momentum", "orthogonality"}
 _NEEDS_CENTER = {"center", "contact_path"}
@@ -181,10 +181,41 @@ def scene_solver_options(scene: Scene) -> dict:
 def run_scene(scene: Scene) -> SceneRun:
     """Build and integrate the scene; return the solution and its requested outputs."""
     system, y0 = build_system(scene)
-    sol = integrate(system, y0, (scene.t_start, scene.t_end), **scene_solver_options(scene))
+    events = scene_events(system, y0, scene) or None
+    sol = integrate(system, y0, (scene.t_start, scene.t_end), **scene_solver_options(scene), events=events)
     return SceneRun(scene, system, sol, collect_outputs(system, sol, scene.outputs))
 
 
 def collect_outputs(system, sol: Solution, names) -> dict[str, np.ndarray]:
     """Requested outputs (declared outputs or invariants of the system) over the saved times."""
     return sol.outputs(names)
+
+
+def scene_events(system, y0: dict, scene: Scene) -> list:
+    """The scene's ``[[events]]`` as event functions ``g(t, y) = output(t, y)[component] − value``
+    with their ``terminal`` and ``direction`` (:mod:`lieint.events`); checked on ``y0``."""
+    events = []
+    for ev in scene.events:
+        name, component = ev["output"], ev["component"]
+        if name not in system.outputs and name not in system.invariants:
+            raise SceneError(
+                f"{scene.source or '<scene>'}: [[events]] output {name!r} is not an output of "
+                f"{type(system).__name__}; choose from {sorted({*system.outputs, *system.invariants})}"
+            )
+
+        def g(t, y, name=name, component=component, value=ev["value"]):
+            return float(np.asarray(system.evaluate_outputs(t, y, [name])[name])[component]) - value
+
+        try:
+            g(scene.t_start, y0)
+        except (IndexError, TypeError, ValueError):
+            shape = np.shape(system.evaluate_outputs(scene.t_start, y0, [name])[name])
+            raise SceneError(
+                f"{scene.source or '<scene>'}: [[events]] {ev['name']!r}: component {list(component)} must pick one "
+                f"number of {name!r} (shape {shape}; events need a single body, not an ensemble)"
+            ) from None
+        g.__name__ = ev["name"]
+        g.terminal = ev["terminal"]
+        g.direction = ev["direction"]
+        events.append(g)
+    return events

@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import re
 import sys
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -64,6 +64,7 @@ _TABLES: dict[str, set[str]] = {
     "integrator": {"method", "step", "t_end", "t_start", "coordinates", "project", "save_every", "rtol", "atol"},
     "output": {"quantities"},
     "ensemble": {"count", "seed", "spread", "file"},
+    "events": {"name", "output", "component", "value", "direction", "terminal"},
 }
 _REQUIRED_TABLES = ("scene", "body", "initial", "integrator", "output")
 
@@ -106,6 +107,8 @@ class Scene:
     parameters: dict[str, Any] = field(default_factory=dict)
     rtol: float = 1e-8
     atol: float = 1e-10
+    #: ``[[events]]``: dicts with name, output, component, value, direction, terminal
+    events: tuple = ()
 
 
 def load_scene(path) -> Scene:
@@ -224,6 +227,41 @@ class _Reader:
 
     # -- the scene ---------------------------------------------------------------------
     def scene(self) -> Scene:
+        scene = self._scene()
+        events = self.events(self.data.get("events", []))
+        return replace(scene, events=events) if events else scene
+
+    def events(self, items) -> tuple[dict, ...]:
+        """``[[events]]``: ``g(t, y) = output[component] − value`` (see :mod:`lieint.events`)."""
+        items = [items] if isinstance(items, dict) else items
+        if not isinstance(items, list) or not all(isinstance(e, dict) for e in items):
+            raise self.fail("events", None, "must be tables [[events]] with keys output, component, value, …")
+        out = []
+        for ev in items:
+            self.check_keys("events", ev)
+            output = self.string("events", "output", self.required(ev, "events", "output"))
+            component = ev.get("component", [])
+            component = [component] if isinstance(component, int) and not isinstance(component, bool) else component
+            if not isinstance(component, list) or not all(
+                isinstance(c, int) and not isinstance(c, bool) and c >= 0 for c in component
+            ):
+                raise self.fail("events", "component", f"expected indices >= 0 (e.g. [0, 2]); got {component!r}")
+            terminal = ev.get("terminal", False)
+            if not isinstance(terminal, (bool, int)) or terminal < 0:
+                raise self.fail("events", "terminal", f"expected true, false or a count >= 0; got {terminal!r}")
+            out.append(
+                {
+                    "name": self.string("events", "name", ev.get("name", output)),
+                    "output": output,
+                    "component": tuple(component),
+                    "value": self.number("events", "value", ev.get("value", 0.0)),
+                    "direction": self.number("events", "direction", ev.get("direction", 0.0)),
+                    "terminal": terminal,
+                }
+            )
+        return tuple(out)
+
+    def _scene(self) -> Scene:
         unknown = sorted(set(self.data) - set(_TABLES))
         if unknown:
             raise self.fail(unknown[0], None, f"unknown table; allowed tables are {sorted(_TABLES)}")

@@ -9,6 +9,7 @@ from .free_body import FreeBody
 from .heavy_top import HeavyTop
 from .mass import check_mass_tensor
 from .particles import CentralForceParticle, ConstantForceParticle, RadialPotential, SurfaceParticle
+from .prescribed import PrescribedRotation
 from .rolling_ball import RollingBall
 from .surfaces import Ellipsoid, Sphere, Surface, SurfaceOfRevolution
 
@@ -22,6 +23,7 @@ __all__ = [
     "FreeBody",
     "HeavyTop",
     "LieGroupSystem",
+    "PrescribedRotation",
     "RadialPotential",
     "RollingBall",
     "Sphere",

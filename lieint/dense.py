@@ -1,0 +1,205 @@
+"""Dense output on the group: a continuous solution between the steps that stays on the manifold.
+
+A Lie-group step moves the state by a group element, ``y₁ = ρ(exp(u₁), y₀)`` with ``u₁`` in the
+algebra 𝔤 (every Lie-group method of lieint reports ``u₁`` as an :class:`Increment`). Between
+the steps the solution is interpolated **in the algebra**, never in the embedding space: the
+curve ``u(θ)``, ``θ ∈ [0, 1]``, is the cubic Hermite polynomial with
+
+* ``u(0) = 0``, ``u′(0) = h ξ(t₀, y₀)`` (the group path leaves ``y₀`` with velocity ``ξ``);
+* ``u(1) = u₁``, ``u′(1) = h dexp⁻¹_{−u₁}(ξ(t₁, y₁))`` (the right-trivialised derivative of
+  ``exp(u)`` at ``u₁`` equals ``ξ(t₁, y₁)``, see MATH.md §6 for the sign of the right action),
+
+and ``y(t₀ + θh) = ρ(exp(u(θ)), y₀)``. The interpolant therefore lies on the orbit of ``y₀``
+(R orthogonal, the spectrum of A kept, to round-off), matches the step's end points exactly,
+and has a local error ``O(h⁴)``. For methods of order p > 4 the curve also passes through the
+last one (p ≤ 6) or two (p ≤ 8) earlier step ends in the chart of ``y₀``, with their
+derivatives (degree 5 or 7, local error ``O(h⁶)`` or ``O(h⁸)``), so the dense solution has
+the method's order (except on the first steps of a run, where fewer earlier ends exist).
+
+Methods without a group increment (classical Runge–Kutta on the embedding) get the same cubic
+Hermite interpolant on the state arrays with the vector field at both ends. scipy's solvers
+bring their own dense output.
+
+Each interpolant costs one generator evaluation at the end of its step (the next step's start
+reuses it).
+"""
+
+from __future__ import annotations
+
+from bisect import bisect_right
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+__all__ = ["DenseOutput", "EmbeddedHermite", "Increment", "LieHermite"]
+
+
+@dataclass(frozen=True)
+class Increment:
+    """What a Lie-group step reports for dense output: ``y₁ = ρ(exp(u), y₀)``.
+
+    Give ``u`` (exponential coordinates) or the step's group element ``g`` (its log is taken
+    only when an interpolant is built, so runs without dense output never pay for it).
+
+    Attributes
+    ----------
+    u : algebra element or None
+        The step's increment in exponential coordinates.
+    g : group element or None
+        The step's group element (methods in other coordinates, products of exponentials).
+    data : Any
+        Method-specific stage data (e.g. the RKMK stage increments and ``h``), or None.
+    """
+
+    u: Any = None
+    g: Any = None
+    data: Any = None
+
+    def algebra(self, group):
+        """``u`` with ``y₁ = ρ(exp(u), y₀)``."""
+        return self.u if self.u is not None else group.log(self.g)
+
+
+def _hermite(theta: float) -> tuple[float, float, float, float]:
+    """Cubic Hermite basis ``(h₀₀, h₁₀, h₀₁, h₁₁)`` at θ."""
+    t2, t3 = theta * theta, theta * theta * theta
+    return 2 * t3 - 3 * t2 + 1, t3 - 2 * t2 + theta, -2 * t3 + 3 * t2, t3 - t2
+
+
+class LieHermite:
+    """``y(t₀ + θh) = ρ(exp(u(θ)), y₀)`` with ``u`` the Hermite curve of the module docstring.
+
+    Parameters
+    ----------
+    system : LieGroupSystem
+    t0, t1 : float
+        The step's end times.
+    y0 : dict
+        The state at ``t0``.
+    u1 : algebra element
+        The step's increment, ``y₁ = ρ(exp(u₁), y₀)``.
+    xi0, xi1 : algebra elements
+        The generator ``ξ`` at ``(t₀, y₀)`` and ``(t₁, y₁)``.
+    y1 : dict, optional
+        The state at ``t1``, returned there as it is (``exp(log g)`` may differ from ``g`` by
+        round-off).
+    earlier : sequence of (t_j, v_j, ξ_j)
+        Earlier step ends in the chart of ``y₀``: ``y(t_j) = ρ(exp(v_j), y₀)`` with the
+        generator ``ξ_j`` there. Each adds two conditions (``u(θ_j) = v_j``,
+        ``u′(θ_j) = h dexp⁻¹_{−v_j}(ξ_j)``), raising the degree by two and the order of the
+        interpolant by two (cubic: 4, quintic: 6, degree 7: 8).
+    """
+
+    def __init__(self, system, t0: float, t1: float, y0: dict, u1, xi0, xi1, y1: dict | None = None, earlier=()):
+        group = system.group
+        self.system, self.t0, self.t1, self.y0, self.y1 = system, float(t0), float(t1), y0, y1
+        self.h = h = self.t1 - self.t0
+
+        def slope(v, xi):
+            # exact dexp⁻¹ (no truncation: the interpolant's order must not depend on a degree)
+            return group.lincomb([h], [group.dexpinv(group.negate(v), xi, None)])
+
+        # conditions: (θ, derivative order, algebra element or None for the zero value at θ = 0)
+        conditions = [(0.0, 0, None), (0.0, 1, group.lincomb([h], [xi0])), (1.0, 0, u1), (1.0, 1, slope(u1, xi1))]
+        for tj, vj, xij in earlier:
+            theta = (float(tj) - self.t0) / h
+            conditions += [(theta, 0, vj), (theta, 1, slope(vj, xij))]
+        m = len(conditions)
+        M = np.zeros((m, m))
+        for row, (theta, d, _) in enumerate(conditions):
+            powers = np.arange(m)
+            if d == 0:
+                M[row] = theta**powers
+            else:
+                M[row, 1:] = powers[1:] * theta ** (powers[1:] - 1)
+        self._coefficients = np.linalg.inv(M)  # polynomial coefficients per condition
+        self._data = [(i, x) for i, (_, _, x) in enumerate(conditions) if x is not None]
+        self.degree = m - 1
+
+    def algebra(self, theta: float):
+        """``u(θ)``."""
+        w = (float(theta) ** np.arange(self.degree + 1)) @ self._coefficients
+        return self.system.group.lincomb([float(w[i]) for i, _ in self._data], [x for _, x in self._data])
+
+    def __call__(self, t: float) -> dict:
+        if self.y1 is not None and float(t) == self.t1:
+            return self.y1
+        theta = (float(t) - self.t0) / self.h
+        return self.system.act(self.system.group.exp(self.algebra(theta)), self.y0)
+
+
+class EmbeddedHermite:
+    """Cubic Hermite interpolation of the state arrays (methods on the embedding space).
+
+    ``y(t₀ + θh) = h₀₀ y₀ + h₁₀ h f₀ + h₀₁ y₁ + h₁₁ h f₁`` per field, with ``f`` the vector field.
+    """
+
+    def __init__(self, t0: float, t1: float, y0: dict, y1: dict, f0: dict, f1: dict):
+        self.t0, self.t1 = float(t0), float(t1)
+        self.h = self.t1 - self.t0
+        self.y0, self.y1, self.f0, self.f1 = y0, y1, f0, f1
+
+    def __call__(self, t: float) -> dict:
+        h00, h10, h01, h11 = _hermite((float(t) - self.t0) / self.h)
+        h = self.h
+        return {
+            k: h00 * self.y0[k] + (h10 * h) * self.f0[k] + h01 * self.y1[k] + (h11 * h) * self.f1[k] for k in self.y0
+        }
+
+
+class DenseOutput:
+    """The continuous solution ``sol.sol(t)`` of a run: one interpolant per accepted step.
+
+    Calling it with one time returns the state dict at that time; with an array of times
+    ``(m,)`` a dict of ``(m, *batch, ...)`` arrays. Times outside ``[t0, t_end]`` are refused.
+
+    Examples
+    --------
+    >>> import numpy as np, lieint
+    >>> top = lieint.EulerTop.from_principal_moments([1.0, 2.0, 3.0])
+    >>> y0 = top.initial_state(angular_velocity=[0.3, 1.0, 0.4])
+    >>> sol = lieint.integrate(top, y0, (0.0, 1.0), h=0.1, dense_output=True)
+    >>> R = sol.sol(0.55)["R"]
+    >>> bool(np.abs(R.T @ R - np.eye(3)).max() < 1e-14)
+    True
+    """
+
+    def __init__(self, t0: float):
+        self.t0 = float(t0)
+        self.ends: list[float] = []
+        self.pieces: list[Callable[[float], dict]] = []
+
+    def append(self, t1: float, piece: Callable[[float], dict]) -> None:
+        self.ends.append(float(t1))
+        self.pieces.append(piece)
+
+    @property
+    def t_end(self) -> float:
+        return self.ends[-1] if self.ends else self.t0
+
+    def _one(self, t: float) -> dict:
+        if not self.t0 <= t <= self.t_end:
+            raise ValueError(f"`t` must lie in the integrated span [{self.t0}, {self.t_end}]; got {t!r}.")
+        i = min(bisect_right(self.ends, t), len(self.pieces) - 1)
+        # a time equal to a step's end belongs to that step (its interpolant ends there exactly)
+        if i > 0 and self.ends[i - 1] == t:
+            i -= 1
+        return self.pieces[i](t)
+
+    def __call__(self, t):
+        if not self.pieces:
+            raise ValueError("the run took no step; there is nothing to interpolate.")
+        arr = np.asarray(t, dtype=float)
+        if arr.ndim == 0:
+            return self._one(float(arr))
+        if arr.ndim != 1:
+            raise ValueError(f"`t` must be a time or a 1-D array of times; got shape {arr.shape}.")
+        rows = [self._one(float(s)) for s in arr]
+        if not rows:
+            raise ValueError("`t` is empty.")
+        return {k: np.stack([r[k] for r in rows]) for k in rows[0]}
+
+    def __repr__(self) -> str:
+        return f"DenseOutput(t0={self.t0}, t_end={self.t_end}, steps={len(self.pieces)})"

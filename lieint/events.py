@@ -1,0 +1,132 @@
+"""Events with scipy's semantics, located on the dense output of the group.
+
+An event is a function ``g(t, y) -> float`` of the time and the state dict; an event occurs
+where ``g`` changes sign between two accepted steps, and its time is found by Brent's method
+(:func:`scipy.optimize.brentq`, ``xtol = 1e-12``) on the step's interpolant
+(:mod:`lieint.dense`), so the event state lies on the manifold too. As in
+:func:`scipy.integrate.solve_ivp`:
+
+* ``g.terminal`` (bool or a positive int n): stop the run at the (n-th) occurrence;
+* ``g.direction`` (> 0, < 0 or 0): keep only crossings from negative to positive, from
+  positive to negative, or both.
+
+Several events may be given as a list; ``Solution.t_events[i]`` and ``Solution.y_events[i]``
+hold the times ``(k_i,)`` and the states (dict of ``(k_i, ...)`` arrays) of the i-th one.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["Event", "EventLog", "as_events"]
+
+#: tolerance of the event times (absolute, in time)
+EVENT_XTOL = 1e-12
+
+
+@dataclass
+class Event:
+    """One event function with its settings (see the module docstring)."""
+
+    fn: Callable
+    terminal: int = 0
+    direction: float = 0.0
+    name: str = ""
+
+    def __call__(self, t: float, y: dict) -> float:
+        value = self.fn(t, y)
+        try:
+            return float(value)
+        except (TypeError, ValueError):
+            raise ValueError(
+                f"event {self.name!r} must return one number g(t, y); got {type(value).__name__} "
+                f"of shape {np.shape(value)} (events need a single body, not a batch)."
+            ) from None
+
+
+def as_events(events) -> list[Event]:
+    """Check and normalise ``events`` (a callable or a sequence of callables)."""
+    if events is None:
+        return []
+    items = [events] if callable(events) else list(events) if isinstance(events, (list, tuple)) else None
+    if items is None:
+        raise TypeError(f"`events` must be a callable g(t, y) or a list of them; got {type(events).__name__}.")
+    out = []
+    for i, fn in enumerate(items):
+        if not callable(fn):
+            raise TypeError(f"`events[{i}]` must be a callable g(t, y); got {type(fn).__name__}.")
+        terminal = getattr(fn, "terminal", False)
+        if isinstance(terminal, (bool, np.bool_)):
+            count = 1 if terminal else 0
+        elif isinstance(terminal, (int, np.integer)) and terminal >= 0:
+            count = int(terminal)
+        else:
+            raise ValueError(f"`events[{i}].terminal` must be a bool or an integer >= 0; got {terminal!r}.")
+        direction = getattr(fn, "direction", 0.0)
+        try:
+            direction = float(direction)
+        except (TypeError, ValueError):
+            raise ValueError(f"`events[{i}].direction` must be a number; got {direction!r}.") from None
+        out.append(Event(fn, count, direction, getattr(fn, "__name__", f"event {i}")))
+    return out
+
+
+class EventLog:
+    """Watches the accepted steps of a run for the sign changes of its events.
+
+    Call :meth:`start` with the initial state, then :meth:`step` after each accepted step
+    with its interpolant; ``stop`` becomes ``(t, y)`` once a terminal event has fired.
+    """
+
+    def __init__(self, events: list[Event]):
+        self.events = events
+        self.times: list[list[float]] = [[] for _ in events]
+        self.states: list[list[dict]] = [[] for _ in events]
+        self.counts = [0] * len(events)
+        self.values: list[float] = []
+        self.stop: tuple[float, dict] | None = None
+
+    def start(self, t0: float, y0: dict) -> None:
+        self.values = [ev(t0, y0) for ev in self.events]
+
+    def step(self, t0: float, t1: float, y1: dict, interpolant) -> tuple[float, dict] | None:
+        """Record the events in ``(t0, t1]``; return ``(t, y)`` of a terminal one, else None."""
+        from scipy.optimize import brentq
+
+        new = [ev(t1, y1) for ev in self.events]
+        found = []
+        for i, (ev, a, b) in enumerate(zip(self.events, self.values, new, strict=True)):
+            up, down = a < 0 <= b, a > 0 >= b
+            if not ((up and ev.direction >= 0) or (down and ev.direction <= 0)):
+                continue
+
+            def g(t, ev=ev):
+                return ev(t, interpolant(t))
+
+            t_event = t1 if b == 0 else brentq(g, t0, t1, xtol=EVENT_XTOL, rtol=4 * np.finfo(float).eps)
+            found.append((t_event, i))
+        self.values = new
+        for t_event, i in sorted(found):
+            y_event = y1 if t_event == t1 else interpolant(t_event)
+            self.times[i].append(t_event)
+            self.states[i].append(y_event)
+            self.counts[i] += 1
+            ev = self.events[i]
+            if ev.terminal and self.counts[i] >= ev.terminal:
+                self.stop = (t_event, y_event)
+                return self.stop
+        return None
+
+    def results(self, like: dict) -> tuple[list[np.ndarray], list[dict]]:
+        """``t_events`` and ``y_events`` (dicts of stacked arrays, empty ones shaped like ``like``)."""
+        t_events = [np.array(ts, dtype=float) for ts in self.times]
+        y_events = []
+        for rows in self.states:
+            if rows:
+                y_events.append({k: np.stack([r[k] for r in rows]) for k in rows[0]})
+            else:
+                y_events.append({k: np.empty((0, *np.shape(v))) for k, v in like.items()})
+        return t_events, y_events

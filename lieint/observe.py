@@ -1,0 +1,135 @@
+"""What the driver does between accepted steps when a run asks for dense output, events or
+``t_eval``: one interpolant per step (:mod:`lieint.dense`), the events watched on it
+(:mod:`lieint.events`) and the rows at the requested times.
+
+The driver (:mod:`lieint.driver`) calls :meth:`StepObserver.start` once and
+:meth:`StepObserver.step` after every accepted step; a terminal event sets ``stop`` and the
+driver ends the run there. At the end :meth:`StepObserver.finish` puts ``sol``,
+``t_events``, ``y_events`` (and the ``t_eval`` rows) on the :class:`~lieint.Solution`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .dense import DenseOutput, EmbeddedHermite, Increment, LieHermite
+from .events import EventLog, as_events
+
+__all__ = ["StepObserver"]
+
+
+class StepObserver:
+    """Dense output, events and ``t_eval`` rows of one run.
+
+    Parameters
+    ----------
+    system : LieGroupSystem
+    t0 : float
+    t_eval : ndarray, optional
+        Increasing times in ``[t0, t1]`` at which to save the state (from the interpolants).
+    dense_output : bool
+        Keep every interpolant (``sol.sol``).
+    events : callable or list of callables, optional
+        See :mod:`lieint.events`.
+    project : bool
+        Project the ``t_eval`` rows onto the manifold (as the driver does for saved rows).
+    order : int, optional
+        The method's order p: Lie-group interpolants then also match the last one (p = 5, 6)
+        or two (p ≥ 7) earlier step ends, so that the dense output has order min(p, 8)
+        (cubic, quintic, degree 7; the first steps of a run have fewer earlier ends).
+    """
+
+    def __init__(
+        self, system, t0: float, *, t_eval=None, dense_output: bool = False, events=None, project=False, order=None
+    ):
+        self.system, self.t0 = system, float(t0)
+        self.extra_nodes = 0 if not order or order <= 4 else 1 if order <= 6 else 2
+        self.history: list[tuple] = []  # (t_j, ξ_j, u_j) of the last steps, newest last
+        self.t_eval = None if t_eval is None else np.asarray(t_eval, dtype=float)
+        self.dense = DenseOutput(t0) if dense_output else None
+        self.log = EventLog(as_events(events))
+        self.project = bool(project)
+        self.rows: list[dict] = []
+        self.next_eval = 0
+        self.nfev = 0
+        self._cache: tuple | None = None  # (t, y, ξ or f, is-Lie) at the last step's end
+        self.stop: tuple[float, dict] | None = None
+
+    @property
+    def active(self) -> bool:
+        return self.dense is not None or bool(self.log.events) or self.t_eval is not None
+
+    def start(self, t0: float, y0: dict) -> None:
+        self.log.start(t0, y0)
+        self._save_until(t0, y0, None, t0)
+
+    # -- per step --------------------------------------------------------------------------
+    def step(self, t0: float, y0: dict, t1: float, y1: dict, result) -> bool:
+        """After an accepted step of a lieint method; True when a terminal event stops the run."""
+        return self.step_with(t0, t1, y1, self._interpolant(t0, y0, t1, y1, result))
+
+    def step_with(self, t0: float, t1: float, y1: dict, interpolant) -> bool:
+        """After an accepted step whose interpolant is given (scipy's dense output)."""
+        stop = self.log.step(t0, t1, y1, interpolant) if self.log.events else None
+        t_end, y_end = (t1, y1) if stop is None else stop
+        if self.dense is not None:
+            self.dense.append(t_end, interpolant)
+        self._save_until(t_end, y_end, interpolant, t1)
+        if stop is not None:
+            self.stop = stop
+            return True
+        return False
+
+    def _save_until(self, t_end: float, y_end: dict, interpolant, t1: float) -> None:
+        if self.t_eval is None:
+            return
+        te = self.t_eval
+        while self.next_eval < te.size and te[self.next_eval] <= t_end:
+            s = float(te[self.next_eval])
+            y = y_end if s == t_end else interpolant(s)
+            self.rows.append(self.system.project(y) if self.project else y)
+            self.next_eval += 1
+
+    def _interpolant(self, t0: float, y0: dict, t1: float, y1: dict, result):
+        system = self.system
+        lie = isinstance(result.dense, Increment)
+        evaluate = system.generator if lie else system.vector_field
+        if self._cache is not None and self._cache[0] == t0 and self._cache[1] is y0 and self._cache[3] == lie:
+            d0 = self._cache[2]
+        else:
+            d0 = evaluate(t0, y0)
+            self.nfev += 1
+        d1 = evaluate(t1, y1)
+        self.nfev += 1
+        self._cache = (t1, y1, d1, lie)
+        if lie:
+            group = system.group
+            u = result.dense.algebra(group)
+            earlier, g = [], None
+            for tj, xij, uj in reversed(self.history):
+                back = group.exp(group.negate(uj))
+                # y_j = ρ(exp(−u_{n−1}) ⋯ exp(−u_j), y_n) for a right action
+                g = back if g is None else group.multiply(g, back)
+                earlier.append((tj, group.negate(uj) if len(earlier) == 0 else group.log(g), xij))
+            if self.extra_nodes:
+                self.history = [*self.history, (t0, d0, u)][-self.extra_nodes :]
+            return LieHermite(system, t0, t1, y0, u, d0, d1, y1, earlier)
+        return EmbeddedHermite(t0, t1, y0, y1, d0, d1)
+
+    # -- the result ------------------------------------------------------------------------
+    def finish(self, sol) -> None:
+        """Put the dense output, the events and the ``t_eval`` rows on the solution."""
+        like = {k: v[0] for k, v in sol.states.items()}
+        sol.sol = self.dense
+        if self.log.events:
+            sol.t_events, sol.y_events = self.log.results(like)
+        if self.t_eval is not None:
+            n = len(self.rows)
+            sol.t = self.t_eval[:n].copy()
+            sol.states = (
+                {k: np.stack([r[k] for r in self.rows]) for k in like}
+                if n
+                else {k: np.empty((0, *np.shape(v))) for k, v in like.items()}
+            )
+            sol.__post_init__()  # the lazy invariants follow the new rows
+        sol.stats.nfev += self.nfev
