@@ -149,7 +149,8 @@ def _build_parser() -> argparse.ArgumentParser:
         help="count toward integrability and decide holonomy for a scene's system",
         description="At the scene's initial state: the lecture's reduction equation dim(phase space) - "
         "#independent integrals - isotropy - (1 if an invariant measure), with the numerical ranks, and "
-        "whether the velocity constraint is holonomic (Frobenius test by Lie brackets). Nothing is integrated.",
+        "whether the velocity constraint is holonomic (Frobenius test by Lie brackets). Nothing is integrated; "
+        "an ensemble is analysed at its first member.",
     )
     analyze.add_argument("scene", help="a scene TOML file or an embedded scene's name")
     analyze.add_argument(

@@ -50,3 +50,31 @@ def test_analyze_a_rolling_ball_scene_file(tmp_path, capsys):
 def test_analyze_unknown_scene_is_refused(capsys):
     assert lieint.cli.main(["analyze", "no_such_scene"]) == 2
     assert "no embedded scene of that name" in capsys.readouterr().err
+
+
+def test_analyze_an_ensemble_at_its_first_member(tmp_path, capsys):
+    path = tmp_path / "ensemble.toml"
+    path.write_text(
+        """
+[scene]
+name = "ensemble top"
+[body]
+mass_tensor = [[0.5, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.5]]
+[support]
+type = "fixed_point"
+[initial]
+angular_velocity = [0.3, 1.0, 0.4]
+[ensemble]
+count = 4
+seed = 1
+spread = 0.01
+[integrator]
+method = "rkmk4"
+step = 0.01
+t_end = 1.0
+[output]
+quantities = ["energy"]
+"""
+    )
+    assert lieint.cli.main(["analyze", str(path)]) == 0
+    assert "Euler top n = 3: 6 − 1 − 3 − 1 = 1" in capsys.readouterr().out
