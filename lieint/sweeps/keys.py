@@ -121,7 +121,9 @@ def parse_key(text: str, data: dict) -> SceneKey:
     named = "system" in data.get("body", {})
     allowed = _TABLES[table]
     if not (named and table == "initial") and path[1] not in allowed:
-        raise SweepKeyError(f"sweep key {text!r}: unknown key {path[1]!r} of [{table}]; allowed keys are {sorted(allowed)}")
+        raise SweepKeyError(
+            f"sweep key {text!r}: unknown key {path[1]!r} of [{table}]; allowed keys are {sorted(allowed)}"
+        )
     if path[:2] == ("forces", "gravity") and len(path) == 3 and path[2] not in ("magnitude", "incline"):
         raise SweepKeyError(f"sweep key {text!r}: gravity as a table has 'magnitude' and 'incline'; got {path[2]!r}")
     value = key.get(data)

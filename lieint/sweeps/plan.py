@@ -179,7 +179,9 @@ class SweepPlan:
             scene = parse_scene(self.point_scene_data(p), source=self.scene_source)
             system, y0 = build_system(scene)
         except SceneError as exc:
-            values = ", ".join(f"{v.key.text} = {x:g}" for v, x in zip(self.variations, self.point_values(p), strict=True))
+            values = ", ".join(
+                f"{v.key.text} = {x:g}" for v, x in zip(self.variations, self.point_values(p), strict=True)
+            )
             raise SweepError(f"the scene at {values or 'the base point'} is invalid: {exc}") from None
         if system.batch_shape(y0) == ():
             y0 = {k: v[None] for k, v in y0.items()}
@@ -230,7 +232,9 @@ class SweepPlan:
             "nmembers": self.nmembers,
             "nchunks": self.nchunks,
             "t_span": list(self.t_span),
-            "options": {k: v if isinstance(v, (int, float, str, bool, type(None))) else repr(v) for k, v in self.options.items()},
+            "options": {
+                k: v if isinstance(v, (int, float, str, bool, type(None))) else repr(v) for k, v in self.options.items()
+            },
         }
 
 
@@ -275,7 +279,10 @@ def scene_data_of(scene) -> tuple[dict, str]:
                 "scene as a path, an embedded scene's name, TOML text or a dict"
             )
         return tomllib.loads(scene.text), scene.source or "<scene>"
-    if isinstance(scene, Path) or (isinstance(scene, str) and (scene.endswith(".toml") or Path(scene).exists())):
+    text_like = isinstance(scene, str) and ("\n" in scene or "[" in scene)
+    if isinstance(scene, Path) or (
+        isinstance(scene, str) and not text_like and (scene.endswith(".toml") or Path(scene).exists())
+    ):
         path = Path(scene)
         try:
             text = path.read_text(encoding="utf-8")
@@ -289,7 +296,7 @@ def scene_data_of(scene) -> tuple[dict, str]:
         known = embedded_scenes()
         if scene in known:
             return tomllib.loads(known[scene].text), known[scene].source
-        if "\n" in scene or "=" in scene:
+        if text_like:
             try:
                 return tomllib.loads(scene), "<scene>"
             except tomllib.TOMLDecodeError as exc:
@@ -387,9 +394,33 @@ def plan_from_scene(
         description=base.name,
     )
     plan.chunk = _check_chunk(chunk, _default_chunk(plan.npoints, size))
-    if ensemble_spec is not None:  # checks the spread and that the scene has something to spread
-        plan.build_point(0)
+    _check_points(plan)
     return plan
+
+
+#: up to this many parameter points are all built on the client before anything runs
+CHECK_ALL_POINTS = 2000
+
+
+def _check_points(plan: SweepPlan) -> None:
+    """Build the points here (all of them, or the first and last of a very large sweep) so that
+    an invalid value or a change of system kind is reported before any chunk runs."""
+    n = plan.npoints
+    points = range(n) if n <= CHECK_ALL_POINTS else (0, n - 1)
+    first = None
+    for p in points:
+        system, _ = plan.build_point(p)
+        if first is None:
+            first = system
+        elif system.fields != first.fields:
+            values = ", ".join(
+                f"{v.key.text} = {x:g}" for v, x in zip(plan.variations, plan.point_values(p), strict=True)
+            )
+            raise SweepError(
+                f"every member of a sweep must have the same state fields; at {values} the scene builds "
+                f"{type(system).__name__} with {list(system.fields)}, at the first point {type(first).__name__} with "
+                f"{list(first.fields)} (e.g. a centre of mass that becomes zero makes a heavy top an Euler top)"
+            )
 
 
 def plan_from_systems(
@@ -439,7 +470,7 @@ def plan_from_systems(
     for i, y in enumerate(states):
         y = first.validate_state(y, f"y0[{i}]")
         batch = first.batch_shape(y)
-        flat.append({k: v.reshape((-1,) + v.shape[len(batch):]) for k, v in y.items()})
+        flat.append({k: v.reshape((-1,) + v.shape[len(batch) :]) for k, v in y.items()})
     stacked = {k: np.concatenate([y[k] for y in flat]) for k in first.fields}
     opts = {"h": h, "method": method, "coordinates": coordinates, "project": project, "save_every": save_every}
     _check_method(opts)

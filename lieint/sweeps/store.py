@@ -119,10 +119,14 @@ class SweepStore:
             coords.append(v.key.text)
         self.coords = coords
         self._array("chunk", np.arange(C), ["chunk"])
-        root.create_array("chunk_committed", shape=(C,), chunks=(1,), dtype="i1", fill_value=0, dimension_names=["chunk"])
+        root.create_array(
+            "chunk_committed", shape=(C,), chunks=(1,), dtype="i1", fill_value=0, dimension_names=["chunk"]
+        )
         for name, dtype in _META_NUMBERS.items():
             fill = np.nan if dtype == "f8" else 0
-            root.create_array(f"chunk_{name}", shape=(C,), chunks=(1,), dtype=dtype, fill_value=fill, dimension_names=["chunk"])
+            root.create_array(
+                f"chunk_{name}", shape=(C,), chunks=(1,), dtype=dtype, fill_value=fill, dimension_names=["chunk"]
+            )
         for name in _META_STRINGS:
             root.create_array(f"chunk_{name}", shape=(C,), chunks=(1,), dtype=str, dimension_names=["chunk"])
         root.attrs.update(

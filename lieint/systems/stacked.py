@@ -159,7 +159,9 @@ def stack_systems(systems: Sequence, counts: Sequence[int]):
         class method and no built-in rule) or the systems differ in class or fields.
     """
     if len(systems) != len(counts) or not systems:
-        raise ValueError(f"`systems` and `counts` must have the same nonzero length; got {len(systems)} and {len(counts)}.")
+        raise ValueError(
+            f"`systems` and `counts` must have the same nonzero length; got {len(systems)} and {len(counts)}."
+        )
     cls = type(systems[0])
     if any(type(s) is not cls or s.fields != systems[0].fields for s in systems):
         return None
