@@ -24,6 +24,7 @@ from .ivp import LieStepWarning, integrate
 from .methods import get_method, method_names
 from .runs import run
 from .solution import Solution
+from .sweeps import sweep
 from .systems import ChaplyginBall, EulerTop, FreeBody, HeavyTop, LieGroupSystem, RollingBall
 
 __version__ = "0.2.0"
@@ -46,4 +47,5 @@ __all__ = [
     "integrate",
     "method_names",
     "run",
+    "sweep",
 ]
