@@ -124,9 +124,10 @@ def test_a_worker_killed_mid_sweep_changes_nothing(client, tmp_path, reference):
     assert set(client.run(os.getpid).values()) != set(before.values())
 
 
-def test_resume_after_the_client_is_killed_skips_committed_chunks(client, tmp_path, reference):
+def test_resume_after_the_client_is_killed_skips_committed_chunks(client, tmp_path):
     scene = tmp_path / "heavy.toml"
-    scene.write_text(HEAVY.replace("T_END", "0.3"), encoding="utf-8")
+    # longer chunks than the other tests: the client must still be running after two commits
+    scene.write_text(HEAVY.replace("T_END", "1.2"), encoding="utf-8")
     out = tmp_path / "resumed.zarr"
     cmd = [sys.executable, "-m", "lieint", "sweep", str(scene), "--vary", "forces.gravity.incline=0:0.7:8",
            "--chunk", "1", "--scheduler", client.scheduler.address, "--out", str(out), "--quiet"]  # fmt: skip
@@ -155,4 +156,6 @@ def test_resume_after_the_client_is_killed_skips_committed_chunks(client, tmp_pa
     assert report.skipped == done.size and report.computed == 8 - done.size
     ds = xr.open_zarr(out)
     assert ds["chunk_session"].values[done].tolist() == sessions  # committed chunks were not recomputed
-    _same(ds, reference)
+    whole = sweep(scene, ["forces.gravity.incline=0:0.7:8"], out=tmp_path / "whole.zarr", chunk=1, scheduler=client)
+    assert whole.computed == 8
+    _same(ds, xr.open_zarr(tmp_path / "whole.zarr"))
