@@ -177,9 +177,14 @@ def test_sweep_equals_independent_runs_and_is_read_by_xarray(tmp_path):
     grid = open_sweep(out, grid=True)
     assert grid["drift_casimirs"].sel({"body.principal_moments[0]": 1.2}).shape == (4,)
     assert float(grid["drift_casimirs"].max()) < 1e-13  # a Lie-group method keeps the Casimirs
-    meta = ds["chunk_backend"].values.tolist()
-    assert all(b in ("numba", "numpy") for b in meta) and ds["chunk_method"].values.tolist() == ["rkmk4"] * 3
-    assert np.all(ds["chunk_wall_time"].values > 0) and set(ds["chunk_worker"].values.tolist()) == {"local"}
+    meta = ds["chunk_info"].sel(info="backend").values.tolist()
+    assert (
+        all(b in ("numba", "numpy") for b in meta)
+        and ds["chunk_info"].sel(info="method").values.tolist() == ["rkmk4"] * 3
+    )
+    assert np.all(ds["chunk_stats"].sel(stat="wall_time").values > 0) and set(
+        ds["chunk_info"].sel(info="worker").values.tolist()
+    ) == {"local"}
 
 
 def test_store_refuses_overwrite_and_foreign_resume_and_resumes_its_own(tmp_path):
@@ -210,7 +215,10 @@ def test_resume_recomputes_exactly_the_uncommitted_chunks(tmp_path):
                    scheduler="synchronous", resume=True)  # fmt: skip
     assert (report.computed, report.skipped) == (2, 1)
     ds = xr.open_zarr(tmp_path / "s.zarr")
-    assert ds["chunk_session"].values[0] == "first" and ds["chunk_session"].values[1] != "first"
+    assert (
+        ds["chunk_info"].sel(info="session").values[0] == "first"
+        and ds["chunk_info"].sel(info="session").values[1] != "first"
+    )
     whole = sweep(TOP, {"body.principal_moments[0]": [1.0, 1.1, 1.2]}, out=tmp_path / "w.zarr", chunk=1,
                   scheduler="synchronous")  # fmt: skip
     assert whole.computed == 3
@@ -272,7 +280,9 @@ def test_a_heavy_top_incline_sweep_runs_stacked_and_matches_each_point(tmp_path)
     angles = [0.0, 0.3, 0.6]
     sweep(HEAVY, {"forces.gravity.incline": angles}, out=out, scheduler="synchronous", chunk=3)
     ds = xr.open_zarr(out)
-    assert ds["chunk_stacked"].values.tolist() == [1] and ds["chunk_batches"].values.tolist() == [1]
+    assert ds["chunk_stats"].sel(stat="stacked").values.tolist() == [1] and ds["chunk_stats"].sel(
+        stat="batches"
+    ).values.tolist() == [1]
     for p, theta in enumerate(angles):
         g = 9.81 * np.array([np.sin(theta), 0.0, -np.cos(theta)])
         top = lieint.HeavyTop(np.diag([0.25, 0.25, 0.75]), 1.0, [0, 0, 0.3], g, orientation=False)

@@ -61,7 +61,7 @@ def _same(a, b):
 def client():
     threads = {k: "1" for k in ("NUMBA_NUM_THREADS", "OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS")}
     cluster = distributed.LocalCluster(
-        n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None, env=threads
+        n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0", env=threads
     )
     c = distributed.Client(cluster)
     yield c
@@ -84,7 +84,7 @@ def test_distributed_equals_the_one_process_ensemble_bit_for_bit(client, tmp_pat
     report = sweep(scene, ensemble=192, seed=3, spread=0.02, chunk=64, out=out, scheduler=client)
     assert (report.status, report.computed, report.workers) == ("complete", 3, 2)
     ds = xr.open_zarr(out)
-    assert set(ds["chunk_backend"].values.tolist()) == {"numba"}
+    assert set(ds["chunk_info"].sel(info="backend").values.tolist()) == {"numba"}
     top = lieint.EulerTop.from_principal_moments([1.0, 2.0, 3.0])
     w = np.array([0.01, 1.0, 0.01]) + 0.02 * np.random.default_rng(3).normal(size=(192, 3))
     sol = lieint.integrate(top, top.initial_state(angular_velocity=w), (0, 10), h=0.01, project=True, save_every=10)
@@ -151,11 +151,13 @@ def test_resume_after_the_client_is_killed_skips_committed_chunks(client, tmp_pa
     partial = xr.open_zarr(out, consolidated=False)
     done = np.flatnonzero(partial["chunk_committed"].values == 1)
     assert 2 <= done.size < 8 and partial.attrs["status"] == "running"
-    sessions = partial["chunk_session"].values[done].tolist()
+    sessions = partial["chunk_info"].sel(info="session").values[done].tolist()
     report = sweep(scene, ["forces.gravity.incline=0:0.7:8"], out=out, chunk=1, scheduler=client, resume=True)
     assert report.skipped == done.size and report.computed == 8 - done.size
     ds = xr.open_zarr(out)
-    assert ds["chunk_session"].values[done].tolist() == sessions  # committed chunks were not recomputed
+    assert (
+        ds["chunk_info"].sel(info="session").values[done].tolist() == sessions
+    )  # committed chunks were not recomputed
     whole = sweep(scene, ["forces.gravity.incline=0:0.7:8"], out=tmp_path / "whole.zarr", chunk=1, scheduler=client)
     assert whole.computed == 8
     _same(ds, xr.open_zarr(tmp_path / "whole.zarr"))

@@ -97,7 +97,7 @@ def _connect(scheduler, workers, threads_per_worker):
         n_workers=workers,
         threads_per_worker=threads_per_worker,
         processes=True,
-        dashboard_address=None,
+        dashboard_address=":0",
         env=env,
     )
     return distributed.Client(cluster), cluster, f"LocalCluster({workers} workers)"

@@ -9,8 +9,9 @@ Layout (``xarray.open_zarr(SWEEP.zarr)`` reads it as one Dataset)::
     state_<field> (member, time, ...)    every state field at the save times
     <output> (member, time, ...)         each requested output or invariant
     drift_<invariant> (member)           each requested invariant's drift (lieint.drift)
-    chunk_<what> (chunk)                 per chunk: committed, start, stop, method, backend,
-                                         worker, host, pid, cpu/wall time, steps, success, ...
+    chunk_committed (chunk)              1 once the chunk is committed
+    chunk_stats (chunk, stat)            per chunk: start, stop, steps, cpu/wall time, pid, ...
+    chunk_info (chunk, info)             per chunk: method, backend, worker, host, session, ...
 
 The member arrays are chunked like the sweep, so a sweep chunk is one Zarr chunk of every array.
 A chunk is **committed** by writing its data first and its ``chunk_committed`` flag last (each
@@ -32,22 +33,24 @@ from .plan import SweepError, SweepPlan
 
 __all__ = ["StoreError", "SweepStore"]
 
-_META_NUMBERS = {
-    "start": "i8",
-    "stop": "i8",
-    "nsteps": "i8",
-    "batches": "i8",
-    "pid": "i8",
-    "cpu_time": "f8",
-    "wall_time": "f8",
-    "step_cpu_time": "f8",
-    "step_wall_time": "f8",
-    "started": "f8",
-    "finished": "f8",
-    "success": "i1",
-    "stacked": "i1",
-}
-_META_STRINGS = ("method", "backend", "backend_reason", "worker", "host", "message", "warnings", "session")
+#: per-chunk numbers (``chunk_stats``, one column each; times in seconds, since the epoch for
+#: ``started``/``finished``) and strings (``chunk_info``)
+STATS = (
+    "start",
+    "stop",
+    "nsteps",
+    "batches",
+    "stacked",
+    "success",
+    "cpu_time",
+    "wall_time",
+    "step_cpu_time",
+    "step_wall_time",
+    "started",
+    "finished",
+    "pid",
+)
+INFO = ("method", "backend", "backend_reason", "worker", "host", "session", "message", "warnings")
 
 
 class StoreError(SweepError):
@@ -122,13 +125,20 @@ class SweepStore:
         root.create_array(
             "chunk_committed", shape=(C,), chunks=(1,), dtype="i1", fill_value=0, dimension_names=["chunk"]
         )
-        for name, dtype in _META_NUMBERS.items():
-            fill = np.nan if dtype == "f8" else 0
-            root.create_array(
-                f"chunk_{name}", shape=(C,), chunks=(1,), dtype=dtype, fill_value=fill, dimension_names=["chunk"]
-            )
-        for name in _META_STRINGS:
-            root.create_array(f"chunk_{name}", shape=(C,), chunks=(1,), dtype=str, dimension_names=["chunk"])
+        # one row per chunk (a Zarr chunk each): a commit writes a few files, not one per field
+        self._array("stat", np.array(STATS, dtype=str), ["stat"])
+        self._array("info", np.array(INFO, dtype=str), ["info"])
+        root.create_array(
+            "chunk_stats",
+            shape=(C, len(STATS)),
+            chunks=(1, len(STATS)),
+            dtype="f8",
+            fill_value=np.nan,
+            dimension_names=["chunk", "stat"],
+        )
+        root.create_array(
+            "chunk_info", shape=(C, len(INFO)), chunks=(1, len(INFO)), dtype=str, dimension_names=["chunk", "info"]
+        )
         root.attrs.update(
             {
                 "lieint_sweep": 1,
@@ -144,8 +154,9 @@ class SweepStore:
 
     def _array(self, name, values, dims, chunks=None):
         values = np.asarray(values)
+        dtype = str if values.dtype.kind == "U" else values.dtype  # variable-length strings (in the v3 spec)
         arr = self.root.create_array(
-            name, shape=values.shape, chunks=chunks or values.shape, dtype=values.dtype, dimension_names=dims
+            name, shape=values.shape, chunks=chunks or values.shape, dtype=dtype, dimension_names=dims
         )
         arr[...] = values
         return arr
@@ -195,10 +206,8 @@ class SweepStore:
                 self.root[prefix + name][sl] = v
         c = result.index
         meta = dict(result.meta, start=result.start, stop=result.stop, session=session)
-        for name in _META_NUMBERS:
-            self.root[f"chunk_{name}"][c] = meta[name]
-        for name in _META_STRINGS:
-            self.root[f"chunk_{name}"][c] = str(meta.get(name, ""))
+        self.root["chunk_stats"][c] = np.array([float(meta[name]) for name in STATS])
+        self.root["chunk_info"][c] = np.array([str(meta.get(name, "")) for name in INFO], dtype=str)
         self.root["chunk_committed"][c] = 1
 
     def finish(self, status: str) -> None:
@@ -238,7 +247,7 @@ def open_sweep(path, *, grid: bool = False):
     ds = xr.open_zarr(str(store), consolidated=consolidated)
     if grid:
         keys = list(ds.attrs["plan"]["keys"])
-        chunk_vars = [v for v in ds.data_vars if "chunk" in ds[v].dims] + ["chunk"]
+        chunk_vars = [v for v in ds.data_vars if "chunk" in ds[v].dims] + ["chunk", "stat", "info"]
         ds = ds.drop_vars([v for v in chunk_vars if v in ds.variables])
         ds = ds.set_index(member=[*keys, "ensemble_member"]).unstack("member")
     return ds
