@@ -11,7 +11,9 @@ the same sweep runs on each, alternately, ``--repeats`` times, and the median wa
 The machine's load average is printed before and after: on a shared machine other processes
 take cores too, and the efficiency measures what this sweep got, not what the code could do.
 Each worker's share of a core while it ran a chunk (chunk CPU time / chunk wall time) is printed
-too; below 1 the worker waited for a core.
+too; below 1 the worker waited for a core. The work itself is compared as the total CPU time of
+the chunks (1 worker against 2: equal means distributing cost no extra work), and the client's
+own time (planning, committing to the store) as wall time beyond the chunks.
 
 Run: ``python benchmarks/sweep_scaling.py`` (about a minute on an idle 2-core machine), or
 ``--quick`` for a smaller sweep.
@@ -57,13 +59,14 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--points", type=int, default=16, help="values of the varied moment (one chunk each)")
     parser.add_argument("--ensemble", type=int, default=256, help="initial states per value")
-    parser.add_argument("--t-end", type=float, default=400.0)
+    parser.add_argument("--t-end", type=float, default=1000.0)
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--quick", action="store_true", help="a sweep ten times smaller")
     args = parser.parse_args()
     if args.quick:
         args.t_end /= 10
     import distributed
+    import xarray as xr
 
     from lieint.sweeps import sweep
 
@@ -90,6 +93,7 @@ def main() -> None:
                   out=work / f"warm{k}.zarr", scheduler=client, progress=False)  # fmt: skip
         times: dict[int, list[float]] = {1: [], 2: []}
         shares: dict[int, list[float]] = {1: [], 2: []}
+        cpu_work: dict[int, list[float]] = {1: [], 2: []}
         for r in range(args.repeats):
             for k in (1, 2):
                 out = work / f"sweep{k}-{r}.zarr"
@@ -98,14 +102,10 @@ def main() -> None:
                                out=out, scheduler=clients[k], progress=False)  # fmt: skip
                 times[k].append(time.perf_counter() - t0)
                 assert report.computed == args.points and report.workers == k
-                import xarray as xr
-
                 ds = xr.open_zarr(out)
-                shares[k].extend(
-                    (
-                        ds["chunk_stats"].sel(stat="cpu_time").values / ds["chunk_stats"].sel(stat="wall_time").values
-                    ).tolist()
-                )
+                cpu, wall = (ds["chunk_stats"].sel(stat=s).values for s in ("cpu_time", "wall_time"))
+                shares[k].extend((cpu / wall).tolist())
+                cpu_work[k].append(float(cpu.sum()))
                 print(f"  repeat {r + 1}: {k} worker(s) {times[k][-1]:7.2f} s   ({load()})")
         # the same bits whatever the number of workers
         a, b = (xr.open_zarr(work / f"sweep{k}-0.zarr") for k in (1, 2))
@@ -125,6 +125,13 @@ def main() -> None:
             f"core share of a worker while it ran a chunk ({k} worker(s)): median {statistics.median(shares[k]):.2f}, "
             f"min {min(shares[k]):.2f}"
         )
+    w1, w2 = statistics.median(cpu_work[1]), statistics.median(cpu_work[2])
+    print(f"CPU time of the chunks (the work): 1 worker {w1:.2f} s, 2 workers {w2:.2f} s (ratio {w2 / w1:.2f})")
+    s1, s2 = statistics.median(shares[1]), statistics.median(shares[2])
+    print(
+        f"efficiency at equal core share, T1 s1 / (2 T2 s2) = {t1 * s1 / (2 * t2 * s2):.2f} (what the efficiency would "
+        "be if each worker had got the same share of a core in both runs)"
+    )
     print(f"throughput with 2 workers: {body_steps / t2:.3g} body-steps/s; results identical: {identical}")
 
 
