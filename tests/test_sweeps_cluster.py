@@ -161,3 +161,14 @@ def test_resume_after_the_client_is_killed_skips_committed_chunks(client, tmp_pa
     whole = sweep(scene, ["forces.gravity.incline=0:0.7:8"], out=tmp_path / "whole.zarr", chunk=1, scheduler=client)
     assert whole.computed == 8
     _same(ds, xr.open_zarr(tmp_path / "whole.zarr"))
+
+
+def test_a_chunk_that_fails_stops_the_sweep_and_keeps_the_committed_ones(client, tmp_path):
+    """A step past the dexp⁻¹ radius raises on every retry: the sweep names the chunk and stops."""
+    out = tmp_path / "fails.zarr"
+    vary = {"initial.angular_velocity[2]": [10.0, 5000.0]}  # h |w| = 10 > 2π at the second point
+    with pytest.raises(lieint.sweeps.SweepError, match=r"chunk 1 \(members 1..1\) failed after 2 retries: .*dexp"):
+        sweep(HEAVY.replace("T_END", "0.01"), vary, out=out, chunk=1, scheduler=client)
+    ds = xr.open_zarr(out, consolidated=False)
+    assert ds.attrs["status"] == "failed" and "DexpinvRangeError" in ds.attrs["message"]
+    assert ds["chunk_committed"].values.tolist() in ([1, 0], [0, 0])  # chunk 0 is kept if it finished first

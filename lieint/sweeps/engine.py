@@ -170,20 +170,26 @@ def run_sweep(
         store.commit(result, session)
         backends.add(result.meta["backend"])
 
-    if scheduler == "synchronous":
-        for c in todo:
-            commit(compute_chunk(plan, c, backend))
-        nworkers, where = 0, "synchronous"
-    else:
-        client, cluster, where = _connect(scheduler, workers, threads_per_worker)
-        try:
-            nworkers = len(client.scheduler_info(n_workers=-1)["workers"]) if cluster is None else len(cluster.workers)
-            _run_distributed(client, plan, todo, backend, retries, session, commit, show)
-        finally:
-            if client is not scheduler:  # a client the caller passed stays open
-                client.close()
-            if cluster is not None:
-                cluster.close()
+    try:
+        if scheduler == "synchronous":
+            for c in todo:
+                commit(compute_chunk(plan, c, backend))
+            nworkers, where = 0, "synchronous"
+        else:
+            client, cluster, where = _connect(scheduler, workers, threads_per_worker)
+            try:
+                nworkers = (
+                    len(client.scheduler_info(n_workers=-1)["workers"]) if cluster is None else len(cluster.workers)
+                )
+                _run_distributed(client, plan, todo, backend, retries, session, commit, show)
+            finally:
+                if client is not scheduler:  # a client the caller passed stays open
+                    client.close()
+                if cluster is not None:
+                    cluster.close()
+    except Exception as exc:
+        store.finish("failed", f"{type(exc).__name__}: {exc}")
+        raise
     store.finish("complete")
     return SweepReport(
         path=str(out),

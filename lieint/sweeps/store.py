@@ -98,6 +98,7 @@ class SweepStore:
                     f"{self.path} holds another sweep (a different scene, keys, values, ensemble, chunking, "
                     "integrator or lieint version); resume only the same sweep, or pass --overwrite"
                 )
+            self.root.attrs.update({"status": "running", "message": ""})
             return
         if exists:
             shutil.rmtree(self.path) if self.path.is_dir() else self.path.unlink()
@@ -210,9 +211,9 @@ class SweepStore:
         self.root["chunk_info"][c] = np.array([str(meta.get(name, "")) for name in INFO], dtype=str)
         self.root["chunk_committed"][c] = 1
 
-    def finish(self, status: str) -> None:
-        """Record the status; a complete store gets consolidated metadata (one read to open)."""
-        self.root.attrs["status"] = status
+    def finish(self, status: str, message: str = "") -> None:
+        """Record the status (and why it failed); a complete store gets consolidated metadata."""
+        self.root.attrs.update({"status": status, "message": message})
         if status == "complete":
             import warnings
 
