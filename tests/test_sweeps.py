@@ -300,3 +300,26 @@ def test_import_lieint_does_not_import_dask_or_zarr():
         subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.strip()
         == "False"
     )
+
+
+def test_cli_sweep(tmp_path, capsys):
+    from lieint.cli import main
+
+    scene = tmp_path / "top.toml"
+    scene.write_text(TOP, encoding="utf-8")
+    out = tmp_path / "cli.zarr"
+    args = ["sweep", str(scene), "--vary", "body.principal_moments[0]=1:1.2:2", "--ensemble", "3", "--spread", "0.01"]
+    assert main([*args, "--out", str(out), "--scheduler", "synchronous", "--chunk", "3"]) == 0
+    assert "6 members in 2 chunks (2 computed, 0 already committed) on synchronous" in capsys.readouterr().out
+    assert main([*args, "--out", str(out), "--scheduler", "synchronous", "--chunk", "3"]) == 2
+    assert "exists; pass --resume" in capsys.readouterr().err
+    assert main([*args, "--out", str(out), "--scheduler", "synchronous", "--chunk", "3", "--resume"]) == 0
+    assert "(0 computed, 2 already committed)" in capsys.readouterr().out
+    bad = ["sweep", str(scene), "--vary", "body.principal_moments[0]", "--out", str(tmp_path / "x.zarr")]
+    assert main(bad) == 2
+    assert "--vary expects KEY=START:STOP:NUM" in capsys.readouterr().err
+    assert main(["sweep", "dzhanibekov", "--out", str(tmp_path / "y.zarr"), "--scheduler", "nowhere"]) == 2
+    assert "`scheduler` must be a scheduler address" in capsys.readouterr().err
+    assert not (tmp_path / "y.zarr").exists()
+    with pytest.raises(SweepError, match="`workers` must be a positive integer"):
+        sweep(TOP, out=tmp_path / "z.zarr", workers=0)

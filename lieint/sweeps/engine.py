@@ -72,6 +72,16 @@ def _dask():
     return distributed
 
 
+def _check_where(scheduler, workers) -> None:
+    if isinstance(scheduler, str) and scheduler != "synchronous" and "://" not in scheduler:
+        raise SweepError(
+            f"`scheduler` must be a scheduler address such as 'tcp://10.0.0.5:8786', 'synchronous' or a "
+            f"distributed.Client; got {scheduler!r}"
+        )
+    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or workers < 1):
+        raise SweepError(f"`workers` must be a positive integer (worker processes); got {workers!r}")
+
+
 def _connect(scheduler, workers, threads_per_worker):
     """(client, cluster or None, description)."""
     distributed = _dask()
@@ -159,6 +169,7 @@ def run_sweep(
     t0 = time.perf_counter()
     if backend not in ("auto", "numpy", "numba"):
         raise SweepError(f"`backend` must be one of ['auto', 'numpy', 'numba']; got {backend!r}")
+    _check_where(scheduler, workers)  # before any store is written
     store = SweepStore(out, plan, resume=resume, overwrite=overwrite)
     done = set(store.committed().tolist())
     todo = [c for c in range(plan.nchunks) if c not in done]
