@@ -111,7 +111,7 @@ def compute_chunk(plan: SweepPlan, index: int, backend: str = "auto") -> ChunkRe
     runs = []  # (system, y0) batches, in member order
     systems = [s for (s, _), _, _ in built]
     stacked = None
-    if len(built) > 1 and systems[0].compiled() is None:
+    if len(built) > 1 and (systems[0].compiled() is None or backend == "numpy"):
         stacked = stack_systems(systems, counts=[e1 - e0 for _, e0, e1 in built])
     if stacked is not None:
         y = {k: np.concatenate([y0[k][e0:e1] for (_, y0), e0, e1 in built]) for k in systems[0].fields}
