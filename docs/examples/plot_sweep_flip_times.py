@@ -35,20 +35,20 @@ from lieint.systems.euler_top_exact import euler_top_flip_times
 full = os.environ.get("LIEINT_FULL_EXAMPLES") == "1"
 values = np.linspace(1.0, 1.8, 17 if full else 5)
 count, spread, seed = (64 if full else 8), 0.01, 1
-out = Path(tempfile.mkdtemp()) / "flips.zarr"
-report = lieint.sweep(
-    "dzhanibekov",
-    {"body.principal_moments[0]": values},
-    ensemble=count,
-    seed=seed,
-    spread=spread,
-    out=out,
-    **({"workers": 2} if full else {"scheduler": "synchronous"}),
-    progress=False,
-)
-print(f"{report.nmembers} members in {report.nchunks} chunks, {report.wall_time:.1f} s on {report.scheduler}")
-
-ds = xr.open_zarr(out)
+with tempfile.TemporaryDirectory() as tmp:
+    out = Path(tmp) / "flips.zarr"
+    report = lieint.sweep(
+        "dzhanibekov",
+        {"body.principal_moments[0]": values},
+        ensemble=count,
+        seed=seed,
+        spread=spread,
+        out=out,
+        **({"workers": 2} if full else {"scheduler": "synchronous"}),
+        progress=False,
+    )
+    print(f"{report.nmembers} members in {report.nchunks} chunks, {report.wall_time:.1f} s on {report.scheduler}")
+    ds = xr.open_zarr(out).load()  # into memory: the store is a temporary one
 t = ds["time"].values
 w2 = -vee(ds["state_A"].values)[..., 1]  # Π₂ = I₂ w₂ with A = −Π̂; the sign is what matters
 dt_save = t[1] - t[0]
