@@ -323,3 +323,21 @@ def test_cli_sweep(tmp_path, capsys):
     assert not (tmp_path / "y.zarr").exists()
     with pytest.raises(SweepError, match="`workers` must be a positive integer"):
         sweep(TOP, out=tmp_path / "z.zarr", workers=0)
+
+
+def test_an_ensemble_from_a_file_travels_with_the_plan(tmp_path, monkeypatch):
+    """The scene's [ensemble] file is read once, on the client: workers need not see it."""
+    w = np.array([[0.01, 1.0, 0.01], [0.02, 1.0, 0.0], [0.0, 1.0, 0.03]])
+    np.save(tmp_path / "members.npy", w)
+    scene = tmp_path / "top.toml"
+    scene.write_text(TOP + '[ensemble]\nfile = "members.npy"\n', encoding="utf-8")
+    plan = plan_from_scene(scene, {"body.principal_moments[0]": [1.0, 1.2]})
+    (tmp_path / "members.npy").unlink()  # as on a remote worker
+    out = tmp_path / "f.zarr"
+    from lieint.sweeps.engine import run_sweep
+
+    run_sweep(plan, out, scheduler="synchronous")
+    ds = xr.open_zarr(out)
+    top = lieint.EulerTop.from_principal_moments([1.2, 2.0, 3.0], orientation=False)
+    sol = lieint.integrate(top, top.initial_state(angular_velocity=w), (0.0, 2.0), h=0.02, save_every=10)
+    assert np.array_equal(ds["state_A"].values[3:], np.swapaxes(sol.states["A"], 0, 1))

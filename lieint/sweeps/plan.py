@@ -10,6 +10,7 @@ initial states from it, and a fingerprint of it tells a resumed store that it ho
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import json
 import math
@@ -123,6 +124,7 @@ class SweepPlan:
     scene_data: dict | None = None
     scene_source: str = "<scene>"
     ensemble_spec: dict | None = None
+    ensemble_members: dict | None = None
     systems: list | None = None
     states: dict | None = None
     outputs: tuple[str, ...] = ()
@@ -164,9 +166,11 @@ class SweepPlan:
         data = self.scene_data
         for v, value in zip(self.variations, self.point_values(p), strict=True):
             data = v.key.set(data, value)
-        if self.ensemble_spec is not None:
+        if self.ensemble_spec is not None or self.ensemble_members is not None:
             data = dict(data)
-            data["ensemble"] = dict(self.ensemble_spec)
+            data.pop("ensemble", None)
+            if self.ensemble_spec is not None:
+                data["ensemble"] = dict(self.ensemble_spec)
         return data
 
     def build_point(self, p: int):
@@ -177,6 +181,10 @@ class SweepPlan:
 
         try:
             scene = parse_scene(self.point_scene_data(p), source=self.scene_source)
+            if self.ensemble_members is not None:
+                # the members the scene read from its file travel with the plan: a remote worker
+                # has no access to that file
+                scene = dataclasses.replace(scene, ensemble=self.ensemble_members)
             system, y0 = build_system(scene)
         except SceneError as exc:
             values = ", ".join(
@@ -209,6 +217,8 @@ class SweepPlan:
             h.update(np.ascontiguousarray(v.values, dtype=float).tobytes())
         if self.source == "scene":
             h.update(json.dumps(self.scene_data, sort_keys=True, default=str).encode())
+            if self.ensemble_members is not None:
+                h.update(np.ascontiguousarray(self.ensemble_members["members"]).tobytes())
         else:
             for system in self.systems:
                 h.update(repr(system).encode())
@@ -352,7 +362,7 @@ def plan_from_scene(
         if any(v.key.text == key.text for v in variations):
             raise SweepError(f"sweep key {key.text!r} is varied twice")
         variations.append(Variation(key, arr))
-    ensemble_spec = None
+    ensemble_spec = ensemble_members = None
     if ensemble is not None:
         if isinstance(ensemble, bool) or not isinstance(ensemble, (int, np.integer)) or ensemble < 1:
             raise SweepError(f"`ensemble` must be a positive integer (initial states per point); got {ensemble!r}")
@@ -370,6 +380,8 @@ def plan_from_scene(
         size = int(ensemble)
     elif base.ensemble is not None:
         size = int(base.ensemble["members"].shape[0])
+        if "file" in data.get("ensemble", {}):
+            ensemble_members = {"key": base.ensemble["key"], "members": np.array(base.ensemble["members"])}
     else:
         size = 1
     opts = {
@@ -390,6 +402,7 @@ def plan_from_scene(
         scene_data=data,
         scene_source=source,
         ensemble_spec=ensemble_spec,
+        ensemble_members=ensemble_members,
         outputs=tuple(base.outputs),
         description=base.name,
     )
