@@ -242,6 +242,8 @@ def test_systems_and_states_instead_of_a_scene(tmp_path):
         sol = lieint.integrate(top, y0, (0, 1), h=0.01)
         assert np.array_equal(ds["state_A"].values[3 * p : 3 * p + 3], np.swapaxes(sol.states["A"], 0, 1))
         assert np.array_equal(ds["drift_energy"].values[3 * p : 3 * p + 3], sol.drift("energy"))
+    grid = open_sweep(tmp_path / "s.zarr", grid=True)
+    assert grid["drift_energy"].dims == ("point", "ensemble_member") and grid["drift_energy"].shape == (2, 3)
     with pytest.raises(SweepError, match="either a `scene`"):
         sweep(TOP, systems=tops, y0=states, t_span=(0, 1), h=0.01, out=tmp_path / "x.zarr")
 

@@ -247,7 +247,7 @@ def open_sweep(path, *, grid: bool = False):
     consolidated = (store / "zarr.json").exists() and "consolidated_metadata" in (store / "zarr.json").read_text()
     ds = xr.open_zarr(str(store), consolidated=consolidated)
     if grid:
-        keys = list(ds.attrs["plan"]["keys"])
+        keys = list(ds.attrs["plan"]["keys"]) or ["point"]  # systems given as a list: their index
         chunk_vars = [v for v in ds.data_vars if "chunk" in ds[v].dims] + ["chunk", "stat", "info"]
         ds = ds.drop_vars([v for v in chunk_vars if v in ds.variables])
         ds = ds.set_index(member=[*keys, "ensemble_member"]).unstack("member")
