@@ -25,6 +25,7 @@ from .ivp import LieStepWarning, integrate
 from .methods import get_method, method_names
 from .runs import run
 from .solution import Solution
+from .sweeps import sweep
 from .systems import ChaplyginBall, EulerTop, FreeBody, HeavyTop, LieGroupSystem, RollingBall
 from .systems.atoms import AtomsBody
 from .systems.particles import CentralForceParticle, ConstantForceParticle, SurfaceParticle
@@ -56,4 +57,5 @@ __all__ = [
     "integrate",
     "method_names",
     "run",
+    "sweep",
 ]

@@ -1,0 +1,134 @@
+""":func:`sweep`: plan a sweep from a scene (or from systems and initial states) and run it."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+from .plan import SweepError, plan_from_scene, plan_from_systems
+
+__all__ = ["sweep"]
+
+
+def sweep(
+    scene=None,
+    vary: Sequence[str] | dict | None = None,
+    *,
+    out,
+    ensemble: int | None = None,
+    seed: int = 0,
+    spread: float | None = None,
+    chunk: int | None = None,
+    scheduler=None,
+    workers: int | None = None,
+    resume: bool = False,
+    overwrite: bool = False,
+    progress="auto",
+    backend: str = "auto",
+    systems=None,
+    y0=None,
+    t_span=None,
+    h: float | None = None,
+    method: str = "rkmk4",
+    coordinates: str | None = None,
+    project: bool = False,
+    save_every: int = 1,
+    outputs: Sequence[str] = (),
+):
+    """Integrate a parameter and initial-condition sweep on dask and store it in Zarr.
+
+    The members are the product of the varied scene keys' values and an ensemble of initial
+    states; they are cut into chunks of ``chunk`` members, each integrated as one batched
+    ensemble (compiled where a kernel covers the system) on a dask worker, and committed to the
+    Zarr store ``out`` as it finishes. The result is the same, bit for bit, wherever and in
+    whatever order the chunks run; an interrupted sweep continues with ``resume=True``.
+
+    Parameters
+    ----------
+    scene : path, str, dict or Scene
+        A scene TOML file, an embedded scene's name (``lieint scenes``), TOML text or its dict.
+    vary : dict or list of str, optional
+        ``{"body.principal_moments[0]": values, ...}`` or ``["KEY=START:STOP:NUM", ...]``
+        (:func:`lieint.sweeps.parse_vary`); keys of ``[body]``, ``[support]``, ``[forces]``
+        and ``[initial]`` (:mod:`lieint.sweeps.keys`).
+    out : path
+        The Zarr store to write (``SWEEP.zarr``).
+    ensemble, seed, spread : optional
+        ``ensemble`` initial states per point: the initial angular velocity (or Ω) plus a seeded
+        Gaussian perturbation of standard deviation ``spread`` (default: the scene's
+        ``[ensemble]`` spread). Without it the scene's own ``[ensemble]`` (if any) applies.
+    chunk : int, optional
+        Members per chunk (default: a multiple of the ensemble size giving about 32 chunks).
+        Chunks are the unit of work, of retry and of resume.
+    scheduler : None, str or distributed.Client
+        None: a LocalCluster on this machine; ``"tcp://host:8786"``: an existing cluster;
+        ``"synchronous"``: in this process, without dask.
+    workers : int, optional
+        Worker processes of the LocalCluster (default: the number of CPUs).
+    resume, overwrite : bool
+        Continue an interrupted store of the same sweep (committed chunks are skipped), or
+        replace an existing one.
+    progress : bool or "auto"
+        dask's progress bar of the chunks ("auto": on a terminal).
+    backend : {"auto", "numpy", "numba"}
+        As for :func:`lieint.integrate`.
+    systems, y0 : optional
+        Instead of a scene: a system or list of systems (the parameter points; same state
+        fields) and an initial state or list of states (each may be batched), all run by every
+        system; then ``t_span`` and ``h`` are required and ``method``, ``coordinates``,
+        ``project``, ``save_every`` and ``outputs`` (outputs or invariants to store) apply.
+
+    Returns
+    -------
+    SweepReport
+        Chunks computed and skipped, wall time, workers, back ends (:class:`~lieint.sweeps.engine.SweepReport`).
+
+    Raises
+    ------
+    SweepError
+        A key the scene does not have, a value that makes the scene invalid, an adaptive method
+        (sweeps run fixed-step methods), an existing store without ``resume``/``overwrite``, a
+        store of another sweep, or a chunk that failed on every retry.
+
+    Examples
+    --------
+    >>> import lieint
+    >>> report = lieint.sweep("dzhanibekov", ["body.principal_moments[0]=1:1.5:3"],
+    ...                       out="flip.zarr", scheduler="synchronous")  # doctest: +SKIP
+    >>> import xarray as xr
+    >>> ds = xr.open_zarr("flip.zarr")  # doctest: +SKIP
+    """
+    from .engine import run_sweep
+
+    if systems is not None or y0 is not None:
+        if scene is not None or vary:
+            raise SweepError("give either a `scene` (with `vary`) or `systems` and `y0`, not both")
+        if systems is None or y0 is None or t_span is None or h is None:
+            raise SweepError("a sweep of given systems needs `systems`, `y0`, `t_span` and `h`")
+        if ensemble is not None:
+            raise SweepError("`ensemble` applies to scenes; give the initial states as `y0`")
+        plan = plan_from_systems(
+            systems,
+            y0,
+            t_span,
+            h=h,
+            method=method,
+            coordinates=coordinates,
+            project=project,
+            save_every=save_every,
+            outputs=outputs,
+            chunk=chunk,
+        )
+    else:
+        if scene is None:
+            raise SweepError("`scene` (a TOML file, an embedded scene's name, TOML text or a dict) is required")
+        plan = plan_from_scene(scene, vary, ensemble=ensemble, seed=seed, spread=spread, chunk=chunk)
+    return run_sweep(
+        plan,
+        out,
+        scheduler=scheduler,
+        workers=workers,
+        resume=resume,
+        overwrite=overwrite,
+        progress=progress,
+        backend=backend,
+    )
