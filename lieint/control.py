@@ -31,7 +31,13 @@ class Plan:
 
     @classmethod
     def make(cls, t0: float, t1: float, h: float) -> Plan:
-        ratio = (t1 - t0) / h
+        """The grid of step ``h`` over ``[t0, t1]``; refused (:class:`lieint.limits.LimitError`)
+        when it has more steps than ``LIEINT_MAX_STEPS``, before anything is allocated."""
+        from .limits import check
+
+        with np.errstate(over="ignore"):
+            ratio = (t1 - t0) / h
+        check("LIEINT_MAX_STEPS", float(ratio), f"the number of steps (t1 - t0)/h = ({t1:g} - {t0:g})/{h:g}")
         nearest = round(ratio)
         # a ratio within round-off of an integer is that integer (no sliver of a last step)
         n = int(nearest) if abs(ratio - nearest) <= 1e-9 * max(1.0, ratio) else math.ceil(ratio)
@@ -48,6 +54,15 @@ class Plan:
     def last_step(self) -> float:
         """Size of the last step, ``t1 − t_{n−1}`` (h unless (t1 − t0)/h is not an integer)."""
         return self.t1 - (self.t0 + (self.nsteps - 1) * self.h)
+
+    def saves_between(self, save_every: int, k_from: int, k_to: int) -> np.ndarray:
+        """The saved steps s with ``k_from < s <= k_to`` (:meth:`save_steps` restricted to a
+        segment, computed without the whole run's array, so memory stays flat)."""
+        first = (k_from // save_every + 1) * save_every
+        steps = np.arange(first, k_to + 1, save_every, dtype=np.int64)
+        if k_from < self.nsteps <= k_to and (steps.size == 0 or steps[-1] != self.nsteps):
+            steps = np.append(steps, np.int64(self.nsteps))
+        return steps
 
     def save_steps(self, save_every: int) -> np.ndarray:
         """Every ``save_every``-th step and the last one, step 0 included."""

@@ -18,7 +18,9 @@ from __future__ import annotations
 import hashlib
 import json
 import math
+import os
 import signal
+import stat
 import sys
 import threading
 import time
@@ -31,7 +33,7 @@ from ..drift import DriftMonitor
 from ..driver import Carry, Driver, Segment
 from ..methods.registry import get_method
 from ..scenes import Scene, build_system, scene_solver_options
-from .store import Checkpoint, OutputFile, StoreError
+from .store import Checkpoint, NoSpaceError, OutputFile, StoreError
 
 __all__ = ["RunReport", "StreamedRun", "run", "scene_fingerprint"]
 
@@ -43,7 +45,7 @@ class RunReport:
     """How a streamed run ended."""
 
     path: Path
-    status: str  # "complete" | "interrupted" | "stopped" | "failed"
+    status: str  # "complete" | "interrupted" | "stopped" | "failed" | "no-space"
     steps_done: int
     nsteps: int | None
     rows: int
@@ -102,6 +104,32 @@ class StreamedRun:
         self.carry: Carry | None = None
         self.output: OutputFile | None = None
         self.monitor: DriftMonitor | None = None
+        self.k_checkpointed: int | None = None  # step and rows of the last checkpoint written or read
+        self.rows_checkpointed = 0
+        self._row_bytes: int | None = None
+
+    # -- sizes ------------------------------------------------------------------------------
+    def row_bytes(self) -> int:
+        """Bytes of one saved row (time, states, invariants, outputs of every member)."""
+        if self._row_bytes is None:
+            t0 = np.array([self.driver.t0])
+            rows = self.rows_of(t0, {k: np.asarray(v)[None] for k, v in self.y0.items()})
+            self._row_bytes = 8 + sum(np.asarray(v).nbytes for g in rows.values() for v in g.values())
+        return self._row_bytes
+
+    def planned_rows(self) -> int | None:
+        """Rows the whole run will save, when known in advance."""
+        d = self.driver
+        if d.kind == "fixed":
+            return d.plan.nsteps // d.save_every + 2
+        if d.kind == "scipy" and d.save_times is not None:
+            return int(d.save_times.size)
+        return None
+
+    @property
+    def max_segment_steps(self) -> int:
+        """Steps whose saved rows fit in :data:`SEGMENT_BYTES` (memory flat in the run's length)."""
+        return max(1, SEGMENT_BYTES // self.row_bytes()) * self.driver.save_every
 
     # -- rows -------------------------------------------------------------------------------
     def rows_of(self, t: np.ndarray, states: dict) -> dict[str, dict[str, np.ndarray]]:
@@ -131,9 +159,8 @@ class StreamedRun:
 
     # -- start and resume ---------------------------------------------------------------------
     def start(self) -> None:
-        """Begin a new output file (the caller has made sure it may be written)."""
-        if self.out.exists():
-            self.out.unlink()
+        """Begin a new output file (the caller has made sure it may be written); the file is
+        built beside the old one and renamed over it (:func:`lieint.runs.files.publish`)."""
         self.checkpoint_file.remove()
         self.carry = self.driver.start(self.y0)
         first = self.driver.loop.first_row(self.carry)
@@ -177,6 +204,7 @@ class StreamedRun:
         if reasons:
             raise StoreError(f"refusing to resume from {str(self.checkpoint_file.path)!r}: " + "; ".join(reasons))
         rows = int(attrs["rows"])
+        self.k_checkpointed, self.rows_checkpointed = int(attrs["k"]), rows
         first = {k[6:]: v for k, v in arrays.items() if k.startswith("first:")}
         self.monitor = DriftMonitor(self.kinds, first, self.batch_ndim)
         if attrs.get("replay"):
@@ -256,6 +284,7 @@ class StreamedRun:
                 "rows": self.output.rows,
             },
         )
+        self.k_checkpointed, self.rows_checkpointed = c.k, self.output.rows
         self._record_counts()
 
     def _record_counts(self) -> None:
@@ -323,6 +352,9 @@ class _PlainProgress:
 
 # -- the run ---------------------------------------------------------------------------------------
 
+#: saved rows of one segment are held in memory until written: at most about this many bytes
+SEGMENT_BYTES = 4 << 20
+
 
 def run(
     scene,
@@ -340,6 +372,10 @@ def run(
 ) -> RunReport:
     """Integrate a scene, streaming the saved series into an HDF5 file.
 
+    Exactly one process writes a run file: the run holds an OS-level lock on ``RUN.h5.lock``
+    from before it looks at the file until it has ended (:mod:`lieint.runs.lock`); a second
+    writer is refused at once with the holder's pid, host and start time.
+
     Parameters
     ----------
     scene : Scene, str or path
@@ -349,6 +385,7 @@ def run(
     overwrite, resume : bool
         Start anew over an existing output, or continue it from its checkpoint
         (``RUN.h5.checkpoint``), which must come from the same scene and lieint version.
+        ``overwrite`` replaces only a lieint run file (:func:`lieint.runs.files.check_replaceable`).
     checkpoint_every : int, optional
         Write the checkpoint every this many steps (besides ``checkpoint_seconds``).
     checkpoint_seconds : float, optional
@@ -364,23 +401,152 @@ def run(
         Stop (resumable, like an interruption) after this many steps of this call.
     stream : file, optional
         Where progress and monitor lines go (default ``sys.stderr``).
+
+    Returns
+    -------
+    RunReport
+        ``status`` is "complete", "interrupted" (Ctrl-C or ``stop_after``), "stopped"
+        (``max_drift``), "failed" (the state became non-finite) or "no-space" (the disk is
+        full or the file-size limit was reached: the rows up to the last checkpoint are safe,
+        resume once there is room).
     """
     from ..scenes import load_scene
+    from .lock import RunLock
 
     stream = sys.stderr if stream is None else stream
+    _check_arguments(overwrite, resume, checkpoint_every, monitor_every, stop_after, checkpoint_seconds)
     if not isinstance(scene, Scene):
         scene = _resolve_scene(scene, load_scene)
     out = Path(out)
+    if not out.parent.exists():
+        raise StoreError(f"the directory of the output {str(out)!r} does not exist")
+    if not out.parent.is_dir():
+        raise StoreError(f"cannot create the output file {str(out)!r}: {str(out.parent)!r} is not a directory")
+    with RunLock(out):  # held until the run has ended: one writer per run file
+        _check_output(out, overwrite, resume)
+        streamed = StreamedRun(scene, out)
+        limits = _check_limits(max_drift, streamed.invariant_names)
+        if not resume:
+            _check_room(streamed)
+        with _file_size_signal_ignored():
+            return _Session(streamed, stream, progress, checkpoint_every, checkpoint_seconds,
+                            monitor_every, stop_after, limits).run(resume)
+
+
+class _Session:
+    """The loop of one call of :func:`run`: segments sized to come back on time (progress,
+    monitors, checkpoints, Ctrl-C) and to hold at most :data:`SEGMENT_BYTES` of rows."""
+
+    def __init__(self, streamed, stream, progress, checkpoint_every, checkpoint_seconds, monitor_every,
+                 stop_after, limits):
+        self.s, self.stream, self.progress = streamed, stream, progress
+        self.checkpoint_every, self.checkpoint_seconds = checkpoint_every, checkpoint_seconds
+        self.monitor_every, self.stop_after, self.limits = monitor_every, stop_after, limits
+        self.stop = threading.Event()
+
+    def run(self, resume: bool) -> RunReport:
+        s = self.s
+        total = s.driver.total_steps()
+        previous = None
+        if threading.current_thread() is threading.main_thread():
+            previous = signal.signal(signal.SIGINT, lambda *_: self.stop.set())
+        bar = None
+        try:
+            try:
+                resumed_at = s.resume() if resume else (s.start() or "")
+                if resumed_at:
+                    print(resumed_at, file=self.stream, flush=True)
+                if total is not None:
+                    bar = _progress(total, s.carry.k, "step", self.progress, self.stream)
+                else:
+                    bar = _progress(s.driver.t1 - s.driver.t0, s.carry.t - s.driver.t0, "t", self.progress, self.stream)
+                s.checkpoint()
+                status, message = self._loop(bar, total)
+                s.finish(status)
+            except NoSpaceError as exc:
+                status, message = "no-space", self._no_space_message(exc)
+                if s.output is not None:
+                    s.output.abandon()
+        finally:
+            if bar is not None:
+                bar.close()
+            if previous is not None:
+                signal.signal(signal.SIGINT, previous)
+            rows = s.output.rows if s.output is not None and s.output.f.id.valid else s.rows_checkpointed
+            s.close()
+        k = s.carry.k if s.carry is not None else 0
+        drifts = s.monitor.largest() if s.monitor is not None else {}
+        return RunReport(s.out, status, k, total, rows, message, drifts)
+
+    def _no_space_message(self, exc) -> str:
+        s = self.s
+        saved = (
+            f"the rows up to the last checkpoint (step {s.k_checkpointed}) are safe"
+            if s.k_checkpointed is not None
+            else "nothing was saved"
+        )
+        resume = "continue with --resume" if s.k_checkpointed is not None else "start again"
+        return (
+            f"the disk is full or the file-size limit (ulimit -f) was reached: {exc}. The run stopped; {saved}. "
+            f"Free space (or raise the limit) and {resume}."
+        )
+
+    def _budget(self, chunk: int, k_start: int, last_ckpt_step: int, last_monitor: int) -> int:
+        """Steps of the next segment: on time for the stop, a monitor line and a checkpoint."""
+        k = self.s.carry.k
+        budget = min(chunk, self.s.max_segment_steps)
+        if self.stop_after is not None:
+            budget = min(budget, k_start + self.stop_after - k)
+        if self.monitor_every:
+            budget = min(budget, last_monitor + self.monitor_every - k)
+        if self.checkpoint_every is not None:
+            budget = min(budget, last_ckpt_step + self.checkpoint_every - k)
+        return max(budget, 1)
+
+    def _loop(self, bar, total) -> tuple[str, str]:
+        s, stream = self.s, self.stream
+        chunk = 1000 if total is None else max(1, min(total, 1000))
+        k_start = s.carry.k
+        last_ckpt_time, last_ckpt_step, last_monitor = time.monotonic(), s.carry.k, s.carry.k
+        while not s.done:
+            k0, t0 = s.carry.k, s.carry.t
+            tic = time.monotonic()
+            seg = s.segment(self._budget(chunk, k_start, last_ckpt_step, last_monitor))
+            wall = time.monotonic() - tic
+            if bar is not None:
+                bar.update(s.carry.k - k0 if total is not None else s.carry.t - t0)
+            chunk = max(1, int(chunk * min(4.0, max(0.25, _SEGMENT_SECONDS / max(wall, 1e-6)))))
+            k = s.carry.k
+            if seg.failure:
+                return "failed", seg.failure
+            worst = s.monitor.largest()
+            exceeded = [(n, worst[n], v) for n, v in self.limits.items() if not worst[n] <= v]
+            if exceeded:
+                n, got, limit = exceeded[0]
+                return "stopped", (
+                    f"{n} drift {got:.3g} exceeded --max-drift {n}={limit:g} by step {k} "
+                    f"(t = {s.carry.t:.6g}); the run stopped, the rows up to here are saved"
+                )
+            if self.monitor_every and k - last_monitor >= self.monitor_every:
+                last_monitor = k
+                print(f"[monitor] step {k}: " + ", ".join(f"{n} {v:.3e}" for n, v in worst.items()),
+                      file=stream, flush=True)
+            if self.stop.is_set() or (self.stop_after is not None and k - k_start >= self.stop_after and not s.done):
+                return "interrupted", f"interrupted at step {k} (t = {s.carry.t:.6g}); continue with --resume"
+            now = time.monotonic()
+            due_steps = self.checkpoint_every is not None and k - last_ckpt_step >= self.checkpoint_every
+            due_time = self.checkpoint_seconds is not None and now - last_ckpt_time >= self.checkpoint_seconds
+            if due_steps or due_time:
+                s.checkpoint()
+                last_ckpt_time, last_ckpt_step = now, k
+        return "complete", f"complete: {s.carry.k} steps, {s.output.rows} saved rows"
+
+
+def _check_arguments(overwrite, resume, checkpoint_every, monitor_every, stop_after, checkpoint_seconds) -> None:
     if overwrite and resume:
         raise ValueError(
             "`overwrite` and `resume` exclude each other: resume continues the file, overwrite replaces it."
         )
-    if out.exists() and not (overwrite or resume):
-        raise StoreError(f"the output {str(out)!r} exists; pass --overwrite to replace it or --resume to continue it")
-    if resume and not out.exists():
-        raise StoreError(f"nothing to resume: the output {str(out)!r} does not exist")
-    if not out.parent.exists():
-        raise StoreError(f"the directory of the output {str(out)!r} does not exist")
     for label, value in (
         ("checkpoint_every", checkpoint_every),
         ("monitor_every", monitor_every),
@@ -391,87 +557,74 @@ def run(
     if checkpoint_seconds is not None and not (checkpoint_seconds > 0):
         raise ValueError(f"`checkpoint_seconds` must be a positive number; got {checkpoint_seconds!r}.")
 
-    streamed = StreamedRun(scene, out)
-    limits = _check_limits(max_drift, streamed.invariant_names)
-    resumed_at = streamed.resume() if resume else (streamed.start() or "")
-    if resumed_at:
-        print(resumed_at, file=stream, flush=True)
-    driver = streamed.driver
 
-    stop = threading.Event()
-    previous = None
-    if threading.current_thread() is threading.main_thread():
-        previous = signal.signal(signal.SIGINT, lambda *_: stop.set())
-    total = driver.total_steps()
-    if total is not None:
-        bar = _progress(total, streamed.carry.k, "step", progress, stream)
-    else:
-        bar = _progress(driver.t1 - driver.t0, streamed.carry.t - driver.t0, "t", progress, stream)
-    status, message = "complete", ""
-    chunk = 1000 if total is None else max(1, min(total, 1000))
-    k_start = streamed.carry.k
-    last_ckpt_time, last_ckpt_step, last_monitor = time.monotonic(), streamed.carry.k, streamed.carry.k
+def _check_output(out: Path, overwrite: bool, resume: bool) -> None:
+    """What may be done with the output path (called with the run's lock held)."""
+    from .files import check_replaceable, describe_kind
+
+    exists = os.path.lexists(out)
+    if exists and not (overwrite or resume):
+        raise StoreError(f"the output {str(out)!r} exists; pass --overwrite to replace it or --resume to continue it")
+    if resume and not exists:
+        raise StoreError(f"nothing to resume: the output {str(out)!r} does not exist")
+    if overwrite:
+        check_replaceable(out)  # only a lieint run file (or nothing) is ever replaced
+    if resume:
+        st = os.lstat(out)
+        if not stat.S_ISREG(st.st_mode):
+            raise StoreError(f"cannot resume {str(out)!r}: it is {describe_kind(st)}, not a lieint run file")
+
+
+def _check_room(streamed: StreamedRun) -> None:
+    """Refuse a run whose rows cannot fit on the disk or under the file-size limit (``ulimit -f``)."""
+    from ..limits import env_flag
+
+    rows = streamed.planned_rows()
+    if rows is None or env_flag("LIEINT_SKIP_ROOM_CHECK"):
+        return
+    need = int(rows * streamed.row_bytes() * 1.05) + (1 << 20)  # data, chunk index and checksums
+    how = "raise save_every, shorten the run, or set LIEINT_SKIP_ROOM_CHECK=1 to start anyway"
     try:
-        streamed.checkpoint()
-        while not streamed.done:
-            # segments end where a monitor line, a checkpoint or the stop is due, so they come on time
-            budget = chunk
-            if stop_after is not None:
-                budget = min(budget, k_start + stop_after - streamed.carry.k)
-            if monitor_every:
-                budget = min(budget, last_monitor + monitor_every - streamed.carry.k)
-            if checkpoint_every is not None:
-                budget = min(budget, last_ckpt_step + checkpoint_every - streamed.carry.k)
-            budget = max(budget, 1)
-            k0, t0 = streamed.carry.k, streamed.carry.t
-            tic = time.monotonic()
-            seg = streamed.segment(budget)
-            wall = time.monotonic() - tic
-            if bar is not None:
-                bar.update(streamed.carry.k - k0 if total is not None else streamed.carry.t - t0)
-            chunk = max(1, int(chunk * min(4.0, max(0.25, _SEGMENT_SECONDS / max(wall, 1e-6)))))
-            k = streamed.carry.k
-            if seg.failure:
-                status, message = "failed", seg.failure
-                break
-            worst = streamed.monitor.largest()
-            exceeded = [(n, worst[n], v) for n, v in limits.items() if not worst[n] <= v]
-            if exceeded:
-                n, got, limit = exceeded[0]
-                status = "stopped"
-                message = (
-                    f"{n} drift {got:.3g} exceeded --max-drift {n}={limit:g} by step {k} "
-                    f"(t = {streamed.carry.t:.6g}); the run stopped, the rows up to here are saved"
-                )
-                break
-            if monitor_every and k - last_monitor >= monitor_every:
-                last_monitor = k
-                print(
-                    f"[monitor] step {k}: " + ", ".join(f"{n} {v:.3e}" for n, v in worst.items()),
-                    file=stream,
-                    flush=True,
-                )
-            if stop.is_set() or (stop_after is not None and k - k_start >= stop_after and not streamed.done):
-                status = "interrupted"
-                message = f"interrupted at step {k} (t = {streamed.carry.t:.6g}); continue with --resume"
-                break
-            now = time.monotonic()
-            due_steps = checkpoint_every is not None and k - last_ckpt_step >= checkpoint_every
-            due_time = checkpoint_seconds is not None and now - last_ckpt_time >= checkpoint_seconds
-            if due_steps or due_time:
-                streamed.checkpoint()
-                last_ckpt_time, last_ckpt_step = now, k
-        if status == "complete":
-            message = f"complete: {streamed.carry.k} steps, {streamed.output.rows} saved rows"
-        streamed.finish(status)
-    finally:
-        if bar is not None:
-            bar.close()
-        if previous is not None:
-            signal.signal(signal.SIGINT, previous)
-        rows = streamed.output.rows if streamed.output is not None else 0
-        streamed.close()
-    return RunReport(out, status, streamed.carry.k, total, rows, message, streamed.monitor.largest())
+        st = os.statvfs(streamed.out.parent)
+        free = st.f_bavail * st.f_frsize
+    except OSError:
+        free = None
+    if free is not None and need > free:
+        raise StoreError(
+            f"the run needs about {_bytes(need)} for {rows} saved rows but only {_bytes(free)} are free in "
+            f"{str(streamed.out.parent)!r}; free space, {how}"
+        )
+    import resource
+
+    soft, _ = resource.getrlimit(resource.RLIMIT_FSIZE)
+    if soft != resource.RLIM_INFINITY and need > soft:
+        raise StoreError(
+            f"the run needs about {_bytes(need)} for {rows} saved rows but the file-size limit (ulimit -f) is "
+            f"{_bytes(soft)}; raise the limit, {how}"
+        )
+
+
+def _bytes(n: float) -> str:
+    for unit in ("B", "kB", "MB", "GB", "TB"):
+        if n < 1000 or unit == "TB":
+            return f"{n:.3g} {unit}"
+        n /= 1000
+    return f"{n:.3g} TB"  # pragma: no cover
+
+
+class _file_size_signal_ignored:
+    """Ignore SIGXFSZ while writing, so that passing ``ulimit -f`` makes write() fail with EFBIG
+    (reported clearly) instead of killing the process (main thread only)."""
+
+    def __enter__(self):
+        self.previous = None
+        if threading.current_thread() is threading.main_thread() and hasattr(signal, "SIGXFSZ"):
+            self.previous = signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+        return self
+
+    def __exit__(self, *exc):
+        if self.previous is not None:
+            signal.signal(signal.SIGXFSZ, self.previous)
 
 
 def _check_limits(max_drift, names) -> dict[str, float]:
