@@ -272,8 +272,12 @@ class Driver:
 
             rows = self.plan.nsteps // self.save_every + 2
             size = rows * sum(np.asarray(v).nbytes for v in y0.values())
-            check("LIEINT_MAX_ROWS_BYTES", float(size), f"the memory for {rows} saved rows (bytes)",
-                  "raise save_every, or stream the run to a file (lieint run --out, lieint.runs.run)")
+            check(
+                "LIEINT_MAX_ROWS_BYTES",
+                float(size),
+                f"the memory for {rows} saved rows (bytes)",
+                "raise save_every, or stream the run to a file (lieint run --out, lieint.runs.run)",
+            )
         cpu0, wall0 = time.process_time(), time.perf_counter()
         carry = self.start(y0)
         first = self.loop.first_row(carry)

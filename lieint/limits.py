@@ -75,7 +75,7 @@ def check(name: str, value: float, what: str, advice: str = "") -> None:
 def _suggest(value: float, bound: int) -> str:
     if not math.isfinite(value) or value > 1e18:
         return str(bound * 10)
-    return f"{int(math.ceil(value)):d}"
+    return str(math.ceil(value))
 
 
 def env_flag(name: str) -> bool:

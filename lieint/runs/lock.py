@@ -53,9 +53,7 @@ class RunLock:
         for _ in range(100):  # a holder may remove the file between our open and our lock: retry
             try:
                 # never follow a symlink planted at the lock's name; never block on a FIFO
-                fd = os.open(
-                    self.path, os.O_RDWR | os.O_CREAT | os.O_NOFOLLOW | os.O_NONBLOCK | os.O_CLOEXEC, 0o644
-                )
+                fd = os.open(self.path, os.O_RDWR | os.O_CREAT | os.O_NOFOLLOW | os.O_NONBLOCK | os.O_CLOEXEC, 0o644)
             except OSError as exc:
                 if exc.errno == errno.ELOOP:
                     raise StoreError(

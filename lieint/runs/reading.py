@@ -123,7 +123,10 @@ def read_superblock(path) -> tuple[Superblock | None, str | None]:
         flags = int.from_bytes(head[20:24], "little")
     else:
         return None, f"damaged: {where} has an unknown version {version}"
-    physical_eof = base + eof
+    # HDF5 compares the stored end-of-file address with (base address + size of the data), i.e.
+    # it is an offset from the start of the file, user block included
+    del base
+    physical_eof = eof
     if physical_eof > size:
         return None, (
             f"truncated: the file is {size} bytes but its superblock (byte {offset}) records data up to byte "
@@ -137,7 +140,7 @@ def read_superblock(path) -> tuple[Superblock | None, str | None]:
 
 def _child(conn, target, args):  # pragma: no cover - runs in the child process
     try:
-        target(conn.send, *args)
+        target(lambda value: conn.send(("message", value)), *args)
         conn.send(("done", None))
     except BaseException as exc:  # everything goes back to the parent as text
         try:

@@ -429,16 +429,18 @@ def run(
         if not resume:
             _check_room(streamed)
         with _file_size_signal_ignored():
-            return _Session(streamed, stream, progress, checkpoint_every, checkpoint_seconds,
-                            monitor_every, stop_after, limits).run(resume)
+            return _Session(
+                streamed, stream, progress, checkpoint_every, checkpoint_seconds, monitor_every, stop_after, limits
+            ).run(resume)
 
 
 class _Session:
     """The loop of one call of :func:`run`: segments sized to come back on time (progress,
     monitors, checkpoints, Ctrl-C) and to hold at most :data:`SEGMENT_BYTES` of rows."""
 
-    def __init__(self, streamed, stream, progress, checkpoint_every, checkpoint_seconds, monitor_every,
-                 stop_after, limits):
+    def __init__(
+        self, streamed, stream, progress, checkpoint_every, checkpoint_seconds, monitor_every, stop_after, limits
+    ):
         self.s, self.stream, self.progress = streamed, stream, progress
         self.checkpoint_every, self.checkpoint_seconds = checkpoint_every, checkpoint_seconds
         self.monitor_every, self.stop_after, self.limits = monitor_every, stop_after, limits
@@ -529,8 +531,11 @@ class _Session:
                 )
             if self.monitor_every and k - last_monitor >= self.monitor_every:
                 last_monitor = k
-                print(f"[monitor] step {k}: " + ", ".join(f"{n} {v:.3e}" for n, v in worst.items()),
-                      file=stream, flush=True)
+                print(
+                    f"[monitor] step {k}: " + ", ".join(f"{n} {v:.3e}" for n, v in worst.items()),
+                    file=stream,
+                    flush=True,
+                )
             if self.stop.is_set() or (self.stop_after is not None and k - k_start >= self.stop_after and not s.done):
                 return "interrupted", f"interrupted at step {k} (t = {s.carry.t:.6g}); continue with --resume"
             now = time.monotonic()
