@@ -317,6 +317,14 @@ def _run_streamed(args) -> int:
         print(f"  {name:16s} max drift {value:.3e}")
     if report.status == "no-space":
         print(f"lieint run: {report.message}", file=sys.stderr)
+        from .runs.store import hdf5_broken
+
+        if hdf5_broken():  # HDF5's exit handler would retry the failed writes: leave without it
+            import os
+
+            sys.stdout.flush()
+            sys.stderr.flush()
+            os._exit(4)
     return {"complete": 0, "interrupted": 130, "stopped": 3, "no-space": 4}.get(report.status, 1)
 
 

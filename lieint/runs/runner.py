@@ -33,7 +33,7 @@ from ..drift import DriftMonitor
 from ..driver import Carry, Driver, Segment
 from ..methods.registry import get_method
 from ..scenes import Scene, build_system, scene_solver_options
-from .store import Checkpoint, NoSpaceError, OutputFile, StoreError
+from .store import Checkpoint, NoSpaceError, OutputFile, StoreError, available_room
 
 __all__ = ["RunReport", "StreamedRun", "run", "scene_fingerprint"]
 
@@ -125,6 +125,29 @@ class StreamedRun:
         if d.kind == "scipy" and d.save_times is not None:
             return int(d.save_times.size)
         return None
+
+    def room_for(self, steps: int) -> int:
+        """The steps (at most ``steps``) whose rows fit on the disk and under the file-size limit
+        (``ulimit -f``); :class:`NoSpaceError` when not even one more row fits.
+
+        Checked before each segment, so that a full disk ends the run as resumable with its file
+        intact, instead of failing inside HDF5 (whose file is then left half-written).
+        """
+        room, where = available_room(self.out)
+        every = self.driver.save_every
+        rows = steps // every + 1  # rows a segment of `steps` steps saves at most
+        if self.output.growth(rows) <= room:
+            return steps
+        lo, hi = 0, rows  # the most rows that fit (growth is monotone in rows)
+        while lo < hi:
+            mid = (lo + hi + 1) // 2
+            if self.output.growth(mid) <= room:
+                lo = mid
+            else:
+                hi = mid - 1
+        if lo < 1:
+            raise NoSpaceError(f"{where}: no room for more rows")
+        return max(1, min(steps, (lo - 1) * every if lo > 1 else 1))
 
     @property
     def max_segment_steps(self) -> int:
@@ -247,8 +270,13 @@ class StreamedRun:
         return self.driver.done(self.carry)
 
     def segment(self, max_steps: int) -> Segment:
-        """Advance by at most ``max_steps`` accepted steps; write and monitor the saved rows."""
-        seg = self.driver.advance(self.carry, max_steps)
+        """Advance by at most ``max_steps`` accepted steps; write and monitor the saved rows.
+
+        Raises :class:`~lieint.runs.store.NoSpaceError` *before* stepping when the rows could
+        not be written (a full disk, the file-size limit): the file then stays intact and the run
+        ends as resumable instead of failing inside HDF5.
+        """
+        seg = self.driver.advance(self.carry, self.room_for(max_steps))
         self._write(seg)
         return seg
 
@@ -466,19 +494,38 @@ class _Session:
                 status, message = self._loop(bar, total)
                 s.finish(status)
             except NoSpaceError as exc:
-                status, message = "no-space", self._no_space_message(exc)
-                if s.output is not None:
-                    s.output.abandon()
+                status = "no-space"
+                self._end_without_space(s)
+                message = self._no_space_message(exc)
         finally:
             if bar is not None:
                 bar.close()
             if previous is not None:
                 signal.signal(signal.SIGINT, previous)
-            rows = s.output.rows if s.output is not None and s.output.f.id.valid else s.rows_checkpointed
-            s.close()
+            from .store import hdf5_broken
+
+            intact = s.output is not None and not hdf5_broken() and s.output.f.id.valid
+            rows = s.output.rows if intact else s.rows_checkpointed
+            if intact:
+                s.close()
         k = s.carry.k if s.carry is not None else 0
         drifts = s.monitor.largest() if s.monitor is not None else {}
         return RunReport(s.out, status, k, total, rows, message, drifts)
+
+    @staticmethod
+    def _end_without_space(s: StreamedRun) -> None:
+        """Record the state reached where the file still takes it (a stop before writing leaves
+        HDF5 intact: checkpoint and status are small); else leave the last checkpoint as it is."""
+        from .store import hdf5_broken
+
+        if s.output is None or hdf5_broken():
+            if s.output is not None:
+                s.output.abandon()
+            return
+        try:
+            s.finish("no-space")
+        except NoSpaceError:
+            s.output.abandon()
 
     def _no_space_message(self, exc) -> str:
         s = self.s

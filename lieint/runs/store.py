@@ -34,6 +34,20 @@ import numpy as np
 __all__ = ["Checkpoint", "NoSpaceError", "OutputFile", "StoreError", "attrs_digest"]
 
 
+#: target size of a chunk of a series (the unit of Fletcher-32 checksums and of file growth)
+CHUNK_BYTES = 1 << 16
+
+#: HDF5 objects of a file whose write failed: HDF5 cannot close them cleanly any more, so they are
+#: kept alive (closing or collecting them repeats the failure; see :func:`hdf5_broken`)
+_BROKEN: list = []
+
+
+def hdf5_broken() -> bool:
+    """True once a write failure left HDF5 objects that cannot be closed; a command-line process
+    should then end with ``os._exit`` (HDF5's own exit handler would retry the failed writes)."""
+    return bool(_BROKEN)
+
+
 #: bytes before the HDF5 superblock, left to the application: the run marker goes there
 USER_BLOCK = 512
 
@@ -125,6 +139,16 @@ class OutputFile:
 
         h5py = _h5py()
         path = Path(path)
+        # a chunk of every series is written at once: refuse before HDF5 meets a full disk
+        first = sum(
+            max(1, min(4096, CHUNK_BYTES // max(np.asarray(r).nbytes, 1))) * np.asarray(r).nbytes
+            for a in first_rows.values()
+            for r in a.values()
+        )
+        need = first + 4096 * 8 + (128 << 10)
+        room, where = available_room(path)
+        if need > room:
+            raise NoSpaceError(f"{where}; creating the output file {str(path)!r} needs {need / 1e3:.0f} kB")
         tmp = exclusive_temp(path)
         try:
             # "w-" creates exclusively (O_CREAT | O_EXCL): never through a link, never over a file
@@ -132,35 +156,17 @@ class OutputFile:
         except OSError as exc:
             raise StoreError(f"cannot create the output file {str(path)!r}: {_reason(exc)}") from None
         try:
+            made: list = []  # every HDF5 object made: kept alive if the file cannot be closed
             try:
-                for key, value in attrs.items():
-                    f.attrs[key] = value
-                t = f.create_dataset(
-                    "t", data=np.array([t0]), maxshape=(None,), chunks=(4096,), dtype="f8", fletcher32=True
-                )
-                t.make_scale("t")
-                for group, arrays in first_rows.items():
-                    g = f.create_group(group)
-                    for name, row in arrays.items():
-                        row = np.asarray(row, dtype=float)
-                        chunk_rows = max(1, min(4096, (1 << 20) // max(row.nbytes, 1)))
-                        ds = g.create_dataset(
-                            name,
-                            data=row[None],
-                            maxshape=(None,) + row.shape,
-                            chunks=(chunk_rows,) + row.shape,
-                            dtype="f8",
-                            fletcher32=True,  # each chunk checksummed: a changed byte is detected
-                        )
-                        cls._label(f, ds, group, name)
-                        for key, value in (dataset_attrs or {}).get((group, name), {}).items():
-                            ds.attrs[key] = value
-                f.attrs["attrs_sha256"] = attrs_digest(f.attrs)
-            finally:
+                cls._populate(f, made, attrs, first_rows, t0, dataset_attrs)
                 f.close()
+                made.clear()
+            finally:
+                if made:
+                    _BROKEN.append((f, made))
             write_marker(tmp)
             publish(tmp, path)  # fsync, atomic rename over the old run, fsync of the directory
-        except OSError as exc:
+        except (OSError, RuntimeError) as exc:  # h5py raises either when a write fails
             discard(tmp)
             if is_no_space(exc):
                 raise NoSpaceError(f"no room to create the output file {str(path)!r}: {_reason(exc)}") from None
@@ -169,6 +175,45 @@ class OutputFile:
             discard(tmp)
             raise
         return cls._open_for_append(path, None)
+
+    @classmethod
+    def _populate(cls, f, made: list, attrs, first_rows, t0, dataset_attrs) -> None:
+        """Attributes, the first row of every series (chunked, Fletcher-32), dimension scales."""
+        for key, value in attrs.items():
+            f.attrs[key] = value
+        t = f.create_dataset("t", data=np.array([t0]), maxshape=(None,), chunks=(4096,), dtype="f8", fletcher32=True)
+        made.append(t)
+        t.make_scale("t")
+        for group, arrays in first_rows.items():
+            g = f.create_group(group)
+            made.append(g)
+            for name, row in arrays.items():
+                row = np.asarray(row, dtype=float)
+                chunk_rows = max(1, min(4096, CHUNK_BYTES // max(row.nbytes, 1)))
+                ds = g.create_dataset(
+                    name,
+                    data=row[None],
+                    maxshape=(None,) + row.shape,
+                    chunks=(chunk_rows,) + row.shape,
+                    dtype="f8",
+                    fletcher32=True,  # each chunk checksummed: a changed byte is detected
+                )
+                made.append(ds)
+                cls._label(f, ds, group, name)
+                for key, value in (dataset_attrs or {}).get((group, name), {}).items():
+                    ds.attrs[key] = value
+        f.attrs["attrs_sha256"] = attrs_digest(f.attrs)
+
+    def growth(self, rows: int) -> int:
+        """Bytes the file grows by when ``rows`` rows are appended: the chunks newly allocated
+        (each series grows a whole chunk at a time) and a share for the chunk indices."""
+        n = self.rows
+        total = 0
+        for ds in self._series(self.f):
+            cr = ds.chunks[0]
+            chunk_bytes = cr * ds.dtype.itemsize * int(np.prod(ds.shape[1:], dtype=np.int64))
+            total += (-(-(n + rows) // cr) - -(-n // cr)) * (chunk_bytes + 4)
+        return int(total * 1.02) + (32 << 10)
 
     @staticmethod
     def _label(f, ds, group: str, name: str) -> None:
@@ -185,8 +230,27 @@ class OutputFile:
     def reopen(cls, path, rows: int) -> OutputFile:
         """Open an existing output for appending, truncated to ``rows`` rows (the checkpoint's)."""
         _regular_or_absent(Path(path), "output file")
-        _clear_crash_flags(path)
-        return cls._open_for_append(path, rows)
+        repaired = _clear_crash_flags(path)
+        out = cls._open_for_append(path, rows)
+        if repaired:
+            out.verify(rows)
+        return out
+
+    def verify(self, rows: int) -> None:
+        """Read the first ``rows`` rows of every series (each chunk's Fletcher-32 checksum is
+        checked); :class:`StoreError` naming the first damaged series."""
+        for ds in self._series(self.f):
+            step = max(1, ds.chunks[0]) * 64
+            for r0 in range(0, rows, step):
+                try:
+                    ds[r0 : min(rows, r0 + step)]
+                except OSError as exc:
+                    self.close()
+                    raise StoreError(
+                        f"the output file {str(self.path)!r} is damaged in {ds.name} rows "
+                        f"{r0}–{min(rows, r0 + step) - 1} ({_reason(exc)}); it cannot be resumed: start anew "
+                        "with --overwrite"
+                    ) from None
 
     @classmethod
     def _open_for_append(cls, path, rows: int | None) -> OutputFile:
@@ -234,17 +298,23 @@ class OutputFile:
         if m == 0:
             return
         n = self.rows
+        made: list = []  # HDF5 objects in use: kept alive if a write fails (closing them would retry it)
         try:
             ds = self.f["t"]
+            made.append(ds)
             ds.resize((n + m,))
             ds[n:] = t
             for group, arrays in groups.items():
+                g = self.f[group]
+                made.append(g)
                 for name, values in arrays.items():
-                    ds = self.f[group][name]
+                    ds = g[name]
+                    made.append(ds)
                     ds.resize((n + m,) + ds.shape[1:])
                     ds[n:] = values
             self.f.flush()
-        except OSError as exc:
+        except (OSError, RuntimeError) as exc:  # h5py raises either when a write fails
+            _BROKEN.append(made)
             if is_no_space(exc):
                 raise NoSpaceError(f"writing to {str(self.path)!r} failed: {_reason(exc)}") from None
             raise StoreError(
@@ -258,7 +328,7 @@ class OutputFile:
                 self.f.attrs[key] = value
             self.f.attrs["attrs_sha256"] = attrs_digest(self.f.attrs)
             self.f.flush()
-        except OSError as exc:
+        except (OSError, RuntimeError) as exc:  # h5py raises either when a write fails
             if is_no_space(exc):
                 raise NoSpaceError(f"writing to {str(self.path)!r} failed: {_reason(exc)}") from None
             raise StoreError(f"writing the attributes of {str(self.path)!r} failed: {_reason(exc)}") from None
@@ -266,11 +336,7 @@ class OutputFile:
     def abandon(self) -> None:
         """Drop the handle after a failed write without flushing again (the file stays as the
         last successful flush left it; resuming truncates it to the checkpoint's rows)."""
-        try:
-            if self.f.id.valid:
-                self.f.close()
-        except Exception:  # a second failure of the same full disk: nothing more to save here
-            pass
+        _BROKEN.append(self.f)
 
     def close(self) -> None:
         if self.f.id.valid:
@@ -321,11 +387,39 @@ def _lookup3(data: bytes, initval: int = 0) -> int:
     return c
 
 
+def available_room(path) -> tuple[int, str]:
+    """Bytes ``path`` may still grow by (free disk space, and the file-size limit ``ulimit -f``),
+    with a phrase saying which bound it is."""
+    import resource
+
+    path = Path(path)
+    try:
+        size = os.stat(path).st_size
+    except OSError:
+        size = 0
+    try:
+        st = os.statvfs(path.parent)
+        room = st.f_bavail * st.f_frsize
+        where = f"{room / 1e6:.3g} MB are free on the disk of {str(path)!r}"
+    except OSError:
+        room, where = 1 << 62, ""
+    soft, _ = resource.getrlimit(resource.RLIMIT_FSIZE)
+    if soft != resource.RLIM_INFINITY and soft - size < room:
+        room = soft - size
+        where = f"{str(path)!r} is {size / 1e3:.0f} kB and the file-size limit (ulimit -f) is {soft / 1e3:.0f} kB"
+    return room, where
+
+
 def _reason(exc: BaseException) -> str:
     """The useful part of an OSError (h5py's messages are long)."""
     if getattr(exc, "strerror", None):
         return str(exc.strerror)
     text = " ".join(str(exc).split())
+    import re
+
+    system = re.search(r"errno = (\d+), error message = '([^']*)'", text)
+    if system:  # HDF5 quotes the operating system's error inside its own
+        return f"{system.group(2)} (errno {system.group(1)})"
     return text if len(text) <= 200 else text[:199] + "…"
 
 
@@ -341,13 +435,15 @@ def _superblock_offset(fh) -> int | None:
     return None
 
 
-def _clear_crash_flags(path) -> None:
+def _clear_crash_flags(path) -> bool:
     """What ``h5clear -s`` does: reset the "open for writing" flags a killed writer left set.
 
     HDF5 ≥ 1.10 marks the superblock (version 2/3) while a file is open for writing and
     refuses to open it for writing again until the flag is cleared. The file's data up to the
     writer's last flush is intact (SWMR ordering); the checkpoint says how much of it counts.
     Refused if another process still holds the file's lock (a run still writing it).
+    A file shorter than its superblock records (a write that failed on a full disk) is given
+    its length back; returns True then, and the caller verifies the rows it keeps.
     """
     import fcntl
 
@@ -359,24 +455,29 @@ def _clear_crash_flags(path) -> None:
             except BlockingIOError:
                 raise StoreError(f"{str(path)!r} is still being written by another process; stop it first") from None
             offset = _superblock_offset(fh)
-            if offset is None:
-                fcntl.flock(fh.fileno(), fcntl.LOCK_UN)
-                return
-            fh.seek(offset)
+            fh.seek(offset or 0)
             head = bytearray(fh.read(64))
-            if head[8] not in (2, 3) or head[11] == 0:
-                fcntl.flock(fh.fileno(), fcntl.LOCK_UN)
-                return
+            if offset is None or head[8] not in (2, 3):
+                return False
             end = 12 + 4 * head[9]
             if _lookup3(bytes(head[:end])) != int.from_bytes(head[end : end + 4], "little"):
                 raise StoreError(f"the output file {str(path)!r} is damaged: its superblock fails its checksum")
-            head[11] = 0
-            head[end : end + 4] = _lookup3(bytes(head[:end])).to_bytes(4, "little")
-            fh.seek(offset)
-            fh.write(bytes(head[: end + 4]))
+            so = head[9]
+            stored_eof = int.from_bytes(head[12 + 2 * so : 12 + 3 * so], "little")
+            repaired = stored_eof > os.fstat(fh.fileno()).st_size
+            if repaired:
+                # a write failed (full disk, file-size limit) after HDF5 had reserved the space:
+                # give the file its recorded length back (zeros) so that HDF5 opens it; the rows
+                # the checkpoint counts are verified against their checksums after reopening
+                os.ftruncate(fh.fileno(), stored_eof)
+            if head[11] != 0:
+                head[11] = 0
+                head[end : end + 4] = _lookup3(bytes(head[:end])).to_bytes(4, "little")
+                fh.seek(offset)
+                fh.write(bytes(head[: end + 4]))
             fh.flush()
             os.fsync(fh.fileno())
-            fcntl.flock(fh.fileno(), fcntl.LOCK_UN)
+            return repaired
     except OSError as exc:
         raise StoreError(f"cannot open {str(path)!r} to resume: {exc}") from None
 
@@ -407,7 +508,7 @@ class Checkpoint:
             except BaseException:
                 discard(tmp)
                 raise
-        except OSError as exc:
+        except (OSError, RuntimeError) as exc:
             cls = NoSpaceError if is_no_space(exc) else StoreError
             raise cls(
                 f"writing the checkpoint {str(self.path)!r} failed ({_reason(exc)}); the previous checkpoint is intact"

@@ -1,0 +1,403 @@
+"""Run files under attack: concurrent writers, hostile paths, full disks, damaged files, limits.
+
+Every scenario runs real processes (``python -m lieint``), as a user would.
+"""
+
+import os
+import resource
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+
+import lieint
+from lieint.runs.info import inspect_run
+from lieint.runs.plot import PlotError, plot_run
+
+SCENE = """
+[scene]
+name = "4D top"
+
+[body]
+mass_tensor = [[0.5, 0, 0, 0], [0, 1.0, 0, 0], [0, 0, 1.7, 0], [0, 0, 0, 2.3]]
+
+[support]
+type = "fixed_point"
+
+[initial]
+omega = [[0.0, -0.3, 0.5, -0.2], [0.3, 0.0, -0.4, 0.6], [-0.5, 0.4, 0.0, -0.1], [0.2, -0.6, 0.1, 0.0]]
+
+[integrator]
+method = "rkmk4"
+step = 0.002
+t_end = {t_end}
+save_every = 1
+
+[output]
+quantities = ["energy", "casimirs", "orientation"]
+"""
+
+T_END = 8.0  # 4000 steps on the generic path: a few seconds, long enough to be caught live
+
+
+def scene_file(tmp_path, t_end=T_END, name="s.toml"):
+    path = tmp_path / name
+    path.write_text(SCENE.format(t_end=t_end))
+    return path
+
+
+def read_all(path):
+    with h5py.File(path, "r") as f:  # plain open: a completed or resumed file needs no SWMR flag
+        out = {"t": f["t"][()]}
+        for group in ("states", "invariants", "outputs"):
+            if group in f:
+                out.update({f"{group}/{k}": v[()] for k, v in f[group].items()})
+        return out
+
+
+def assert_identical(a, b):
+    assert a.keys() == b.keys()
+    for key in a:
+        assert a[key].shape == b[key].shape, key
+        assert np.array_equal(a[key], b[key]), key
+
+
+def cli(args, cwd, **kw):
+    return subprocess.run(
+        [sys.executable, "-m", "lieint", *args], cwd=cwd, capture_output=True, text=True, timeout=120, **kw
+    )
+
+
+def start(args, cwd):
+    return subprocess.Popen(
+        [sys.executable, "-m", "lieint", *args],
+        cwd=cwd,
+        env=dict(os.environ, PYTHONUNBUFFERED="1"),
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+
+
+def wait_for_rows(out, proc, rows=200, timeout=60.0):
+    """Until the live run holds its lock and has written ``rows`` rows."""
+    deadline = time.monotonic() + timeout
+    lock = Path(str(out) + ".lock")
+    while time.monotonic() < deadline:
+        assert proc.poll() is None, proc.communicate()
+        if str(proc.pid) not in (lock.read_text() if lock.exists() else ""):
+            time.sleep(0.05)
+            continue
+        try:
+            with h5py.File(out, "r", swmr=True) as f:
+                if f["t"].shape[0] >= rows:
+                    return
+        except (OSError, KeyError):
+            pass
+        time.sleep(0.05)
+    raise AssertionError("the run wrote no rows")
+
+
+@pytest.fixture(scope="module")
+def reference(tmp_path_factory):
+    tmp = tmp_path_factory.mktemp("ref")
+    report = lieint.run(scene_file(tmp), tmp / "ref.h5", progress=False)
+    assert report.status == "complete"
+    return read_all(tmp / "ref.h5")
+
+
+# -- one writer -------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    "first, second",
+    [([], []), ([], ["--resume"]), ([], ["--overwrite"]), (["--overwrite"], ["--overwrite"])],
+    ids=["run+run", "run+resume", "run+overwrite", "overwrite+overwrite"],
+)
+def test_a_second_writer_is_refused_at_once_and_the_first_finishes_intact(tmp_path, reference, first, second):
+    scene = scene_file(tmp_path)
+    out = tmp_path / "run.h5"
+    if first:  # something to overwrite: a finished run of another length
+        lieint.run(scene_file(tmp_path, t_end=0.5, name="short.toml"), out, progress=False)
+    proc = start(["run", str(scene), "--out", str(out), "--quiet", "--checkpoint-every", "500", *first], tmp_path)
+    wait_for_rows(out, proc)
+    tic = time.monotonic()
+    other = cli(["run", str(scene), "--out", str(out), "--quiet", *second], tmp_path)
+    assert time.monotonic() - tic < 10
+    assert other.returncode == 2, other.stderr
+    assert f"being written by process {proc.pid} on host" in other.stderr and "only one writer" in other.stderr
+    assert "started 20" in other.stderr  # the holder's start time
+    _, stderr = proc.communicate(timeout=120)
+    assert proc.returncode == 0, stderr
+    assert_identical(read_all(out), reference)  # the refused writer changed nothing
+    assert not Path(str(out) + ".lock").exists()  # the lock goes with the run
+
+
+def test_the_lock_of_a_killed_writer_is_released(tmp_path, reference):
+    scene = scene_file(tmp_path)
+    out = tmp_path / "run.h5"
+    proc = start(["run", str(scene), "--out", str(out), "--quiet", "--checkpoint-every", "500"], tmp_path)
+    wait_for_rows(out, proc, rows=1200)
+    proc.kill()
+    proc.wait()
+    assert Path(str(out) + ".lock").exists()  # left behind by SIGKILL, but no longer locked
+    info = inspect_run(out)
+    assert info.state == "interrupted" and info.resumable, info.text()
+    assert "interrupted at step" in info.text() and "of 4000; resumable" in info.text()
+    done = cli(["run", str(scene), "--out", str(out), "--resume", "--quiet"], tmp_path)
+    assert done.returncode == 0, done.stderr
+    assert "resuming at step" in done.stderr
+    assert_identical(read_all(out), reference)
+    assert inspect_run(out).state == "complete"
+
+
+def test_info_names_the_live_writer(tmp_path):
+    scene = scene_file(tmp_path)
+    out = tmp_path / "run.h5"
+    proc = start(["run", str(scene), "--out", str(out), "--quiet"], tmp_path)
+    try:
+        wait_for_rows(out, proc)
+        info = cli(["info", str(out)], tmp_path)
+        assert info.returncode == 3, info.stdout + info.stderr
+        assert f"running: being written by process {proc.pid}" in info.stdout
+    finally:
+        proc.kill()
+        proc.wait()
+
+
+# -- what --overwrite may replace, and links ---------------------------------------------------------
+
+
+def test_overwrite_refuses_what_is_not_a_lieint_run_and_leaves_it_untouched(tmp_path):
+    scene = scene_file(tmp_path, t_end=0.1)
+    fifo = tmp_path / "fifo"
+    os.mkfifo(fifo)
+    foreign = tmp_path / "thesis.txt"
+    foreign.write_text("three years of work")
+    other_h5 = tmp_path / "data.h5"
+    with h5py.File(other_h5, "w") as f:
+        f["x"] = np.arange(5.0)
+    directory = tmp_path / "adir"
+    directory.mkdir()
+    link = tmp_path / "link.h5"
+    link.symlink_to(foreign)
+    expected = {
+        fifo: "is a FIFO (named pipe), not a lieint run file",
+        foreign: "is not a lieint run file",
+        other_h5: "is not a lieint run file",
+        directory: "is a directory, not a lieint run file",
+        link: "is a symbolic link, not a lieint run file",
+    }
+    before = other_h5.read_bytes()
+    for target, message in expected.items():
+        tic = time.monotonic()
+        result = cli(["run", str(scene), "--out", str(target), "--overwrite", "--quiet"], tmp_path)
+        assert time.monotonic() - tic < 10
+        assert result.returncode == 2 and "--overwrite refused" in result.stderr, result.stderr
+        assert message in result.stderr and "untouched" in result.stderr
+    assert fifo.is_fifo() and directory.is_dir() and link.is_symlink()
+    assert foreign.read_text() == "three years of work" and other_h5.read_bytes() == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(["s.toml", *(p.name for p in expected)])
+    # a lieint run file is replaced
+    out = tmp_path / "run.h5"
+    assert cli(["run", str(scene), "--out", str(out), "--quiet"], tmp_path).returncode == 0
+    assert cli(["run", str(scene), "--out", str(out), "--quiet", "--overwrite"], tmp_path).returncode == 0
+
+
+def test_links_planted_beside_a_run_are_never_followed(tmp_path, reference):
+    scene = scene_file(tmp_path)
+    out = tmp_path / "run.h5"
+    victim = tmp_path / "victim.txt"
+    victim.write_text("do not touch")
+    for name in ("run.h5.checkpoint.tmp", "run.h5.checkpoint", ".run.h5.tmp"):
+        (tmp_path / name).symlink_to(victim)
+    result = cli(["run", str(scene), "--out", str(out), "--quiet", "--checkpoint-every", "300"], tmp_path)
+    assert result.returncode == 0, result.stderr
+    assert victim.read_text() == "do not touch"
+    assert_identical(read_all(out), reference)
+    # a link at the lock's name is refused, not followed
+    (tmp_path / "other.h5.lock").symlink_to(victim)
+    result = cli(["run", str(scene), "--out", str(tmp_path / "other.h5"), "--quiet"], tmp_path)
+    assert result.returncode == 2 and "is a symbolic link; refusing to use it" in result.stderr
+    assert victim.read_text() == "do not touch" and not (tmp_path / "other.h5").exists()
+    # and so is a link at the output when resuming
+    link = tmp_path / "linked.h5"
+    link.symlink_to(out)
+    result = cli(["run", str(scene), "--out", str(link), "--quiet", "--resume"], tmp_path)
+    assert result.returncode == 2 and "is a symbolic link, not a lieint run file" in result.stderr
+
+
+# -- a full disk ---------------------------------------------------------------------------------------
+
+
+def _limit_file_size(nbytes):
+    def apply():
+        resource.setrlimit(resource.RLIMIT_FSIZE, (nbytes, nbytes))
+
+    return apply
+
+
+def test_file_size_limit_gives_one_clear_message_and_the_run_resumes(tmp_path, reference):
+    scene = scene_file(tmp_path)
+    out = tmp_path / "run.h5"
+    size = 1_000_000  # the whole run writes about 1.6 MB
+    env = dict(os.environ, LIEINT_SKIP_ROOM_CHECK="1")  # let it start and meet the limit on the way
+    full = cli(
+        ["run", str(scene), "--out", str(out), "--quiet", "--checkpoint-every", "200"],
+        tmp_path,
+        env=env,
+        preexec_fn=_limit_file_size(size),
+    )
+    assert full.returncode == 4, (full.returncode, full.stderr)
+    assert "Traceback" not in full.stderr and full.stderr.count("lieint run:") == 1, full.stderr
+    assert "the disk is full or the file-size limit (ulimit -f) was reached" in full.stderr
+    assert "rows up to the last checkpoint (step" in full.stderr and "--resume" in full.stderr
+    info = inspect_run(out)
+    assert info.resumable, info.text()
+    done = cli(["run", str(scene), "--out", str(out), "--quiet", "--resume"], tmp_path)
+    assert done.returncode == 0, done.stderr
+    assert_identical(read_all(out), reference)
+
+
+def test_a_write_failing_inside_hdf5_is_reported_once_and_the_run_resumes(tmp_path, reference):
+    """As if another process filled the disk between lieint's room check and its write."""
+    scene = scene_file(tmp_path)
+    out = tmp_path / "run.h5"
+    code = (
+        "import sys\n"
+        "from lieint.runs.runner import StreamedRun\n"
+        "StreamedRun.room_for = lambda self, steps: steps  # no room check: HDF5 itself meets the limit\n"
+        "from lieint.cli import main\n"
+        "sys.exit(main(sys.argv[1:]))\n"
+    )
+    full = subprocess.run(
+        [sys.executable, "-c", code, "run", str(scene), "--out", str(out), "--quiet", "--checkpoint-every", "200"],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        timeout=120,
+        env=dict(os.environ, LIEINT_SKIP_ROOM_CHECK="1"),
+        preexec_fn=_limit_file_size(1_000_000),
+    )
+    assert full.returncode == 4, (full.returncode, full.stderr)
+    assert full.stderr.count("\n") == 1 and "Traceback" not in full.stderr, full.stderr
+    assert "File too large (errno 27)" in full.stderr and "--resume" in full.stderr
+    done = cli(["run", str(scene), "--out", str(out), "--quiet", "--resume"], tmp_path)
+    assert done.returncode == 0, done.stderr
+    assert_identical(read_all(out), reference)
+    assert inspect_run(out).state == "complete"
+
+
+def test_a_run_that_cannot_fit_is_refused_before_it_starts(tmp_path):
+    scene = scene_file(tmp_path)
+    result = cli(
+        ["run", str(scene), "--out", str(tmp_path / "r.h5"), "--quiet"],
+        tmp_path,
+        preexec_fn=_limit_file_size(300_000),
+    )
+    assert result.returncode == 2, result.stderr
+    assert "but the file-size limit (ulimit -f) is 300 kB" in result.stderr
+    assert "LIEINT_SKIP_ROOM_CHECK=1" in result.stderr
+    assert not (tmp_path / "r.h5").exists()
+
+
+# -- damaged files: info and plot within seconds ------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def finished(tmp_path_factory):
+    tmp = tmp_path_factory.mktemp("fin")
+    out = tmp / "run.h5"
+    lieint.run(scene_file(tmp, t_end=2.0), out, progress=False)
+    return out
+
+
+def _timed(fn, *args):
+    tic = time.monotonic()
+    result = fn(*args)
+    return result, time.monotonic() - tic
+
+
+def test_info_of_an_intact_file(finished):
+    info, seconds = _timed(inspect_run, finished)
+    assert info.state == "complete" and info.exit_code == 0 and not info.problems
+    assert "complete: 1000 of 1000 steps, 1001 rows" in info.text() and "every chunk verified" in info.text()
+    assert seconds < 5
+
+
+def test_damage_at_known_places_is_reported_with_where(tmp_path, finished):
+    data = bytearray(finished.read_bytes())
+    with h5py.File(finished, "r") as f:
+        chunk = f["states/A"].id.get_chunk_info(0)
+    cases = {
+        "superblock": (512 + 20, "damaged: the superblock at byte 512 fails its checksum"),
+        "chunk": (chunk.byte_offset + 100, "damaged: /states/A rows 0–"),
+    }
+    for name, (offset, expected) in cases.items():
+        path = tmp_path / f"{name}.h5"
+        flipped = bytearray(data)
+        flipped[offset] ^= 0x10
+        path.write_bytes(bytes(flipped))
+        result = cli(["info", str(path)], tmp_path)
+        assert result.returncode == 1 and expected in result.stdout, result.stdout
+        plot = cli(["plot", str(path)], tmp_path)
+        assert plot.returncode == 2 and "Traceback" not in plot.stderr, plot.stderr
+    truncated = tmp_path / "truncated.h5"
+    truncated.write_bytes(bytes(data[: len(data) // 2]))
+    result = cli(["info", str(truncated)], tmp_path)
+    assert result.returncode == 1 and f"truncated: the file is {len(data) // 2} bytes" in result.stdout
+    # a changed attribute fails the attributes' SHA-256
+    changed = tmp_path / "changed.h5"
+    changed.write_bytes(bytes(data))
+    with h5py.File(changed, "r+") as f:
+        f.attrs["h"] = 0.5
+    info = inspect_run(changed)
+    assert info.state == "damaged" and "attributes fail their SHA-256" in info.text()
+
+
+def test_random_truncations_and_flips_are_read_within_seconds(tmp_path, finished):
+    data = finished.read_bytes()
+    rng = np.random.default_rng(13)
+    cases = []
+    for i in range(4):
+        cases.append((f"cut{i}", data[: int(rng.integers(0, len(data)))]))
+    for i in range(8):
+        flipped = bytearray(data)
+        # half in the first 8 kB (superblock, object headers, B-trees), half anywhere
+        at = int(rng.integers(0, 8192 if i % 2 == 0 else len(data)))
+        flipped[at] ^= 1 << int(rng.integers(0, 8))
+        cases.append((f"flip{i}", bytes(flipped)))
+    for name, content in cases:
+        path = tmp_path / f"{name}.h5"
+        path.write_bytes(content)
+        info, seconds = _timed(inspect_run, path)
+        assert seconds < 5, (name, seconds)
+        assert info.state in ("complete", "damaged", "unreadable"), info.text()
+        try:
+            _, seconds = _timed(plot_run, path, tmp_path / f"{name}.png")
+        except PlotError as exc:
+            assert str(exc), name
+        assert seconds < 5, (name, seconds)
+
+
+def test_plot_and_info_of_odd_inputs(tmp_path):
+    one_row = tmp_path / "one.h5"
+    scene = scene_file(tmp_path, t_end=0.002)
+    lieint.run(scene, one_row, progress=False)
+    assert plot_run(one_row).exists()  # one step: two rows (t0 and t1) plot
+    with h5py.File(one_row, "r+") as f:  # keep the first row only
+        for name in ["t"] + [f"{g}/{k}" for g in ("states", "invariants", "outputs") for k in f[g]]:
+            f[name].resize((1,) + f[name].shape[1:])
+    with pytest.raises(PlotError, match=r"holds 1 saved row\(s\); a plot needs at least two"):
+        plot_run(one_row)
+    result = cli(["plot", str(one_row)], tmp_path)
+    assert result.returncode == 2 and "Traceback" not in result.stderr
+    empty = tmp_path / "empty.h5"
+    empty.write_bytes(b"")
+    assert inspect_run(empty).state == "unreadable"
+    assert inspect_run(tmp_path).state == "unreadable"  # a directory
+    assert "no such file" in inspect_run(tmp_path / "missing.h5").text()
