@@ -401,3 +401,51 @@ def test_plot_and_info_of_odd_inputs(tmp_path):
     assert inspect_run(empty).state == "unreadable"
     assert inspect_run(tmp_path).state == "unreadable"  # a directory
     assert "no such file" in inspect_run(tmp_path / "missing.h5").text()
+
+
+# -- memory ---------------------------------------------------------------------------------------------
+
+TOP3 = """
+[scene]
+name = "3D top, every step saved"
+
+[body]
+principal_moments = [1.0, 2.0, 3.0]
+
+[support]
+type = "fixed_point"
+
+[initial]
+angular_velocity = [0.01, 1.0, 0.01]
+
+[integrator]
+method = "rkmk4"
+step = 0.01
+t_end = {t_end}
+
+[output]
+quantities = ["energy", "casimirs", "orientation"]
+"""
+
+
+def _peak_rss_mb(args, cwd) -> float:
+    proc = subprocess.Popen([sys.executable, "-m", "lieint", *args], cwd=cwd, stdout=subprocess.DEVNULL)
+    _, status, usage = os.wait4(proc.pid, 0)
+    assert os.waitstatus_to_exitcode(status) == 0
+    return usage.ru_maxrss / 1024
+
+
+@pytest.mark.slow
+def test_peak_memory_is_flat_in_the_saved_rows(tmp_path):
+    """10⁵ and 10⁶ saved rows (24 MB and 240 MB written): the same peak resident memory.
+
+    Measured (benchmarks/run_files.py): 189.2 MB and 189.7 MB.
+    """
+    peaks = {}
+    for rows in (1_000, 100_000, 1_000_000):  # the first compiles and caches the kernel
+        scene = tmp_path / f"top{rows}.toml"
+        scene.write_text(TOP3.format(t_end=(rows - 1) * 0.01))
+        peaks[rows] = _peak_rss_mb(["run", str(scene), "--out", str(tmp_path / f"top{rows}.h5"), "--quiet"], tmp_path)
+        with h5py.File(tmp_path / f"top{rows}.h5") as f:
+            assert f["t"].shape == (rows,)
+    assert peaks[1_000_000] < 1.2 * peaks[100_000], peaks
