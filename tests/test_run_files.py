@@ -449,3 +449,40 @@ def test_peak_memory_is_flat_in_the_saved_rows(tmp_path):
         with h5py.File(tmp_path / f"top{rows}.h5") as f:
             assert f["t"].shape == (rows,)
     assert peaks[1_000_000] < 1.2 * peaks[100_000], peaks
+
+
+# -- small things ----------------------------------------------------------------------------------------
+
+
+def test_small_refusals_are_clear(tmp_path, capsys):
+    from lieint.cli import main
+
+    scene = scene_file(tmp_path, t_end=0.1)
+    out = str(tmp_path / "r.h5")
+    for bad in (["--max-drift", "energy=nan"], ["--max-drift", "energy=-1"]):
+        assert main(["run", str(scene), "--out", out, "--quiet", *bad]) == 2
+        assert "the limit of 'energy' must be a finite number >= 0" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        main(["run", str(scene), "--out", out, "--checkpoint-every", "-5"])
+    assert "expected a positive integer, got '-5'" in capsys.readouterr().err
+    help_text = cli(["run", "--help"], tmp_path).stdout
+    assert "default: 60" in help_text and "--checkpoint-every" in help_text
+    # a NaN inside an array is reported as a NaN, not as a ragged array
+    nan = tmp_path / "nan.toml"
+    nan.write_text(scene.read_text().replace("[0.5, 0, 0, 0]", "[nan, 0, 0, 0]"))
+    assert main(["run", str(nan)]) == 2
+    assert "[body] mass_tensor (line 6): expected a finite number; got nan" in capsys.readouterr().err
+    # a step far too large, held in memory: the failure is a message, not a traceback
+    big = tmp_path / "big.toml"
+    big.write_text(scene.read_text().replace("step = 0.002", "step = 50.0").replace("t_end = 0.1", "t_end = 1000.0"))
+    code = main(["run", str(big)])
+    err = capsys.readouterr().err
+    assert code == 2 and "Reduce the step `h`" in err
+
+
+def test_mass_tensors_beyond_the_finite_range_are_refused():
+    for B in (np.diag([1e300, 2e300, 3e300]), np.diag([1e-200, 2e-200, 3e-200])):
+        with pytest.raises(ValueError, match=r"`B` must have its largest entry between 1e-100 and 1e\+100"):
+            lieint.EulerTop(B)
+    top = lieint.EulerTop(np.diag([1e90, 2e90, 3e90]))  # large but finite everywhere
+    assert np.all(np.isfinite(top.b)) and np.all(np.isfinite(top.inertia.minus_inv_pair))

@@ -540,4 +540,7 @@ class Checkpoint:
 
     def remove(self) -> None:
         if os.path.lexists(self.path):
-            self.path.unlink()
+            try:
+                self.path.unlink()  # a link is removed itself, never what it points to
+            except OSError as exc:
+                raise StoreError(f"cannot remove the old checkpoint {str(self.path)!r}: {_reason(exc)}") from None
