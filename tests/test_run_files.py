@@ -219,6 +219,15 @@ def test_links_planted_beside_a_run_are_never_followed(tmp_path, reference):
     assert result.returncode == 0, result.stderr
     assert victim.read_text() == "do not touch"
     assert_identical(read_all(out), reference)
+    # temporary files a killed writer left are removed; links of that form only as links
+    stale = tmp_path / ".run.h5.0123456789abcdef.tmp"
+    stale.write_bytes(b"half a file")
+    stale_link = tmp_path / ".run.h5.checkpoint.fedcba9876543210.tmp"
+    stale_link.symlink_to(victim)
+    result = cli(["run", str(scene), "--out", str(out), "--quiet", "--overwrite"], tmp_path)
+    assert result.returncode == 0, result.stderr
+    assert not os.path.lexists(stale) and not os.path.lexists(stale_link)
+    assert victim.read_text() == "do not touch"
     # a link at the lock's name is refused, not followed
     (tmp_path / "other.h5.lock").symlink_to(victim)
     result = cli(["run", str(scene), "--out", str(tmp_path / "other.h5"), "--quiet"], tmp_path)

@@ -31,6 +31,7 @@ __all__ = [
     "fsync_dir",
     "has_marker",
     "publish",
+    "remove_stale_temps",
     "write_marker",
 ]
 
@@ -155,6 +156,26 @@ def publish(tmp: Path, final: Path) -> None:
     fsync_file(tmp)
     os.replace(tmp, final)  # replaces a link at `final` itself, never the file it points to
     fsync_dir(Path(final).parent)
+
+
+def remove_stale_temps(final) -> list[Path]:
+    """Remove temporary files a killed writer of ``final`` left (``.NAME.<16 hex>.tmp`` beside it,
+    for the run and its checkpoint); call with the run's lock held, so that none is in use.
+    Links of that form are removed themselves, never what they point to."""
+    import re
+
+    final = Path(final)
+    pattern = re.compile(rf"^\.{re.escape(final.name)}(\.checkpoint)?\.[0-9a-f]{{16}}\.tmp$")
+    removed = []
+    try:
+        entries = list(os.scandir(final.parent))
+    except OSError:
+        return removed
+    for entry in entries:
+        if pattern.match(entry.name) and not entry.is_dir(follow_symlinks=False):
+            discard(Path(entry.path))
+            removed.append(Path(entry.path))
+    return removed
 
 
 def discard(tmp: Path) -> None:

@@ -267,8 +267,9 @@ def _check_arguments(overwrite, resume, checkpoint_every, monitor_every, stop_af
 
 def _check_output(out: Path, overwrite: bool, resume: bool) -> None:
     """What may be done with the output path (called with the run's lock held)."""
-    from .files import check_replaceable, describe_kind
+    from .files import check_replaceable, describe_kind, remove_stale_temps
 
+    remove_stale_temps(out)  # left by a writer killed while creating the run or a checkpoint
     exists = os.path.lexists(out)
     if exists and not (overwrite or resume):
         raise StoreError(f"the output {str(out)!r} exists; pass --overwrite to replace it or --resume to continue it")
