@@ -37,7 +37,7 @@ class Plan:
 
         with np.errstate(over="ignore"):
             ratio = (t1 - t0) / h
-        check("LIEINT_MAX_STEPS", float(ratio), f"the number of steps (t1 - t0)/h = ({t1:g} - {t0:g})/{h:g}")
+        check("LIEINT_MAX_STEPS", float(ratio), f"the number of steps (t1 - t0)/`h` = ({t1:g} - {t0:g})/{h:g}")
         nearest = round(ratio)
         # a ratio within round-off of an integer is that integer (no sliver of a last step)
         n = int(nearest) if abs(ratio - nearest) <= 1e-9 * max(1.0, ratio) else math.ceil(ratio)

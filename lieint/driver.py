@@ -275,7 +275,8 @@ class Driver:
             check(
                 "LIEINT_MAX_ROWS_BYTES",
                 float(size),
-                f"the memory for {rows} saved rows (bytes)",
+                f"the memory for the {rows} rows saved with `h` = {self.plan.h:g}, `save_every` = {self.save_every} "
+                "(bytes)",
                 "raise save_every, or stream the run to a file (lieint run --out, lieint.runs.run)",
             )
         cpu0, wall0 = time.process_time(), time.perf_counter()

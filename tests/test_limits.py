@@ -127,8 +127,8 @@ EXPECTED = {
     "ensemble_count": "the ensemble count is 1000000000, more than the limit 1000000 (to allow it, set the "
     "environment variable LIEINT_MAX_ENSEMBLE",
     "dimension": "the dimension n is 100000, more than the limit 256",
-    "tiny_step_huge_span": "the number of steps (t1 - t0)/h = (1e+300 - 0)/1e-300 is inf, more than the limit",
-    "api_h": "the number of steps (t1 - t0)/h = (10 - 0)/1e-300 is 1e+301, more than the limit 10000000000",
+    "tiny_step_huge_span": "the number of steps (t1 - t0)/`h` = (1e+300 - 0)/1e-300 is inf, more than the limit",
+    "api_h": "the number of steps (t1 - t0)/`h` = (10 - 0)/1e-300 is 1e+301, more than the limit 10000000000",
     "steps_1e12": "is 1e+12, more than the limit 10000000000 (to allow it, set the environment variable "
     "LIEINT_MAX_STEPS",
     "steps_1e12_streamed": "is 1e+12, more than the limit 10000000000",
