@@ -157,9 +157,7 @@ class _Session:
                 bar.close()
             if previous is not None:
                 signal.signal(signal.SIGINT, previous)
-            from .store import hdf5_broken
-
-            intact = s.output is not None and not hdf5_broken() and s.output.f.id.valid
+            intact = s.output is not None and not s.output.broken and s.output.f.id.valid
             rows = s.output.rows if intact else s.rows_checkpointed
             if intact:
                 s.close()
@@ -171,9 +169,7 @@ class _Session:
     def _end_without_space(s: StreamedRun) -> None:
         """Record the state reached where the file still takes it (a stop before writing leaves
         HDF5 intact: checkpoint and status are small); else leave the last checkpoint as it is."""
-        from .store import hdf5_broken
-
-        if s.output is None or hdf5_broken():
+        if s.output is None or s.output.broken:
             if s.output is not None:
                 s.output.abandon()
             return

@@ -122,6 +122,7 @@ class OutputFile:
     def __init__(self, path, handle):
         self.path = Path(path)
         self.f = handle
+        self.broken = False  # a write failed: HDF5 cannot flush or close this file any more
 
     # -- creation and reopening ------------------------------------------------------------
     @classmethod
@@ -315,6 +316,7 @@ class OutputFile:
             self.f.flush()
         except (OSError, RuntimeError) as exc:  # h5py raises either when a write fails
             _BROKEN.append(made)
+            self.broken = True
             if is_no_space(exc):
                 raise NoSpaceError(f"writing to {str(self.path)!r} failed: {_reason(exc)}") from None
             raise StoreError(
@@ -329,6 +331,7 @@ class OutputFile:
             self.f.attrs["attrs_sha256"] = attrs_digest(self.f.attrs)
             self.f.flush()
         except (OSError, RuntimeError) as exc:  # h5py raises either when a write fails
+            self.broken = True
             if is_no_space(exc):
                 raise NoSpaceError(f"writing to {str(self.path)!r} failed: {_reason(exc)}") from None
             raise StoreError(f"writing the attributes of {str(self.path)!r} failed: {_reason(exc)}") from None
@@ -337,6 +340,7 @@ class OutputFile:
         """Drop the handle after a failed write without flushing again (the file stays as the
         last successful flush left it; resuming truncates it to the checkpoint's rows)."""
         _BROKEN.append(self.f)
+        self.broken = True
 
     def close(self) -> None:
         if self.f.id.valid:
