@@ -273,7 +273,7 @@ class Driver:
             rows = self.plan.nsteps // self.save_every + 2
             size = rows * sum(np.asarray(v).nbytes for v in y0.values())
             check(
-                "LIEINT_MAX_ROWS_BYTES",
+                "LIEINT_MAX_MEMORY",
                 float(size),
                 f"the memory for the {rows} rows saved with `h` = {self.plan.h:g}, `save_every` = {self.save_every} "
                 "(bytes)",

@@ -13,7 +13,7 @@ limit                      what it bounds                   default
 ``LIEINT_MAX_ENSEMBLE``    members of an ensemble           10⁶
 ``LIEINT_MAX_DIMENSION``   dimension n of a body            256
 ``LIEINT_MAX_SCENE_BYTES`` size of a scene file             1 MiB
-``LIEINT_MAX_ROWS_BYTES``  rows a run keeps in memory       4 GiB
+``LIEINT_MAX_MEMORY``      arrays a run holds in memory     4 GiB
 =========================  ===============================  =====================
 
 Arrays in a scene are nested at most :data:`MAX_NESTING` levels (an ensemble of matrices needs
@@ -32,7 +32,7 @@ DEFAULTS: dict[str, int] = {
     "LIEINT_MAX_ENSEMBLE": 10**6,
     "LIEINT_MAX_DIMENSION": 256,
     "LIEINT_MAX_SCENE_BYTES": 1 << 20,
-    "LIEINT_MAX_ROWS_BYTES": 4 << 30,
+    "LIEINT_MAX_MEMORY": 4 << 30,
 }
 
 MAX_NESTING = 8

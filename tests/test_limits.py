@@ -104,6 +104,16 @@ def refusals(tmp_path_factory):
         "stdin_ensemble": ["run", scene(tmp, "stdin", extra=ens.format("/dev/stdin"))],
         "stdin_scene": ["run", "/dev/stdin"],
         "rows_in_memory": ["run", scene(tmp, "rows", step="1e-5", t_end="1e4")],
+        "ensemble_memory": [
+            "run",
+            scene(
+                tmp,
+                "ensmem",
+                body="mass_tensor = " + str(np.diag(np.arange(1.0, 25.0)).tolist()),
+                initial="omega = " + str([[0.0] * 24] * 24),
+                extra="[ensemble]\ncount = 1000000\nseed = 1\nspread = 0.1",
+            ),
+        ],
     }
     # stdin is a pipe that never ends: reading it would hang, refusing it does not
     child = subprocess.Popen(
@@ -136,7 +146,8 @@ EXPECTED = {
     "npz": "it is a .npz archive (several arrays); save one array with numpy.save to a .npy file",
     "stdin_ensemble": "not a regular file",
     "stdin_scene": "not a regular file",
-    "rows_in_memory": "more than the limit 4294967296 (to allow it, set the environment variable LIEINT_MAX_ROWS_BYTES",
+    "ensemble_memory": "the memory of 1000000 initial omega (bytes) is 4608000000, more than the limit 4294967296",
+    "rows_in_memory": "more than the limit 4294967296 (to allow it, set the environment variable LIEINT_MAX_MEMORY",
 }
 
 

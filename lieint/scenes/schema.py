@@ -458,6 +458,13 @@ class _Reader:
                     "ensemble", k, f"expected a {'positive' if k == 'count' else 'nonnegative'} integer; got {v!r}"
                 )
         self.within("LIEINT_MAX_ENSEMBLE", count, "ensemble", "count", "the ensemble count")
+        self.within(
+            "LIEINT_MAX_MEMORY",
+            count * base.size * 8,
+            "ensemble",
+            "count",
+            f"the memory of {count} initial {key} (bytes)",
+        )
         spread = self.number("ensemble", "spread", ens["spread"])
         if spread < 0:
             raise self.fail("ensemble", "spread", f"must be >= 0; got {spread:g}")
