@@ -64,8 +64,23 @@ class Plan:
             steps = np.append(steps, np.int64(self.nsteps))
         return steps
 
+    def times(self, steps: np.ndarray) -> np.ndarray:
+        """``t_k`` of an array of steps (:meth:`time` elementwise, the same floating-point result)."""
+        steps = np.asarray(steps, dtype=np.int64)
+        return np.where(steps == self.nsteps, self.t1, self.t0 + steps.astype(np.float64) * self.h)
+
     def save_steps(self, save_every: int) -> np.ndarray:
-        """Every ``save_every``-th step and the last one, step 0 included."""
+        """Every ``save_every``-th step and the last one, step 0 included (refused beyond
+        ``LIEINT_MAX_MEMORY``: streamed runs use :meth:`saves_between` instead)."""
+        from .limits import check
+
+        check(
+            "LIEINT_MAX_MEMORY",
+            float(8 * (self.nsteps // save_every + 2)),
+            f"the memory of the {self.nsteps // save_every + 2} save times of `h` = {self.h:g}, "
+            f"`save_every` = {save_every} (bytes)",
+            "raise save_every",
+        )
         steps = np.arange(0, self.nsteps + 1, save_every, dtype=np.int64)
         if steps[-1] != self.nsteps:
             steps = np.append(steps, np.int64(self.nsteps))

@@ -176,7 +176,7 @@ class Driver:
                 self.save_times = np.asarray(t_eval, dtype=float)
             elif h is not None:
                 plan = Plan.make(self.t0, self.t1, h)
-                self.save_times = np.array([plan.time(int(k)) for k in plan.save_steps(self.save_every)])
+                self.save_times = plan.times(plan.save_steps(self.save_every))
             else:
                 self.save_times = None
         elif method.adaptive:
