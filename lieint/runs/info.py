@@ -75,6 +75,14 @@ def _holder(path: Path) -> dict | None:
     return holder
 
 
+def _int(value, default: int) -> int:
+    """An attribute as an integer (a damaged file may hold anything there)."""
+    try:
+        return int(value)
+    except (TypeError, ValueError, OverflowError):
+        return default
+
+
 def _checkpoint_child(send, path: str):  # pragma: no cover - runs in the child process
     from .store import Checkpoint
 
@@ -120,7 +128,7 @@ def inspect_run(path, timeout: float = 4.0) -> RunInfo:
     if stored is not None and stored != attrs_digest(attrs):
         problems.append("the file's attributes fail their SHA-256 (one was changed outside lieint)")
     status = str(attrs.get("status", "?"))
-    planned = int(attrs.get("planned_steps", -1))
+    planned = _int(attrs.get("planned_steps"), -1)
     of_n = f" of {planned}" if planned > 0 else ""
     rows = header.rows
     lines = [
@@ -177,7 +185,7 @@ def inspect_run(path, timeout: float = 4.0) -> RunInfo:
                 why = "its checkpoint belongs to another scene"
             elif c.get("lieint_version") != __version__:
                 why = f"its checkpoint was written by lieint {c.get('lieint_version')}, this is {__version__}"
-            elif int(c.get("rows", 0)) > rows:
+            elif _int(c.get("rows"), 0) > rows:
                 why = f"the file has {rows} rows but its checkpoint records {c.get('rows')} (truncated)"
                 problems.append(why)
             else:
