@@ -277,7 +277,7 @@ def _series_child(send, path: str, swmr: bool, max_points: int):  # pragma: no c
         send(out)
 
 
-def read_series(path, max_points: int, timeout: float = 20.0, header: Header | None = None) -> dict[str, np.ndarray]:
+def read_series(path, max_points: int, timeout: float = 10.0, header: Header | None = None) -> dict[str, np.ndarray]:
     """Every series of the file, rows taken with a stride so that at most ~``max_points`` remain.
 
     Raises :class:`IsolatedError` when HDF5 cannot read them (a damaged chunk fails its checksum)
