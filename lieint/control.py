@@ -31,7 +31,13 @@ class Plan:
 
     @classmethod
     def make(cls, t0: float, t1: float, h: float) -> Plan:
-        ratio = (t1 - t0) / h
+        """The grid of step ``h`` over ``[t0, t1]``; refused (:class:`lieint.limits.LimitError`)
+        when it has more steps than ``LIEINT_MAX_STEPS``, before anything is allocated."""
+        from .limits import check
+
+        with np.errstate(over="ignore"):
+            ratio = (t1 - t0) / h
+        check("LIEINT_MAX_STEPS", float(ratio), f"the number of steps (t1 - t0)/`h` = ({t1:g} - {t0:g})/{h:g}")
         nearest = round(ratio)
         # a ratio within round-off of an integer is that integer (no sliver of a last step)
         n = int(nearest) if abs(ratio - nearest) <= 1e-9 * max(1.0, ratio) else math.ceil(ratio)
@@ -49,8 +55,32 @@ class Plan:
         """Size of the last step, ``t1 − t_{n−1}`` (h unless (t1 − t0)/h is not an integer)."""
         return self.t1 - (self.t0 + (self.nsteps - 1) * self.h)
 
+    def saves_between(self, save_every: int, k_from: int, k_to: int) -> np.ndarray:
+        """The saved steps s with ``k_from < s <= k_to`` (:meth:`save_steps` restricted to a
+        segment, computed without the whole run's array, so memory stays flat)."""
+        first = (k_from // save_every + 1) * save_every
+        steps = np.arange(first, k_to + 1, save_every, dtype=np.int64)
+        if k_from < self.nsteps <= k_to and (steps.size == 0 or steps[-1] != self.nsteps):
+            steps = np.append(steps, np.int64(self.nsteps))
+        return steps
+
+    def times(self, steps: np.ndarray) -> np.ndarray:
+        """``t_k`` of an array of steps (:meth:`time` elementwise, the same floating-point result)."""
+        steps = np.asarray(steps, dtype=np.int64)
+        return np.where(steps == self.nsteps, self.t1, self.t0 + steps.astype(np.float64) * self.h)
+
     def save_steps(self, save_every: int) -> np.ndarray:
-        """Every ``save_every``-th step and the last one, step 0 included."""
+        """Every ``save_every``-th step and the last one, step 0 included (refused beyond
+        ``LIEINT_MAX_MEMORY``: streamed runs use :meth:`saves_between` instead)."""
+        from .limits import check
+
+        check(
+            "LIEINT_MAX_MEMORY",
+            float(8 * (self.nsteps // save_every + 2)),
+            f"the memory of the {self.nsteps // save_every + 2} save times of `h` = {self.h:g}, "
+            f"`save_every` = {save_every} (bytes)",
+            "raise save_every",
+        )
         steps = np.arange(0, self.nsteps + 1, save_every, dtype=np.int64)
         if steps[-1] != self.nsteps:
             steps = np.append(steps, np.int64(self.nsteps))

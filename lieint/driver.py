@@ -181,7 +181,7 @@ class Driver:
                 self.save_times = np.asarray(t_eval, dtype=float)
             elif h is not None:
                 plan = Plan.make(self.t0, self.t1, h)
-                self.save_times = np.array([plan.time(int(k)) for k in plan.save_steps(self.save_every)])
+                self.save_times = plan.times(plan.save_steps(self.save_every))
             else:
                 self.save_times = None
         elif method.adaptive:
@@ -192,7 +192,6 @@ class Driver:
                 raise ValueError(f"`h` (the step size) is required for the fixed-step method {method.name!r}.")
             self.kind = "fixed"
             self.plan = Plan.make(self.t0, self.t1, h)
-            self.save_steps = self.plan.save_steps(self.save_every)
         self.loop = None
 
     # -- the run -----------------------------------------------------------------------------
@@ -278,6 +277,18 @@ class Driver:
 
     def run(self, y0: dict):
         """Integrate over the whole span; returns the :class:`~lieint.Solution`."""
+        if self.kind == "fixed":  # every saved row is held in memory: refuse what cannot fit
+            from .limits import check
+
+            rows = self.plan.nsteps // self.save_every + 2
+            size = rows * sum(np.asarray(v).nbytes for v in y0.values())
+            check(
+                "LIEINT_MAX_MEMORY",
+                float(size),
+                f"the memory for the {rows} rows saved with `h` = {self.plan.h:g}, `save_every` = {self.save_every} "
+                "(bytes)",
+                "raise save_every, or stream the run to a file (lieint run --out, lieint.runs.run)",
+            )
         cpu0, wall0 = time.process_time(), time.perf_counter()
         carry = self.start(y0)
         first = self.loop.first_row(carry)
@@ -352,7 +363,7 @@ class _FixedLoop:
         d = self.d
         system, method, plan = d.system, d.method, d.plan
         k_to = plan.nsteps if max_steps is None else min(plan.nsteps, carry.k + max_steps)
-        saves = d.save_steps[(d.save_steps > carry.k) & (d.save_steps <= k_to)]
+        saves = plan.saves_between(d.save_every, carry.k, k_to)
         y = carry.state
         saved = {name: np.empty((saves.size, *arr.shape)) for name, arr in y.items()}
         slot, failure = 0, None
@@ -415,12 +426,12 @@ class _KernelLoop:
     def advance(self, carry: Carry, max_steps: int | None) -> Segment:
         d, plan = self.d, self.d.plan
         k_to = plan.nsteps if max_steps is None else min(plan.nsteps, carry.k + max_steps)
-        saves = d.save_steps[(d.save_steps > carry.k) & (d.save_steps <= k_to)]
+        saves = plan.saves_between(d.save_every, carry.k, k_to)
         new, states = self.kernel.advance(carry.state, carry.k, k_to, plan, saves, d.project)
         m = saves.size
         finite = np.ones(m, dtype=bool)
         for v in states.values():
-            finite &= np.isfinite(v.reshape(m, -1)).all(axis=1)
+            finite &= np.isfinite(v).all(axis=tuple(range(1, v.ndim)))  # also for m = 0 saved rows
         failure = None
         if finite.all() and all(np.isfinite(v).all() for v in new.values()):
             carry.state, done = new, k_to

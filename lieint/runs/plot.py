@@ -13,6 +13,7 @@ Long files are read with a stride (at most ~4000 rows), so plotting stays light.
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import numpy as np
@@ -27,39 +28,30 @@ class PlotError(ValueError):
 
 
 def _read(path: Path):
-    import h5py
+    """The strided series and attributes, read safely (:mod:`lieint.runs.reading`: a truncated or
+    damaged file is reported within seconds, never waited for)."""
+    from .reading import IsolatedError, read_header, read_series
 
+    header = read_header(path)
+    if not header.ok:
+        raise PlotError(f"cannot open {str(path)!r} as an HDF5 run file: {header.problem}")
+    if "t" not in header.datasets or not any(n.startswith("states/") for n in header.datasets):
+        raise PlotError(f"{str(path)!r} is not a lieint run (no /t and /states)")
     try:
-        f = h5py.File(path, "r", swmr=True)  # also reads a run that is still being written
-    except OSError:
-        try:
-            f = h5py.File(path, "r")
-        except OSError as exc:
-            raise PlotError(f"cannot open {str(path)!r} as an HDF5 run file: {exc}") from None
-    try:
-        if "t" not in f or "states" not in f:
-            raise PlotError(f"{str(path)!r} is not a lieint run (no /t and /states)")
-        m = f["t"].shape[0]
-        stride = max(1, m // _MAX_POINTS)
-        t = f["t"][::stride]
-        states = {k: ds[::stride] for k, ds in f["states"].items()}
-        inv = {k: ds[::stride] for k, ds in f["invariants"].items()} if "invariants" in f else {}
-        outputs = {k: ds[::stride] for k, ds in f["outputs"].items()} if "outputs" in f else {}
-        attrs = {k: (v.decode() if isinstance(v, bytes) else v) for k, v in f.attrs.items()}
-        # what each dataset is (written by the run from the system's declarations)
-        meta = {}
-        for group in ("states", "invariants", "outputs"):
-            if group in f:
-                for k, ds in f[group].items():
-                    meta[(group, k)] = {
-                        a: (v.decode() if isinstance(v, bytes) else v)
-                        for a, v in ds.attrs.items()
-                        if a in ("kind", "trailing_ndim")
-                    }
-        attrs["_datasets"] = meta
-    finally:
-        f.close()
-    return t, states, inv, outputs, attrs
+        series = read_series(path, _MAX_POINTS, header=header)
+    except IsolatedError as exc:
+        raise PlotError(
+            f"cannot read the rows of {str(path)!r}: {exc} (`lieint info {path}` says where it is damaged)"
+        ) from None
+
+    def group(name):
+        prefix = name + "/"
+        return {k[len(prefix) :]: v for k, v in series.items() if k.startswith(prefix)}
+
+    attrs = dict(header.attrs)
+    # what each dataset is (written by the run from the system's declarations)
+    attrs["_datasets"] = {tuple(k.split("/", 1)): d["attrs"] for k, d in header.datasets.items() if "/" in k}
+    return series["t"], group("states"), group("invariants"), group("outputs"), attrs
 
 
 def _members(values: np.ndarray, tail: int) -> np.ndarray:
@@ -86,12 +78,16 @@ def plot_run(path, out=None) -> Path:
     import matplotlib.pyplot as plt
 
     path = Path(path)
-    if not path.exists():
+    if not os.path.lexists(path):
         raise PlotError(f"no run file {str(path)!r}")
     out = Path(out) if out else path.with_suffix(".png")
     if out.suffix.lower() not in (".png", ".svg"):
         raise PlotError(f"the figure must be .png or .svg; got {out.name!r}")
     t, states, inv, outputs, attrs = _read(path)
+    if t.size < 2:
+        raise PlotError(
+            f"{str(path)!r} holds {t.size} saved row(s); a plot needs at least two (run longer, or lower save_every)"
+        )
     # invariants that measure a defect (zero for the exact flow), as the run recorded them
     defects = set(filter(None, str(attrs.get("defects", "")).split(",")))
     meta = attrs["_datasets"]

@@ -1,30 +1,113 @@
 """Plain-data storage of a run: the HDF5 output and the atomic checkpoint beside it.
 
-Output ``RUN.h5`` (opened in SWMR mode while writing, so a crash leaves it readable):
+Output ``RUN.h5`` (opened in SWMR mode while writing, so a crash leaves it readable with
+``h5py.File(path, "r", swmr=True)``; a completed or resumed file opens with plain ``h5py.File(path)``):
+
+* a 512-byte user block that starts with the marker ``lieint run file`` (:mod:`lieint.runs.files`);
 
 * ``/t`` (m,) saved times, a dimension scale; ``/states/<field>`` (m, *batch, *shape);
   ``/invariants/<name>`` and ``/outputs/<name>`` likewise; every axis is a labelled
   dimension so that ``xarray.open_dataset(path, engine="h5netcdf", group="states")`` works;
 * root attributes: ``lieint_version``, ``scene`` (its TOML text or JSON), ``scene_fingerprint``,
-  ``method``, ``h``, ``nsteps``, ``steps_done``, ``status``.
+  ``method``, ``h``, ``nsteps``, ``steps_done``, ``status``, and ``attrs_sha256``, the SHA-256 of all
+  the others (:func:`attrs_digest`);
+* every series is chunked with HDF5's Fletcher-32 checksum filter, so a changed byte in a
+  committed row is detected when it is read (``lieint info RUN.h5`` reads them all).
 
 Checkpoint ``RUN.h5.checkpoint`` (HDF5, written to a temporary file, fsynced, then renamed
 over the old one, so it is always either the old or the new checkpoint): the engine's internal
-arrays, the step reached, the rows written, the counters. Nothing is ever pickled.
+arrays, the step reached, the rows written, the counters, and ``sha256`` of all of them, checked
+when it is read. Nothing is ever pickled.
 """
 
 from __future__ import annotations
 
+import errno
+import hashlib
+import json
 import os
+import stat
 from pathlib import Path
 
 import numpy as np
 
-__all__ = ["Checkpoint", "OutputFile", "StoreError"]
+__all__ = ["Checkpoint", "NoSpaceError", "OutputFile", "StoreError", "attrs_digest"]
+
+
+#: target size of a chunk of a series (the unit of Fletcher-32 checksums and of file growth)
+CHUNK_BYTES = 1 << 16
+
+#: HDF5 objects of a file whose write failed: HDF5 cannot close them cleanly any more, so they are
+#: kept alive (closing or collecting them repeats the failure; see :func:`hdf5_broken`)
+_BROKEN: list = []
+
+
+def hdf5_broken() -> bool:
+    """True once a write failure left HDF5 objects that cannot be closed; a command-line process
+    should then end with ``os._exit`` (HDF5's own exit handler would retry the failed writes)."""
+    return bool(_BROKEN)
+
+
+#: bytes before the HDF5 superblock, left to the application: the run marker goes there
+USER_BLOCK = 512
 
 
 class StoreError(ValueError):
     """An output or checkpoint that cannot be used; the message says which and why."""
+
+
+class NoSpaceError(StoreError):
+    """The disk is full or the file-size limit (``ulimit -f``) was reached while writing."""
+
+
+#: errno values of a full disk, an exceeded file-size limit or quota
+_NO_SPACE = {errno.ENOSPC, errno.EFBIG, errno.EDQUOT}
+_NO_SPACE_WORDS = ("no space left", "file too large", "disk quota", "errno = 28", "errno = 27", "errno = 122")
+
+
+def is_no_space(exc: BaseException) -> bool:
+    """True for an OSError of a full disk or file-size limit (h5py's errors carry it in the text)."""
+    if getattr(exc, "errno", None) in _NO_SPACE:
+        return True
+    text = str(exc).lower()
+    return any(w in text for w in _NO_SPACE_WORDS)
+
+
+def _plain_attr(value):
+    if isinstance(value, bytes):
+        return value.decode(errors="replace")
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    return value
+
+
+def attrs_digest(attrs) -> str:
+    """SHA-256 of a file's attributes (every one but ``attrs_sha256`` itself), in a canonical JSON form."""
+    plain = {k: _plain_attr(v) for k, v in attrs.items() if k not in ("attrs_sha256", "sha256")}
+    return hashlib.sha256(json.dumps(plain, sort_keys=True, default=repr).encode()).hexdigest()
+
+
+def _arrays_digest(arrays: dict, attrs: dict) -> str:
+    h = hashlib.sha256(attrs_digest(attrs).encode())
+    for name in sorted(arrays):
+        a = np.ascontiguousarray(arrays[name])
+        h.update(f"{name}:{a.dtype.str}:{a.shape}".encode())
+        h.update(a.tobytes())
+    return h.hexdigest()
+
+
+def _regular_or_absent(path: Path, what: str) -> None:
+    """Refuse a symbolic link or a non-regular file where lieint reads or writes its own file."""
+    try:
+        st = os.lstat(path)
+    except FileNotFoundError:
+        return
+    if not stat.S_ISREG(st.st_mode):
+        from .files import describe_kind
+
+        raise StoreError(f"the {what} {str(path)!r} is {describe_kind(st)}, not a regular file; refusing to use it")
 
 
 def _h5py():
@@ -39,6 +122,7 @@ class OutputFile:
     def __init__(self, path, handle):
         self.path = Path(path)
         self.f = handle
+        self.broken = False  # a write failed: HDF5 cannot flush or close this file any more
 
     # -- creation and reopening ------------------------------------------------------------
     @classmethod
@@ -52,33 +136,85 @@ class OutputFile:
     ) -> OutputFile:
         """A new output with its first row; ``dataset_attrs[(group, name)]`` are attributes of a
         dataset (what it holds, e.g. ``kind = "defect"`` and ``trailing_ndim``, for readers)."""
+        from .files import discard, exclusive_temp, publish, write_marker
+
         h5py = _h5py()
+        path = Path(path)
+        # a chunk of every series is written at once: refuse before HDF5 meets a full disk
+        first = sum(
+            max(1, min(4096, CHUNK_BYTES // max(np.asarray(r).nbytes, 1))) * np.asarray(r).nbytes
+            for a in first_rows.values()
+            for r in a.values()
+        )
+        need = first + 4096 * 8 + (128 << 10)
+        room, where = available_room(path)
+        if need > room:
+            raise NoSpaceError(f"{where}; creating the output file {str(path)!r} needs {need / 1e3:.0f} kB")
+        tmp = exclusive_temp(path)
         try:
-            f = h5py.File(path, "w", libver="latest")
+            # "w-" creates exclusively (O_CREAT | O_EXCL): never through a link, never over a file
+            f = h5py.File(tmp, "w-", libver="latest", userblock_size=USER_BLOCK)
         except OSError as exc:
-            raise StoreError(f"cannot create the output file {str(path)!r}: {exc}") from None
+            raise StoreError(f"cannot create the output file {str(path)!r}: {_reason(exc)}") from None
         try:
-            for key, value in attrs.items():
-                f.attrs[key] = value
-            t = f.create_dataset("t", data=np.array([t0]), maxshape=(None,), chunks=(4096,), dtype="f8")
-            t.make_scale("t")
-            for group, arrays in first_rows.items():
-                g = f.create_group(group)
-                for name, row in arrays.items():
-                    row = np.asarray(row, dtype=float)
-                    chunk_rows = max(1, min(4096, (1 << 20) // max(row.nbytes, 1)))
-                    ds = g.create_dataset(
-                        name, data=row[None], maxshape=(None,) + row.shape, chunks=(chunk_rows,) + row.shape, dtype="f8"
-                    )
-                    cls._label(f, ds, group, name)
-                    for key, value in (dataset_attrs or {}).get((group, name), {}).items():
-                        ds.attrs[key] = value
-            f.swmr_mode = True
-            f.flush()
-        except Exception:
-            f.close()
+            made: list = []  # every HDF5 object made: kept alive if the file cannot be closed
+            try:
+                cls._populate(f, made, attrs, first_rows, t0, dataset_attrs)
+                f.close()
+                made.clear()
+            finally:
+                if made:
+                    _BROKEN.append((f, made))
+            write_marker(tmp)
+            publish(tmp, path)  # fsync, atomic rename over the old run, fsync of the directory
+        except (OSError, RuntimeError) as exc:  # h5py raises either when a write fails
+            discard(tmp)
+            if is_no_space(exc):
+                raise NoSpaceError(f"no room to create the output file {str(path)!r}: {_reason(exc)}") from None
+            raise StoreError(f"cannot create the output file {str(path)!r}: {_reason(exc)}") from None
+        except BaseException:
+            discard(tmp)
             raise
-        return cls(path, f)
+        return cls._open_for_append(path, None)
+
+    @classmethod
+    def _populate(cls, f, made: list, attrs, first_rows, t0, dataset_attrs) -> None:
+        """Attributes, the first row of every series (chunked, Fletcher-32), dimension scales."""
+        for key, value in attrs.items():
+            f.attrs[key] = value
+        t = f.create_dataset("t", data=np.array([t0]), maxshape=(None,), chunks=(4096,), dtype="f8", fletcher32=True)
+        made.append(t)
+        t.make_scale("t")
+        for group, arrays in first_rows.items():
+            g = f.create_group(group)
+            made.append(g)
+            for name, row in arrays.items():
+                row = np.asarray(row, dtype=float)
+                chunk_rows = max(1, min(4096, CHUNK_BYTES // max(row.nbytes, 1)))
+                ds = g.create_dataset(
+                    name,
+                    data=row[None],
+                    maxshape=(None,) + row.shape,
+                    chunks=(chunk_rows,) + row.shape,
+                    dtype="f8",
+                    fletcher32=True,  # each chunk checksummed: a changed byte is detected
+                )
+                made.append(ds)
+                cls._label(f, ds, group, name)
+                for key, value in (dataset_attrs or {}).get((group, name), {}).items():
+                    ds.attrs[key] = value
+        f.attrs["attrs_sha256"] = attrs_digest(f.attrs)
+
+    def growth(self, rows: int) -> int:
+        """Bytes the file grows by when ``rows`` rows are appended: the chunks newly allocated
+        (each series grows a whole chunk at a time) and a share for the chunk indices."""
+        n = self.rows
+        total = 0
+        for ds in self._series(self.f):
+            cr = ds.chunks[0]
+            chunk_bytes = cr * ds.dtype.itemsize * int(np.prod(ds.shape[1:], dtype=np.int64))
+            total += (-(-(n + rows) // cr) - -(-n // cr)) * (chunk_bytes + 4)
+        return int(total * 1.02) + (32 << 10)
 
     @staticmethod
     def _label(f, ds, group: str, name: str) -> None:
@@ -94,8 +230,32 @@ class OutputFile:
     @classmethod
     def reopen(cls, path, rows: int) -> OutputFile:
         """Open an existing output for appending, truncated to ``rows`` rows (the checkpoint's)."""
+        _regular_or_absent(Path(path), "output file")
+        repaired = _clear_crash_flags(path)
+        out = cls._open_for_append(path, rows)
+        if repaired:
+            out.verify(rows)
+        return out
+
+    def verify(self, rows: int) -> None:
+        """Read the first ``rows`` rows of every series (each chunk's Fletcher-32 checksum is
+        checked); :class:`StoreError` naming the first damaged series."""
+        for ds in self._series(self.f):
+            step = max(1, ds.chunks[0]) * 64
+            for r0 in range(0, rows, step):
+                try:
+                    ds[r0 : min(rows, r0 + step)]
+                except OSError as exc:
+                    self.close()
+                    raise StoreError(
+                        f"the output file {str(self.path)!r} is damaged in {ds.name} rows "
+                        f"{r0}–{min(rows, r0 + step) - 1} ({_reason(exc)}); it cannot be resumed: start anew "
+                        "with --overwrite"
+                    ) from None
+
+    @classmethod
+    def _open_for_append(cls, path, rows: int | None) -> OutputFile:
         h5py = _h5py()
-        _clear_crash_flags(path)
         try:
             f = h5py.File(path, "r+", libver="latest")
         except OSError as exc:
@@ -103,14 +263,15 @@ class OutputFile:
                 f"cannot reopen the output file {str(path)!r} to resume (corrupt or unreadable): {exc}"
             ) from None
         try:
-            have = f["t"].shape[0]
-            if have < rows:
-                raise StoreError(
-                    f"the output file {str(path)!r} has {have} saved rows but its checkpoint "
-                    f"records {rows}: the file was truncated or replaced; start anew with --overwrite"
-                )
-            for ds in cls._series(f):
-                ds.resize((rows,) + ds.shape[1:])
+            if rows is not None:
+                have = min(ds.shape[0] for ds in cls._series(f))
+                if have < rows:
+                    raise StoreError(
+                        f"the output file {str(path)!r} has {have} saved rows but its checkpoint "
+                        f"records {rows}: the file was truncated or replaced; start anew with --overwrite"
+                    )
+                for ds in cls._series(f):
+                    ds.resize((rows,) + ds.shape[1:])
             f.swmr_mode = True
             f.flush()
         except KeyError as exc:
@@ -138,26 +299,48 @@ class OutputFile:
         if m == 0:
             return
         n = self.rows
+        made: list = []  # HDF5 objects in use: kept alive if a write fails (closing them would retry it)
         try:
             ds = self.f["t"]
+            made.append(ds)
             ds.resize((n + m,))
             ds[n:] = t
             for group, arrays in groups.items():
+                g = self.f[group]
+                made.append(g)
                 for name, values in arrays.items():
-                    ds = self.f[group][name]
+                    ds = g[name]
+                    made.append(ds)
                     ds.resize((n + m,) + ds.shape[1:])
                     ds[n:] = values
             self.f.flush()
-        except OSError as exc:
+        except (OSError, RuntimeError) as exc:  # h5py raises either when a write fails
+            _BROKEN.append(made)
+            self.broken = True
+            if is_no_space(exc):
+                raise NoSpaceError(f"writing to {str(self.path)!r} failed: {_reason(exc)}") from None
             raise StoreError(
                 f"writing to {str(self.path)!r} failed ({exc}); the rows written before, and the "
                 "last checkpoint, are intact: free space and resume with --resume"
             ) from None
 
     def set_attrs(self, **attrs) -> None:
-        for key, value in attrs.items():
-            self.f.attrs[key] = value
-        self.f.flush()
+        try:
+            for key, value in attrs.items():
+                self.f.attrs[key] = value
+            self.f.attrs["attrs_sha256"] = attrs_digest(self.f.attrs)
+            self.f.flush()
+        except (OSError, RuntimeError) as exc:  # h5py raises either when a write fails
+            self.broken = True
+            if is_no_space(exc):
+                raise NoSpaceError(f"writing to {str(self.path)!r} failed: {_reason(exc)}") from None
+            raise StoreError(f"writing the attributes of {str(self.path)!r} failed: {_reason(exc)}") from None
+
+    def abandon(self) -> None:
+        """Drop the handle after a failed write without flushing again (the file stays as the
+        last successful flush left it; resuming truncates it to the checkpoint's rows)."""
+        _BROKEN.append(self.f)
+        self.broken = True
 
     def close(self) -> None:
         if self.f.id.valid:
@@ -208,34 +391,97 @@ def _lookup3(data: bytes, initval: int = 0) -> int:
     return c
 
 
-def _clear_crash_flags(path) -> None:
+def available_room(path) -> tuple[int, str]:
+    """Bytes ``path`` may still grow by (free disk space, and the file-size limit ``ulimit -f``),
+    with a phrase saying which bound it is."""
+    import resource
+
+    path = Path(path)
+    try:
+        size = os.stat(path).st_size
+    except OSError:
+        size = 0
+    try:
+        st = os.statvfs(path.parent)
+        room = st.f_bavail * st.f_frsize
+        where = f"{room / 1e6:.3g} MB are free on the disk of {str(path)!r}"
+    except OSError:
+        room, where = 1 << 62, ""
+    soft, _ = resource.getrlimit(resource.RLIMIT_FSIZE)
+    if soft != resource.RLIM_INFINITY and soft - size < room:
+        room = soft - size
+        where = f"{str(path)!r} is {size / 1e3:.0f} kB and the file-size limit (ulimit -f) is {soft / 1e3:.0f} kB"
+    return room, where
+
+
+def _reason(exc: BaseException) -> str:
+    """The useful part of an OSError (h5py's messages are long)."""
+    if getattr(exc, "strerror", None):
+        return str(exc.strerror)
+    text = " ".join(str(exc).split())
+    import re
+
+    system = re.search(r"errno = (\d+), error message = '([^']*)'", text)
+    if system:  # HDF5 quotes the operating system's error inside its own
+        return f"{system.group(2)} (errno {system.group(1)})"
+    return text if len(text) <= 200 else text[:199] + "…"
+
+
+def _superblock_offset(fh) -> int | None:
+    """Where the HDF5 signature is (0 or after a user block of 512, 1024, ... bytes)."""
+    size = os.fstat(fh.fileno()).st_size
+    offset = 0
+    while offset == 0 or offset < size:
+        fh.seek(offset)
+        if fh.read(8) == b"\x89HDF\r\n\x1a\n":
+            return offset
+        offset = 512 if offset == 0 else 2 * offset
+    return None
+
+
+def _clear_crash_flags(path) -> bool:
     """What ``h5clear -s`` does: reset the "open for writing" flags a killed writer left set.
 
     HDF5 ≥ 1.10 marks the superblock (version 2/3) while a file is open for writing and
     refuses to open it for writing again until the flag is cleared. The file's data up to the
     writer's last flush is intact (SWMR ordering); the checkpoint says how much of it counts.
     Refused if another process still holds the file's lock (a run still writing it).
+    A file shorter than its superblock records (a write that failed on a full disk) is given
+    its length back; returns True then, and the caller verifies the rows it keeps.
     """
     import fcntl
 
     try:
-        with open(path, "rb+") as fh:
+        fd = os.open(path, os.O_RDWR | os.O_NOFOLLOW | os.O_CLOEXEC)
+        with os.fdopen(fd, "rb+") as fh:
             try:
                 fcntl.flock(fh.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
             except BlockingIOError:
                 raise StoreError(f"{str(path)!r} is still being written by another process; stop it first") from None
+            offset = _superblock_offset(fh)
+            fh.seek(offset or 0)
             head = bytearray(fh.read(64))
-            if head[:8] != b"\x89HDF\r\n\x1a\n" or head[8] not in (2, 3) or head[11] == 0:
-                fcntl.flock(fh.fileno(), fcntl.LOCK_UN)
-                return
+            if offset is None or head[8] not in (2, 3):
+                return False
             end = 12 + 4 * head[9]
-            head[11] = 0
-            head[end : end + 4] = _lookup3(bytes(head[:end])).to_bytes(4, "little")
-            fh.seek(0)
-            fh.write(bytes(head[: end + 4]))
+            if _lookup3(bytes(head[:end])) != int.from_bytes(head[end : end + 4], "little"):
+                raise StoreError(f"the output file {str(path)!r} is damaged: its superblock fails its checksum")
+            so = head[9]
+            stored_eof = int.from_bytes(head[12 + 2 * so : 12 + 3 * so], "little")
+            repaired = stored_eof > os.fstat(fh.fileno()).st_size
+            if repaired:
+                # a write failed (full disk, file-size limit) after HDF5 had reserved the space:
+                # give the file its recorded length back (zeros) so that HDF5 opens it; the rows
+                # the checkpoint counts are verified against their checksums after reopening
+                os.ftruncate(fh.fileno(), stored_eof)
+            if head[11] != 0:
+                head[11] = 0
+                head[end : end + 4] = _lookup3(bytes(head[:end])).to_bytes(4, "little")
+                fh.seek(offset)
+                fh.write(bytes(head[: end + 4]))
             fh.flush()
             os.fsync(fh.fileno())
-            fcntl.flock(fh.fileno(), fcntl.LOCK_UN)
+            return repaired
     except OSError as exc:
         raise StoreError(f"cannot open {str(path)!r} to resume: {exc}") from None
 
@@ -247,30 +493,39 @@ class Checkpoint:
         self.path = Path(str(path) + ".checkpoint")
 
     def write(self, arrays: dict[str, np.ndarray], attrs: dict) -> None:
+        """Write a new checkpoint beside the old one and rename it over it (see the module docstring)."""
+        from .files import discard, exclusive_temp, publish
+
         h5py = _h5py()
-        tmp = self.path.with_name(self.path.name + ".tmp")
+        tmp = exclusive_temp(self.path)
         try:
-            with h5py.File(tmp, "w") as f:
-                for key, value in attrs.items():
-                    f.attrs[key] = value
-                g = f.create_group("engine")
-                for name, arr in arrays.items():
-                    g.create_dataset(name, data=arr)
-            with open(tmp, "rb+") as fh:
-                os.fsync(fh.fileno())
-            os.replace(tmp, self.path)  # atomic: the old checkpoint or the new, never half of one
-        except OSError as exc:
-            raise StoreError(
-                f"writing the checkpoint {str(self.path)!r} failed ({exc}); the previous checkpoint is intact"
+            try:
+                # exclusive create under a random name: a link planted beside the run is never followed
+                with h5py.File(tmp, "w-") as f:
+                    for key, value in attrs.items():
+                        f.attrs[key] = value
+                    f.attrs["sha256"] = _arrays_digest(arrays, dict(f.attrs))
+                    g = f.create_group("engine")
+                    for name, arr in arrays.items():
+                        g.create_dataset(name, data=arr)
+                publish(tmp, self.path)  # atomic: the old checkpoint or the new, never half of one
+            except BaseException:
+                discard(tmp)
+                raise
+        except (OSError, RuntimeError) as exc:
+            cls = NoSpaceError if is_no_space(exc) else StoreError
+            raise cls(
+                f"writing the checkpoint {str(self.path)!r} failed ({_reason(exc)}); the previous checkpoint is intact"
             ) from None
 
     def read(self) -> tuple[dict[str, np.ndarray], dict]:
         h5py = _h5py()
-        if not self.path.exists():
+        if not os.path.lexists(self.path):
             raise StoreError(
                 f"no checkpoint {str(self.path)!r} to resume from (the run never wrote one, or it "
                 "finished); start anew with --overwrite"
             )
+        _regular_or_absent(self.path, "checkpoint")
         try:
             with h5py.File(self.path, "r") as f:
                 attrs = {k: (v.decode() if isinstance(v, bytes) else v) for k, v in f.attrs.items()}
@@ -279,8 +534,17 @@ class Checkpoint:
             raise StoreError(
                 f"the checkpoint {str(self.path)!r} is corrupt or not a lieint checkpoint ({exc})"
             ) from None
+        stored = attrs.pop("sha256", None)
+        if stored is not None and stored != _arrays_digest(arrays, attrs):
+            raise StoreError(
+                f"the checkpoint {str(self.path)!r} is damaged: its SHA-256 does not match its contents; "
+                "start anew with --overwrite"
+            )
         return arrays, attrs
 
     def remove(self) -> None:
-        if self.path.exists():
-            self.path.unlink()
+        if os.path.lexists(self.path):
+            try:
+                self.path.unlink()  # a link is removed itself, never what it points to
+            except OSError as exc:
+                raise StoreError(f"cannot remove the old checkpoint {str(self.path)!r}: {_reason(exc)}") from None

@@ -112,13 +112,46 @@ class Scene:
 
 
 def load_scene(path) -> Scene:
-    """Read and validate a scene TOML file."""
+    """Read and validate a scene TOML file.
+
+    Only a regular file is read (never a device, FIFO or ``/dev/stdin``, which could block or
+    never end), and only up to ``LIEINT_MAX_SCENE_BYTES`` (:mod:`lieint.limits`).
+    """
+    from ..limits import LimitError, check, limit
+
     path = Path(path)
     try:
-        text = path.read_text(encoding="utf-8")
-    except OSError as exc:
-        raise SceneError(f"cannot read scene file {str(path)!r}: {exc.strerror or exc}") from None
+        data = _read_regular(path, limit("LIEINT_MAX_SCENE_BYTES") + 1)
+        check("LIEINT_MAX_SCENE_BYTES", len(data), f"the size of the scene file {str(path)!r} (bytes)")
+        text = data.decode("utf-8")
+    except (OSError, LimitError) as exc:
+        raise SceneError(f"cannot read scene file {str(path)!r}: {getattr(exc, 'strerror', None) or exc}") from None
+    except UnicodeDecodeError as exc:
+        raise SceneError(f"cannot read scene file {str(path)!r}: not UTF-8 text ({exc.reason})") from None
     return parse_scene(text, source=str(path))
+
+
+def _read_regular(path: Path, at_most: int) -> bytes:
+    """At most ``at_most`` bytes of a regular file; OSError (with a reason) for anything else."""
+    import os
+    import stat
+
+    fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK | os.O_CLOEXEC)  # a FIFO must not block the open
+    try:
+        st = os.fstat(fd)
+        if not stat.S_ISREG(st.st_mode):
+            kind = "a directory" if stat.S_ISDIR(st.st_mode) else "a device, FIFO or socket"
+            raise OSError(f"it is {kind}, not a regular file (scenes and ensemble files are read from files)")
+        chunks, total = [], 0
+        while total < at_most:
+            chunk = os.read(fd, min(1 << 20, at_most - total))
+            if not chunk:
+                break
+            chunks.append(chunk)
+            total += len(chunk)
+        return b"".join(chunks)
+    finally:
+        os.close(fd)
 
 
 def parse_scene(text_or_dict, source: str | None = None) -> Scene:
@@ -129,6 +162,11 @@ def parse_scene(text_or_dict, source: str | None = None) -> Scene:
             data = tomllib.loads(text)
         except tomllib.TOMLDecodeError as exc:
             raise SceneError(f"{source or '<scene>'}: not valid TOML: {exc}") from None
+        except RecursionError:
+            raise SceneError(
+                f"{source or '<scene>'}: arrays or tables nested too deeply to read (scenes need at most "
+                f"{_max_nesting()} levels)"
+            ) from None
     elif isinstance(text_or_dict, dict):
         text, data = None, text_or_dict
     else:
@@ -194,16 +232,24 @@ class _Reader:
                 raise self.fail(table, key, str(exc)) from None
         raise self.fail(table, key, f'expected a number or an expression string such as "pi/4"; got {value!r}')
 
-    def array(self, table: str, key: str, value: Any, shape: tuple[int, ...]) -> np.ndarray:
+    def nested(self, table: str, key: str, value: Any) -> Any:
+        """Nested lists of numbers (each checked, at most :data:`lieint.limits.MAX_NESTING` deep)."""
+
         def convert(v, depth):
             if isinstance(v, list):
+                if depth >= _max_nesting():
+                    raise self.fail(table, key, f"arrays nested more than {_max_nesting()} levels deep")
                 return [convert(x, depth + 1) for x in v]
             return self.number(table, key, v)
 
+        return convert(value, 0)
+
+    def array(self, table: str, key: str, value: Any, shape: tuple[int, ...]) -> np.ndarray:
         if not isinstance(value, list):
             raise self.fail(table, key, f"expected an array of shape {shape}; got {value!r}")
+        numbers = self.nested(table, key, value)  # a NaN or a bad entry is reported as such
         try:
-            arr = np.array(convert(value, 0), dtype=float)
+            arr = np.array(numbers, dtype=float)
         except ValueError:
             raise self.fail(table, key, f"expected an array of shape {shape}; got a ragged array") from None
         if arr.shape != shape:
@@ -360,12 +406,9 @@ class _Reader:
         if isinstance(value, (bool, str)) and not (isinstance(value, str) and _looks_numeric(value)):
             return value
         if isinstance(value, list):
-
-            def convert(v):
-                return [convert(x) for x in v] if isinstance(v, list) else self.number(table, key, v)
-
+            numbers = self.nested(table, key, value)
             try:
-                return np.array(convert(value), dtype=float)
+                return np.array(numbers, dtype=float)
             except ValueError:
                 raise self.fail(table, key, "expected a rectangular array of numbers; got a ragged array") from None
         return self.number(table, key, value)
@@ -432,7 +475,7 @@ class _Reader:
             name = self.string("ensemble", "file", ens["file"])
             path = Path(name) if self.source in (None, "<scene>") else Path(self.source).parent / name
             try:
-                members = np.load(path, allow_pickle=False)  # plain arrays only: never code
+                members = _load_members(path)  # plain arrays only: never code; sizes checked first
             except (OSError, ValueError) as exc:
                 raise self.fail("ensemble", "file", f"cannot read {str(path)!r} as a .npy array ({exc})") from None
             if members.ndim != base.ndim + 1 or members.shape[1:] != base.shape or not np.all(np.isfinite(members)):
@@ -452,6 +495,14 @@ class _Reader:
                 raise self.fail(
                     "ensemble", k, f"expected a {'positive' if k == 'count' else 'nonnegative'} integer; got {v!r}"
                 )
+        self.within("LIEINT_MAX_ENSEMBLE", count, "ensemble", "count", "the ensemble count")
+        self.within(
+            "LIEINT_MAX_MEMORY",
+            count * base.size * 8,
+            "ensemble",
+            "count",
+            f"the memory of {count} initial {key} (bytes)",
+        )
         spread = self.number("ensemble", "spread", ens["spread"])
         if spread < 0:
             raise self.fail("ensemble", "spread", f"must be >= 0; got {spread:g}")
@@ -459,6 +510,15 @@ class _Reader:
         if key == "omega":
             noise = 0.5 * (noise - np.swapaxes(noise, -1, -2))
         return {"key": key, "members": base + noise}
+
+    def within(self, name: str, value: int, table: str, key: str, what: str) -> None:
+        """Refuse a size above a limit of :mod:`lieint.limits` (before anything is allocated)."""
+        from ..limits import LimitError, check
+
+        try:
+            check(name, value, what)
+        except LimitError as exc:
+            raise self.fail(table, key, str(exc)) from None
 
     def required(self, table_data: dict, table: str, key: str):
         if key not in table_data:
@@ -488,6 +548,7 @@ class _Reader:
             dim = body["dimension"]
             if isinstance(dim, bool) or not isinstance(dim, int) or dim < 2:
                 raise self.fail("body", "dimension", f"expected an integer >= 2; got {dim!r}")
+            self.within("LIEINT_MAX_DIMENSION", dim, "body", "dimension", "the dimension n")
             self.n = dim
             if mass is None or radius is None:
                 raise self.fail("body", key, "a uniform solid ball needs 'mass' and 'radius'")
@@ -495,6 +556,7 @@ class _Reader:
         value = body[key]
         if not isinstance(value, list) or not value or not isinstance(value[0], list):
             raise self.fail("body", key, f"expected an (n, n) array; got {value!r}")
+        self.within("LIEINT_MAX_DIMENSION", len(value), "body", key, "the dimension n (rows of the mass tensor)")
         self.n = len(value)
         B = self.array("body", key, value, (self.n, self.n))
         if "dimension" in body and body["dimension"] != self.n:
@@ -548,6 +610,42 @@ class _Reader:
         if "momentum" in initial and kind == "rolling":
             raise self.fail("initial", "momentum", "a rolling ball starts from 'omega' or 'angular_velocity'")
         return out
+
+
+def _max_nesting() -> int:
+    from ..limits import MAX_NESTING
+
+    return MAX_NESTING
+
+
+def _load_members(path: Path) -> np.ndarray:
+    """An ensemble's members from a ``.npy`` file, its header checked before any allocation:
+    a regular file, one plain numeric array (not a ``.npz`` archive), a shape the file's size
+    can hold, at most ``LIEINT_MAX_ENSEMBLE`` members."""
+    import io
+
+    from ..limits import check
+
+    head = _read_regular(path, 1 << 16)
+    if head[:2] == b"PK":
+        raise ValueError("it is a .npz archive (several arrays); save one array with numpy.save to a .npy file")
+    try:
+        fh = io.BytesIO(head)
+        version = np.lib.format.read_magic(fh)
+        shape, _, dtype = (
+            np.lib.format.read_array_header_1_0(fh) if version == (1, 0) else np.lib.format.read_array_header_2_0(fh)
+        )
+    except (ValueError, EOFError) as exc:
+        raise ValueError(f"not a .npy file: {exc}") from None
+    if dtype.hasobject or dtype.kind not in "fiub":
+        raise ValueError(f"expected an array of real numbers; got dtype {dtype}")
+    if shape:
+        check("LIEINT_MAX_ENSEMBLE", int(shape[0]), "the number of members in the file")
+    need = fh.tell() + int(np.prod(shape, dtype=object)) * dtype.itemsize
+    size = path.stat().st_size
+    if need != size:
+        raise ValueError(f"its header claims shape {shape} ({need} bytes) but the file has {size} bytes")
+    return np.load(path, allow_pickle=False)
 
 
 def _looks_numeric(text: str) -> bool:

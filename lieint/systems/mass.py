@@ -15,6 +15,8 @@ __all__ = ["check_mass_tensor", "solve_lyapunov_sym"]
 
 # A pair sum b_i + b_j below this fraction of the largest eigenvalue is treated as zero:
 # the body is (numerically) a rod and Ω(A) is undefined.
+#: range of the largest entry of B in which every derived quantity stays a finite double
+_MIN_SCALE, _MAX_SCALE = 1e-100, 1e100
 _ROD_TOLERANCE = 1e-13
 
 
@@ -33,6 +35,12 @@ def check_mass_tensor(B, name: str = "B") -> tuple[np.ndarray, np.ndarray, np.nd
     scale = float(np.max(np.abs(B)))
     if scale == 0.0:
         raise ValueError(f"`{name}` must be a nonzero mass tensor; got the zero matrix.")
+    if not _MIN_SCALE <= scale <= _MAX_SCALE:
+        # B², b_i + b_j, 1/(b_i + b_j) and the energy must all be finite floating-point numbers
+        raise ValueError(
+            f"`{name}` must have its largest entry between {_MIN_SCALE:g} and {_MAX_SCALE:g} (so that B², "
+            f"1/(b_i + b_j) and the energy stay finite); got max |B| = {scale:.3g}. Rescale the units."
+        )
     asym = float(np.max(np.abs(B - B.T)))
     if asym > 1e-12 * scale:
         raise ValueError(

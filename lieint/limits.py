@@ -1,0 +1,83 @@
+"""Size limits checked before anything is allocated, each raisable by an environment variable.
+
+A scene or an argument can ask for more than the machine has: 10¹² steps, an ensemble of 10⁹
+members, a body of dimension 10⁵, arrays nested 10⁵ deep, a ``.npy`` file whose header claims
+a huge shape. Such requests are refused at once with a message that names the argument, the
+value asked for, the limit and the environment variable that raises it — instead of a
+``MemoryError`` traceback minutes later, or a machine brought to a halt.
+
+=========================  ===============================  =====================
+limit                      what it bounds                   default
+=========================  ===============================  =====================
+``LIEINT_MAX_STEPS``       steps of a fixed-step run        10¹⁰
+``LIEINT_MAX_ENSEMBLE``    members of an ensemble           10⁶
+``LIEINT_MAX_DIMENSION``   dimension n of a body            256
+``LIEINT_MAX_SCENE_BYTES`` size of a scene file             1 MiB
+``LIEINT_MAX_MEMORY``      arrays a run holds in memory     4 GiB
+=========================  ===============================  =====================
+
+Arrays in a scene are nested at most :data:`MAX_NESTING` levels (an ensemble of matrices needs
+three); this one is structural and cannot be raised.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+
+__all__ = ["DEFAULTS", "MAX_NESTING", "LimitError", "check", "env_flag", "limit"]
+
+DEFAULTS: dict[str, int] = {
+    "LIEINT_MAX_STEPS": 10**10,
+    "LIEINT_MAX_ENSEMBLE": 10**6,
+    "LIEINT_MAX_DIMENSION": 256,
+    "LIEINT_MAX_SCENE_BYTES": 1 << 20,
+    "LIEINT_MAX_MEMORY": 4 << 30,
+}
+
+MAX_NESTING = 8
+
+
+class LimitError(ValueError):
+    """A request beyond a size limit; the message says how to raise the limit."""
+
+
+def limit(name: str) -> int:
+    """The limit ``name`` (one of :data:`DEFAULTS`), from the environment when set there."""
+    text = os.environ.get(name)
+    if text is None or not text.strip():
+        return DEFAULTS[name]
+    try:
+        value = float(text)
+    except ValueError:
+        raise LimitError(f"the environment variable {name} must be a positive number; got {text!r}") from None
+    if not (value >= 1 and math.isfinite(value)):
+        raise LimitError(f"the environment variable {name} must be a positive finite number; got {text!r}")
+    return int(value)
+
+
+def check(name: str, value: float, what: str, advice: str = "") -> None:
+    """Refuse ``value`` above the limit ``name``; ``what`` says what was asked for.
+
+    The message reads ``"<what> is <value>, more than the limit <limit> (raise it with the
+    environment variable NAME=...)"``, then ``advice`` (another way out). NaN and infinity are
+    always refused.
+    """
+    bound = limit(name)
+    if not value <= bound:  # also true for NaN
+        shown = f"{value:.4g}" if isinstance(value, float) else f"{value}"
+        raise LimitError(
+            f"{what} is {shown}, more than the limit {bound} (to allow it, set the environment variable "
+            f"{name} to a larger number, e.g. {name}={_suggest(value, bound)})" + (f"; {advice}" if advice else "")
+        )
+
+
+def _suggest(value: float, bound: int) -> str:
+    if not math.isfinite(value) or value > 1e18:
+        return str(bound * 10)
+    return str(math.ceil(value))
+
+
+def env_flag(name: str) -> bool:
+    """True when the environment variable ``name`` is set to 1, true or yes."""
+    return os.environ.get(name, "").strip().lower() in ("1", "true", "yes")

@@ -1,0 +1,187 @@
+"""Resource bombs are refused at once, with a message that says how to raise the limit.
+
+All cases run in one child process that reports each case's time and, at the end, its peak
+resident memory: every refusal must come within 5 s and the whole process stay under 500 MB.
+"""
+
+import json
+import subprocess
+import sys
+import textwrap
+
+import numpy as np
+import pytest
+
+BASE = """
+[scene]
+name = "bomb"
+
+[body]
+{body}
+
+[support]
+type = "fixed_point"
+
+[initial]
+{initial}
+
+[integrator]
+method = "rkmk4"
+step = {step}
+t_end = {t_end}
+
+[output]
+quantities = ["energy"]
+{extra}
+"""
+
+TOP = "principal_moments = [1.0, 2.0, 3.0]"
+W0 = "angular_velocity = [0.1, 1.0, 0.1]"
+
+
+def scene(tmp_path, name, body=TOP, initial=W0, step="0.01", t_end="1.0", extra=""):
+    path = tmp_path / f"{name}.toml"
+    path.write_text(BASE.format(body=body, initial=initial, step=step, t_end=t_end, extra=extra))
+    return str(path)
+
+
+CHILD = textwrap.dedent(
+    """
+    import json, resource, sys, time
+    import lieint
+    from lieint.cli import main
+
+    cases = json.loads(sys.argv[1])
+    results = {}
+    for name, argv in cases.items():
+        tic = time.monotonic()
+        try:
+            if argv[0].startswith("api-"):
+                top = lieint.EulerTop.from_principal_moments([1.0, 2.0, 3.0])
+                y0 = top.initial_state(angular_velocity=[0.1, 1.0, 0.1])
+                if argv[0] == "api-h":
+                    lieint.integrate(top, y0, (0.0, 10.0), h=1e-300)
+                else:  # scipy's solvers save on the grid of h: 10^10 save times
+                    lieint.integrate(top, y0, (0.0, 10.0), h=1e-9, method="scipy:RK45")
+                message, code = "accepted", 0
+            else:
+                import contextlib, io
+                err = io.StringIO()
+                with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
+                    code = main(argv)
+                message = err.getvalue()
+        except Exception as exc:
+            message, code = f"{type(exc).__name__}: {exc}", -1
+        results[name] = {"seconds": time.monotonic() - tic, "code": code, "message": message}
+    results["peak_mb"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    print(json.dumps(results))
+    """
+)
+
+
+@pytest.fixture(scope="module")
+def refusals(tmp_path_factory):
+    tmp = tmp_path_factory.mktemp("bombs")
+    deep = 100_000
+    np.save(tmp / "huge.npy", np.zeros((2, 3)))
+    raw = (tmp / "huge.npy").read_bytes()
+    # forge the header: claim 10^12 members of 3 numbers (the file holds 6)
+    forged = raw.replace(b"(2, 3)", b"(1000000000000, 3)".ljust(6 + 12)[:18])
+    header_len = int.from_bytes(forged[8:10], "little") + len(forged) - len(raw)
+    (tmp / "forged.npy").write_bytes(forged[:8] + header_len.to_bytes(2, "little") + forged[10:])
+    np.savez(tmp / "members.npz", w=np.zeros((2, 3)))
+    ens = '[ensemble]\nfile = "{}"'
+    cases = {
+        "nesting": ["run", scene(tmp, "deep", initial="angular_velocity = " + "[" * deep + "]" * deep)],
+        "ensemble_count": ["run", scene(tmp, "count", extra="[ensemble]\ncount = 1000000000\nseed = 1\nspread = 0.1")],
+        "dimension": [
+            "run",
+            scene(tmp, "dim", body="uniform = true\ndimension = 100000\nmass = 1.0\nradius = 1.0", initial=""),
+        ],
+        "tiny_step_huge_span": ["run", scene(tmp, "span", step="1e-300", t_end="1e300")],
+        "api_h": ["api-h"],
+        "api_scipy_save_grid": ["api-scipy"],
+        "steps_1e12": ["run", scene(tmp, "steps", step="1e-6", t_end="1e6")],
+        "steps_1e12_streamed": ["run", scene(tmp, "steps2", step="1e-6", t_end="1e6"), "--out", str(tmp / "x.h5")],
+        "forged_npy": ["run", scene(tmp, "forged", extra=ens.format("forged.npy"))],
+        "npz": ["run", scene(tmp, "npz", extra=ens.format("members.npz"))],
+        "stdin_ensemble": ["run", scene(tmp, "stdin", extra=ens.format("/dev/stdin"))],
+        "stdin_scene": ["run", "/dev/stdin"],
+        "rows_in_memory": ["run", scene(tmp, "rows", step="1e-5", t_end="1e4")],
+        "ensemble_memory": [
+            "run",
+            scene(
+                tmp,
+                "ensmem",
+                body="mass_tensor = " + str(np.diag(np.arange(1.0, 25.0)).tolist()),
+                initial="omega = " + str([[0.0] * 24] * 24),
+                extra="[ensemble]\ncount = 1000000\nseed = 1\nspread = 0.1",
+            ),
+        ],
+    }
+    # stdin is a pipe that never ends: reading it would hang, refusing it does not
+    child = subprocess.Popen(
+        [sys.executable, "-c", CHILD, json.dumps(cases)],
+        stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        cwd=tmp,
+    )
+    try:
+        out, err = child.communicate(timeout=120)
+    finally:
+        child.kill()
+    assert child.returncode == 0, err
+    return json.loads(out.strip().splitlines()[-1])
+
+
+EXPECTED = {
+    "nesting": "nested too deeply",
+    "ensemble_count": "the ensemble count is 1000000000, more than the limit 1000000 (to allow it, set the "
+    "environment variable LIEINT_MAX_ENSEMBLE",
+    "dimension": "the dimension n is 100000, more than the limit 256",
+    "tiny_step_huge_span": "the number of steps (t1 - t0)/`h` = (1e+300 - 0)/1e-300 is inf, more than the limit",
+    "api_h": "the number of steps (t1 - t0)/`h` = (10 - 0)/1e-300 is 1e+301, more than the limit 10000000000",
+    "api_scipy_save_grid": "the memory of the 10000000002 save times of `h` = 1e-09, `save_every` = 1 (bytes)",
+    "steps_1e12": "is 1e+12, more than the limit 10000000000 (to allow it, set the environment variable "
+    "LIEINT_MAX_STEPS",
+    "steps_1e12_streamed": "is 1e+12, more than the limit 10000000000",
+    "forged_npy": "the number of members in the file is 1000000000000, more than the limit 1000000",
+    "npz": "it is a .npz archive (several arrays); save one array with numpy.save to a .npy file",
+    "stdin_ensemble": "not a regular file",
+    "stdin_scene": "not a regular file",
+    "ensemble_memory": "the memory of 1000000 initial omega (bytes) is 4608000000, more than the limit 4294967296",
+    "rows_in_memory": "more than the limit 4294967296 (to allow it, set the environment variable LIEINT_MAX_MEMORY",
+}
+
+
+@pytest.mark.parametrize("case", sorted(EXPECTED))
+def test_each_bomb_is_refused_quickly_with_a_clear_message(refusals, case):
+    result = refusals[case]
+    assert result["seconds"] < 5, result
+    assert "Traceback" not in result["message"]
+    assert EXPECTED[case] in result["message"], result["message"]
+    if case.startswith("api_"):
+        assert result["message"].startswith("LimitError")  # a ValueError naming the argument
+    else:
+        assert result["code"] == 2, result
+
+
+def test_the_bombs_never_took_much_memory(refusals):
+    assert refusals["peak_mb"] < 500, refusals["peak_mb"]
+
+
+def test_limits_are_raised_by_the_environment(monkeypatch):
+    from lieint.limits import LimitError, check, limit
+
+    assert limit("LIEINT_MAX_DIMENSION") == 256
+    with pytest.raises(LimitError, match="LIEINT_MAX_DIMENSION=300"):
+        check("LIEINT_MAX_DIMENSION", 300, "the dimension n")
+    monkeypatch.setenv("LIEINT_MAX_DIMENSION", "512")
+    check("LIEINT_MAX_DIMENSION", 300, "the dimension n")
+    monkeypatch.setenv("LIEINT_MAX_DIMENSION", "lots")
+    with pytest.raises(LimitError, match="LIEINT_MAX_DIMENSION must be a positive number; got 'lots'"):
+        limit("LIEINT_MAX_DIMENSION")
+    with pytest.raises(LimitError):
+        check("LIEINT_MAX_STEPS", float("nan"), "the number of steps")
