@@ -12,7 +12,7 @@ from __future__ import annotations
 import sys
 from dataclasses import replace
 
-__all__ = ["DEFAULT_T_END", "add_compare_parser", "default_scene", "run_compare"]
+__all__ = ["DEFAULT_T_END", "add_compare_parser", "default_scene", "run_compare", "selected_scenes", "studies"]
 
 DEFAULT_T_END = 100.0
 
@@ -110,43 +110,52 @@ def selected_scenes(names, all_scenes: bool, t_end=None) -> dict:
     return scenes
 
 
+def studies(args):
+    """Yield ``(key, Study)`` for each scene of parsed ``lieint compare`` arguments — the one
+    place that turns a command line into studies (``benchmarks/guide_tables.py`` uses it too, so
+    a table printed next to a command is what that command computes)."""
+    from .study import run_study
+
+    scenes = selected_scenes(args.scene, args.all, args.t_end)
+    methods = None
+    if args.methods and args.methods.strip() != "all":
+        methods = [m.strip() for m in args.methods.split(",") if m.strip()]
+    repeats = args.repeats or (5 if args.full else 3)
+    for key, scene in scenes.items():
+        yield (
+            key,
+            run_study(
+                scene, methods=methods, quick=not args.full, repeats=repeats, threads=args.threads, backend=args.backend
+            ),
+        )
+
+
 def run_compare(args) -> int:
     """Carry out ``lieint compare`` for parsed arguments; returns the exit status."""
     import json
     from pathlib import Path
 
     from .scenes import SceneError
-    from .study import (
-        as_dict,
-        format_equal_cost,
-        format_rows,
-        plot_long_run,
-        plot_work_precision,
-        run_study,
-        write_table,
-    )
+    from .study import as_dict, format_equal_cost, format_rows, plot_long_run, plot_work_precision, write_table
 
     try:
-        scenes = selected_scenes(args.scene, args.all, args.t_end)
+        several = len(selected_scenes(args.scene, args.all, args.t_end)) > 1
     except SceneError as exc:
         print(f"lieint compare: {exc}", file=sys.stderr)
         return 2
-    methods = None
-    if args.methods and args.methods.strip() != "all":
-        methods = [m.strip() for m in args.methods.split(",") if m.strip()]
-    repeats = args.repeats or (5 if args.full else 3)
     text = args.format in ("table", "markdown")
     out_root = Path(args.out_dir)
     results = []
-    for key, scene in scenes.items():
+    runs = studies(args)
+    while True:
         try:
-            study = run_study(
-                scene, methods=methods, quick=not args.full, repeats=repeats, threads=args.threads, backend=args.backend
-            )
+            key, study = next(runs)
+        except StopIteration:
+            break
         except (SceneError, ValueError) as exc:
             print(f"lieint compare: {exc}", file=sys.stderr)
             return 2
-        out_dir = out_root if len(scenes) == 1 else out_root / key
+        out_dir = out_root / key if several else out_root
         written = list(write_table(study, out_dir))
         if not args.no_plots:
             written.append(plot_work_precision(study, out_dir / "work_precision.png"))

@@ -35,9 +35,10 @@ def _pyplot():
     return plt
 
 
-def plot_work_precision(study, path, title: str | None = None) -> Path:
-    """Draw the work–precision figure of ``study`` into ``path`` (PNG or SVG by its suffix)."""
-    plt = _pyplot()
+def plot_work_precision(study, path=None, title: str | None = None):
+    """Draw the work–precision figure of ``study`` into ``path`` (PNG or SVG by its suffix) and
+    return the path; without ``path``, return the matplotlib figure (left open)."""
+    plt = _pyplot() if path is not None else __import__("matplotlib.pyplot").pyplot
     fig, ax = plt.subplots(figsize=(10.5, 6.0))
     colors = plt.get_cmap("tab20").colors
     ref = study.reference
@@ -86,6 +87,8 @@ def plot_work_precision(study, path, title: str | None = None) -> Path:
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=7, loc="center left", bbox_to_anchor=(1.01, 0.5), title="method [back end]", title_fontsize=8)
     fig.tight_layout()
+    if path is None:
+        return fig
     path = Path(path)
     fig.savefig(path, dpi=150)
     plt.close(fig)
