@@ -164,6 +164,7 @@ def run_compare(args) -> int:
         if text:
             _print_text(study, args.format, written, format_rows, format_equal_cost)
         elif args.format == "csv":
+            print(f"# scene: {study.scene.name}")
             print(format_rows(study, "csv"))
     if args.format == "json":
         data = [as_dict(s) for s in results]

@@ -22,6 +22,7 @@ from lieint.study import (
     run_study,
     state_error,
     study_plan,
+    timed,
     write_table,
 )
 from lieint.study.figures import long_run_methods
@@ -190,3 +191,35 @@ def test_long_run_uses_the_scene_step():
     labels = [label for label, _ in long_run_methods(scene)]
     assert any(f"h = {scene.step:g} (the scene's step)" in label for label in labels)
     assert all(kw.get("h", scene.step) == scene.step for _, kw in long_run_methods(scene))
+
+
+def test_timed_warms_up_once_and_stops_repeating_past_its_budget():
+    calls = []
+    timing, result = timed(lambda: calls.append(1) or len(calls), 5, budget=0.0)
+    assert len(calls) == 2 and result == 2 and timing.repeats == 1  # warm-up + one timed call
+    timing, _ = timed(lambda: None, 3, warm_up=False)
+    assert timing.repeats == 3 and np.isnan(timing.cold_wall)
+    assert timing.cpu_min <= timing.cpu_median and timing.wall_min <= timing.wall_median
+
+
+def test_bad_arguments_are_clear_errors():
+    scene = replace(default_scene(), t_end=1.0)
+    with pytest.raises(ValueError, match="`repeats` must be a positive integer; got 0"):
+        run_study(scene, methods=["rk4"], repeats=0)
+    with pytest.raises(ValueError, match="`threads` must be a positive integer or None; got 0"):
+        run_study(scene, methods=["rk4"], threads=0)
+    with pytest.raises(ValueError, match="`backend` must be 'auto' or 'numpy'; got 'gpu'"):
+        run_study(scene, methods=["rk4"], backend="gpu")
+    with pytest.raises(ValueError, match="a study runs one trajectory"):
+        run_study(replace(scene, ensemble={"count": 3, "seed": 1, "spread": 0.1}), methods=["rk4"])
+
+
+def test_markdown_output_is_a_table_per_study(capsys, tmp_path):
+    from lieint.cli import main
+
+    argv = ["compare", "lagrange_top", "--methods", "rk4", "--t-end", "1", "--repeats", "1", "--no-plots"]
+    assert main([*argv, "--format", "markdown", "--out-dir", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    assert out.startswith("## Lagrange top: T = 1;") and "DOP853 at rtol 1e-13 (its error ≤" in out
+    table = [line for line in out.splitlines() if line.startswith("| rk4 |")]
+    assert len(table) >= 3 and all(line.count("|") == 14 for line in table)
