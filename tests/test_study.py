@@ -177,13 +177,15 @@ def test_plan_reads_the_registry_so_a_new_method_joins(monkeypatch):
         study_plan(system, scene, ["nope"])
 
 
-def test_fixed_sweeps_land_on_the_comparison_grid_around_the_scene_step():
+def test_fixed_sweeps_are_around_the_scene_step():
     scene, system, _ = prepare(embedded_scene("incline_ball"))
-    plan = {e.method: e for e in study_plan(system, scene, ["rkmk4"])}
-    counts = plan["rkmk4"].settings
+    plan = {e.method: e for e in study_plan(system, scene, ["rkmk4", "lie_euler"])}
     T = scene.t_end - scene.t_start
-    assert all(n % 100 == 0 for n in counts)
-    assert min(abs(T / n - scene.step) for n in counts) < 1e-12  # the scene's own step is swept
+    steps = [T / n for n in plan["rkmk4"].settings]
+    assert np.allclose(steps, [4 * scene.step, 2 * scene.step, scene.step, scene.step / 2])
+    assert np.allclose([T / n for n in plan["lie_euler"].settings], np.array(steps) / 4)  # order 1: finer
+    short = study_plan(system, replace(scene, t_end=0.1), ["rkmk4"])[0]
+    assert len(short.settings) == 4  # a short span keeps its four distinct steps
 
 
 def test_long_run_uses_the_scene_step():

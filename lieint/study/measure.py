@@ -159,7 +159,7 @@ def measure_point(
                 h=T / n,
                 method=entry.method,
                 project=variant.project,
-                save_every=n // GRID,
+                save_every=max(1, n // GRID),
                 backend=backend,
             )
     elif method.self_controlled:

@@ -5,8 +5,8 @@ registered method whose :meth:`~lieint.methods.Method.check_system` accepts the 
 joins, whatever its family — a method added in one new module of :mod:`lieint.methods` appears
 in ``lieint compare`` without any edit here. What a method is decides its sweep:
 
-* fixed-step methods sweep the step ``h = 2^j h_scene`` around the scene's own step (rounded so
-  that a whole number of steps lands on each of the ``GRID`` intervals of the comparison grid);
+* fixed-step methods sweep the step ``h = 2^j h_scene`` around the scene's own step (``h`` =
+  span / n with n the nearest whole number of steps; about ``GRID`` of them are saved);
 * methods with their own step-size control (adaptive RKMK pairs, scipy's solvers) sweep the
   relative tolerance, with ``atol = rtol · ATOL_RATIO``, down to a tightest tolerance that
   depends on the order (``TIGHTEST_BY_ORDER``: low-order methods would take minutes there).
@@ -25,7 +25,8 @@ from ..methods.registry import get_method, method_specs
 
 __all__ = ["GRID", "PlanEntry", "Variant", "study_plan"]
 
-#: intervals of the comparison grid: every fixed-step run saves at these times
+#: saved points per run (fixed-step runs save every n // GRID steps, scipy's at GRID + 1 times):
+#: the error is the largest over them
 GRID = 100
 #: step factors ``h / h_scene`` of fixed-step sweeps, coarse to fine
 FIXED_FACTORS = (8.0, 4.0, 2.0, 1.0, 0.5, 0.25)
@@ -86,11 +87,11 @@ class PlanEntry:
 
 
 def fixed_steps(span: float, h_scene: float, order: int | None, quick: bool) -> tuple[int, ...]:
-    """Step counts of a fixed-step sweep: ``h ≈ factor · h_scene``, a multiple of ``GRID`` steps."""
+    """Step counts of a fixed-step sweep: ``n = round(span / (factor · h_scene))``."""
     shift = LOW_ORDER_SHIFT.get(order or 0, 1.0)
     counts = []
     for factor in FIXED_FACTORS_QUICK if quick else FIXED_FACTORS:
-        n = GRID * max(1, round(span / (factor * shift * h_scene) / GRID))
+        n = max(1, round(span / (factor * shift * h_scene)))
         if n not in counts:
             counts.append(n)
     return tuple(counts)
