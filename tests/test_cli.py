@@ -21,6 +21,7 @@ def test_compare_prints_the_table_and_writes_files(tmp_path, capsys):
         "back end",
         "CPU min [ms]",
         "CPU med [ms]",
+        "wall min [ms]",
         "wall med [ms]",
         "error",
         "energy drift",

@@ -111,6 +111,8 @@ def test_study_records_machine_threads_backends_and_timings(tmp_path):
     for key in ("processor", "platform", "numpy", "scipy", "numba", "environment", "date"):
         assert key in meta["machine"]
     assert "warm" in meta["timing"] and meta["reference"]["exact"]
+    rows, kind = study  # unpacks as the earlier (rows, reference kind)
+    assert rows is study.rows and kind == study.reference.kind
     for row in study.rows:
         assert row.backend == ("scipy" if row.family == "scipy" else "numba")
         assert row.threads == 1 and not row.fallback and row.success
@@ -224,4 +226,4 @@ def test_markdown_output_is_a_table_per_study(capsys, tmp_path):
     out = capsys.readouterr().out
     assert out.startswith("## Lagrange top: T = 1;") and "DOP853 at rtol 1e-13 (its error ≤" in out
     table = [line for line in out.splitlines() if line.startswith("| rk4 |")]
-    assert len(table) >= 3 and all(line.count("|") == 14 for line in table)
+    assert len(table) >= 3 and all(line.count("|") == 15 for line in table)

@@ -99,19 +99,19 @@ def long_run_methods(scene) -> list[tuple[str, dict]]:
     """``(label, integrate keywords)`` of the long-run figure: the scene's method and RK4 at the
     scene's step, DOP853 at the scene's tolerance (its saved copies projected when the scene
     projects)."""
+    from ..methods.registry import method_specs
+
     h = scene.step
     runs = []
     for name in dict.fromkeys((scene.method, "rk4")):
-        from ..methods.registry import method_specs
-
         spec = method_specs()[name]
         if spec.adaptive:
             runs.append((f"{name}, rtol {scene.rtol:g}", {"method": name, "rtol": scene.rtol, "atol": scene.atol}))
         else:
             runs.append((f"{name}, h = {h:g} (the scene's step)", {"method": name, "h": h}))
-    runs.append(
-        (f"scipy:DOP853, rtol {scene.rtol:g}", {"method": "scipy:DOP853", "rtol": scene.rtol, "atol": scene.atol})
-    )
+    if "scipy:DOP853" not in (scene.method, "rk4"):
+        dop = {"method": "scipy:DOP853", "rtol": scene.rtol, "atol": scene.atol}
+        runs.append((f"scipy:DOP853, rtol {scene.rtol:g}", dop))
     return runs
 
 

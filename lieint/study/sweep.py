@@ -40,6 +40,10 @@ class Study:
     rows: list[StudyRow]
     metadata: dict = field(default_factory=dict)
 
+    def __iter__(self):
+        # unpacks as ``rows, reference_kind``: the earlier return value of ``run_study``
+        return iter((self.rows, self.reference.kind))
+
     @property
     def span(self) -> float:
         return self.scene.t_end - self.scene.t_start

@@ -82,6 +82,7 @@ _COLUMNS = (
     ("nfev", "evals", "{:d}"),
     ("cpu_min", "CPU min [ms]", "ms"),
     ("cpu_median", "CPU med [ms]", "ms"),
+    ("wall_min", "wall min [ms]", "ms"),
     ("wall_median", "wall med [ms]", "ms"),
     ("error", "error", "err"),
     ("energy_drift", "energy drift", "{:.1e}"),
