@@ -190,5 +190,8 @@ def _print_text(study, fmt, written, format_rows, format_equal_cost) -> None:
     fallbacks = [r for r in study.rows if r.fallback]
     for r in fallbacks:
         print(f"fallback: {r.method} {r.setting} ran on the generic path: {r.backend_reason}")
+    for r in study.rows:
+        if not r.success:
+            print(f"failed: {r.method} ({r.variant}) {r.setting}: {r.message}")
     print("wrote " + ", ".join(str(p) for p in written))
     print()

@@ -92,6 +92,13 @@ def test_a_fallback_to_the_generic_path_is_recorded_and_said():
     assert coarse.series != fine.series and "fallback" in coarse.series  # separate curves in the figures
 
 
+def test_a_point_whose_run_raises_is_a_failed_row_with_its_reason():
+    # RKMK4 at h = 20 on the top: stages far beyond the dexp⁻¹ series radius
+    row, *_ = _point("dzhanibekov", "rkmk4", 5, t_end=100.0)
+    assert not row.success and np.isnan(row.error) and not row.resolved
+    assert "dexp" in row.message and row.repeats == 0
+
+
 def test_scipy_projection_touches_the_saved_copies_only():
     study = run_study(replace(default_scene(), t_end=10.0), methods=["scipy:DOP853"], repeats=1, quick=True, threads=1)
     plain = [r for r in study.rows if r.variant == "plain"]

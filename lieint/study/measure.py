@@ -23,6 +23,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..groups.base import DexpinvRangeError
 from ..ivp import integrate
 from ..methods.registry import get_method
 from .plan import ATOL_RATIO, GRID, PlanEntry, Variant
@@ -104,6 +105,7 @@ class StudyRow:
     orthogonality: float
     success: bool
     field_errors: dict = field(default_factory=dict)
+    message: str = ""
 
     @property
     def cpu_time(self) -> float:
@@ -189,7 +191,10 @@ def measure_point(
                 save_every=1,
             )
 
-    timing, sol = timed(fn, repeats, warm_up=warm_up)
+    try:
+        timing, sol = timed(fn, repeats, warm_up=warm_up)
+    except (DexpinvRangeError, np.linalg.LinAlgError) as exc:  # the step is too large for this method
+        return _failed(scene, entry, variant, setting, T, str(exc))
     stats = sol.stats
     if sol.success:
         error, per_field = state_error(sol.t, sol.states, reference, scale)
@@ -228,6 +233,42 @@ def measure_point(
         orthogonality=float(np.max(inv["orthogonality"])) if "orthogonality" in inv else float("nan"),
         success=bool(sol.success),
         field_errors=per_field,
+        message="" if sol.success else sol.message,
+    )
+
+
+def _failed(scene, entry, variant, setting, T, message) -> StudyRow:
+    """The row of a point whose run raised (shown as failed, with the reason)."""
+    nan = float("nan")
+    return StudyRow(
+        scene=scene.name,
+        method=entry.method,
+        family=entry.family,
+        variant=variant.name,
+        setting=entry.label(setting, T),
+        projection=variant.project,
+        h=T / setting if entry.kind == "fixed" else None,
+        rtol=None if entry.kind == "fixed" else setting,
+        steps=0,
+        rejected=0,
+        nfev=0,
+        backend="none",
+        backend_reason="the run raised before finishing",
+        fallback=False,
+        threads=1,
+        cpu_min=nan,
+        cpu_median=nan,
+        wall_min=nan,
+        wall_median=nan,
+        cold_wall=nan,
+        repeats=0,
+        error=nan,
+        resolved=False,
+        energy_drift=nan,
+        casimir_drift=nan,
+        orthogonality=nan,
+        success=False,
+        message=message,
     )
 
 

@@ -96,7 +96,7 @@ def _cell(row, key, spec) -> str:
     if key == "backend" and row.fallback:
         return f"{value} (fallback!)"
     if spec == "ms":
-        return f"{1e3 * value:.3g}"
+        return f"{1e3 * value:.3g}" if math.isfinite(value) else "—"
     if spec == "err":
         return _err(value if math.isfinite(value) else None, row.resolved) if row.success else "failed"
     if isinstance(value, float) and not math.isfinite(value):
