@@ -58,10 +58,9 @@ class Study:
 
 
 def prepare(scene: Scene):
-    """``(scene, system, y0)`` with the orientation added to the outputs (R is compared too)."""
-    if scene.ensemble:
-        raise ValueError(f"scene {scene.name!r}: a study runs one trajectory; remove the [ensemble] table to study it.")
-    scene = replace(scene, outputs=tuple(dict.fromkeys((*scene.outputs, "orientation"))))
+    """``(scene, system, y0)`` with the orientation added to the outputs (R is compared too) and
+    an ``[ensemble]`` table dropped: a study runs the scene's nominal trajectory."""
+    scene = replace(scene, outputs=tuple(dict.fromkeys((*scene.outputs, "orientation"))), ensemble=None)
     system, y0 = build_system(scene)
     return scene, system, y0
 
@@ -79,6 +78,7 @@ def run_study_full(
     """Run the study of ``scene``; see :func:`lieint.study.run_study` for the parameters."""
     if backend not in ("auto", "numpy"):
         raise ValueError(f"`backend` must be 'auto' or 'numpy'; got {backend!r}.")
+    ensemble = scene.ensemble
     scene, system, y0 = prepare(scene)
     plan = study_plan(system, scene, methods, quick=quick)
     reference = reference_for(scene, system, y0)
@@ -123,4 +123,6 @@ def run_study_full(
         "scene_step": scene.step,
         "reference": {"kind": reference.kind, "floor": reference.floor, "exact": reference.exact},
     }
+    if ensemble:
+        metadata["note"] = "the scene's [ensemble] was dropped: the study runs the nominal trajectory"
     return Study(scene, reference, plan, rows, metadata)
