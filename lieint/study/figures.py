@@ -23,7 +23,7 @@ from .reference import RESOLVED
 __all__ = ["plot_long_run", "plot_work_precision"]
 
 _FAMILY_STYLE = {"rkmk": "-", "rk": "--", "rkmk-embedded": "-.", "scipy": ":"}
-_MARKERS = "osD^<>phP*X"  # "v" is kept for the upper bounds of unresolved points
+_MARKERS = "osD^<>phP*d"  # "v" marks upper bounds, "x" fallbacks
 
 
 def _pyplot():
