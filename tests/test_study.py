@@ -244,3 +244,16 @@ def test_markdown_output_is_a_table_per_study(capsys, tmp_path):
     assert out.startswith("## Lagrange top: T = 1;") and "DOP853 at rtol 1e-13 (its error ≤" in out
     table = [line for line in out.splitlines() if line.startswith("| rk4 |")]
     assert len(table) >= 3 and all(line.count("|") == 15 for line in table)
+
+
+def test_a_series_that_starts_on_a_fallback_warms_the_kernel_before_timing_it(monkeypatch):
+    from lieint.study import sweep
+
+    calls = []
+    warm = sweep._warm_kernel
+    monkeypatch.setattr(sweep, "_warm_kernel", lambda *a: calls.append(a[3].method) or warm(*a))
+    # the top's scene step 0.3: the coarsest RKMK6 step (1.2) is beyond the kernel's bound
+    study = run_study(replace(default_scene(), step=0.3), methods=["rkmk6"], repeats=1)
+    assert study.rows[0].fallback and study.rows[-1].backend == "numba"
+    assert calls == ["rkmk6"]
+    assert len({r.series for r in study.rows}) == 2  # the fallback is a curve of its own
