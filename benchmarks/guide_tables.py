@@ -53,7 +53,8 @@ def render(table_id: str, command: str, kind: str, study) -> str:
     return (
         f"<!-- study-table: {table_id} -->\n"
         f"`{command}` — {what}; {study.scene.name}, T = {study.span:g}, against {study.reference.kind}; "
-        f"one run on {machine['processor']} ({machine['cpu_count']} CPUs), numba threads {meta['numba_threads']}, "
+        f"one run on {machine['processor']} ({machine['cpu_count']} CPUs, load average {machine['load_average']}), "
+        f"numba threads {meta['numba_threads']}, "
         f"{machine['date'][:10]}; `*`: below 10× the reference's floor.\n\n"
         f"{body}\n"
         "<!-- /study-table -->"

@@ -178,7 +178,8 @@ def _print_text(study, fmt, written, format_rows, format_equal_cost) -> None:
     heading = "## " if fmt == "markdown" else ""
     print(f"{heading}{study.describe()}")
     print(
-        f"machine: {machine['processor']}, {machine['cpu_count']} CPUs; numba threads {meta['numba_threads']}; "
+        f"machine: {machine['processor']}, {machine['cpu_count']} CPUs, load average {machine['load_average']}; "
+        f"numba threads {meta['numba_threads']}; "
         f"{meta['sweep']} sweep, up to {meta['repeats']} timed calls per point after a warm-up; "
         f"CPU/wall in ms; '*' = error not resolved by the reference"
     )

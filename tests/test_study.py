@@ -115,7 +115,7 @@ def test_study_records_machine_threads_backends_and_timings(tmp_path):
     study = run_study(replace(default_scene(), t_end=5.0), methods=["rkmk4", "rk4", "scipy:RK45"], repeats=2)
     meta = study.metadata
     assert meta["numba_threads"] == 1 and meta["machine"]["cpu_count"] >= 1
-    for key in ("processor", "platform", "numpy", "scipy", "numba", "environment", "date"):
+    for key in ("processor", "platform", "numpy", "scipy", "numba", "environment", "load_average", "date"):
         assert key in meta["machine"]
     assert "warm" in meta["timing"] and meta["reference"]["exact"]
     rows, kind = study  # unpacks as the earlier (rows, reference kind)

@@ -58,7 +58,9 @@ def machine_info(threads: int | None = None) -> dict:
     dict
         ``platform``, ``processor``, ``machine``, ``cpu_count``, ``python``, the versions of
         lieint, numpy, scipy and numba, ``numba_threads`` (threads the compiled kernels use
-        now), ``threads_requested``, the thread-capping environment variables and the UTC date.
+        now), ``threads_requested``, the thread-capping environment variables, the load average
+        (1 minute; on a loaded machine wall times include waiting, CPU times much less) and the
+        UTC date.
     """
     import numpy
     import scipy
@@ -93,5 +95,14 @@ def machine_info(threads: int | None = None) -> dict:
         "numba_threads": numba_threads,
         "threads_requested": threads,
         "environment": {name: os.environ.get(name) for name in THREAD_VARIABLES},
+        "load_average": _load_average(),
         "date": datetime.now(timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ"),
     }
+
+
+def _load_average() -> float | None:
+    """The 1-minute load average, where the system reports one."""
+    try:
+        return round(os.getloadavg()[0], 2)
+    except (AttributeError, OSError):  # pragma: no cover - e.g. Windows
+        return None
