@@ -68,6 +68,13 @@ def add_compare_parser(sub, scene=None):
         default="auto",
         help="'numpy' runs every fixed-step method on the generic path (same-path comparisons)",
     )
+    cmp.add_argument(
+        "--max-seconds",
+        type=_positive_float,
+        default=5.0,
+        metavar="S",
+        help="stop a method's sweep after a point taking more than S CPU seconds per call (listed as skipped)",
+    )
     cmp.add_argument("--full", action="store_true", help="the full sweep (6-8 points per method) and 5 repeats")
     cmp.add_argument("--t-end", type=_positive_float, help="override the scenes' span (T = t_end - t_start)")
     cmp.add_argument("--out-dir", default="lieint-compare", help="where the tables and figures go")
@@ -125,7 +132,13 @@ def studies(args):
         yield (
             key,
             run_study(
-                scene, methods=methods, quick=not args.full, repeats=repeats, threads=args.threads, backend=args.backend
+                scene,
+                methods=methods,
+                quick=not args.full,
+                repeats=repeats,
+                threads=args.threads,
+                backend=args.backend,
+                max_seconds=args.max_seconds,
             ),
         )
 
@@ -191,6 +204,8 @@ def _print_text(study, fmt, written, format_rows, format_equal_cost) -> None:
     fallbacks = [r for r in study.rows if r.fallback]
     for r in fallbacks:
         print(f"fallback: {r.method} {r.setting} ran on the generic path: {r.backend_reason}")
+    for skip in meta["skipped"]:
+        print(f"skipped: {skip['method']} ({skip['variant']}) {', '.join(skip['settings'])}: {skip['reason']}")
     for r in study.rows:
         if not r.success:
             print(f"failed: {r.method} ({r.variant}) {r.setting}: {r.message}")

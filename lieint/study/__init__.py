@@ -34,11 +34,12 @@ from .machine import machine_info, set_threads
 from .measure import StudyRow, Timing, timed
 from .plan import PlanEntry, Variant, study_plan
 from .reference import Reference, reference_for, state_error
-from .sweep import DEFAULT_THREADS, Study, prepare, run_study_full
+from .sweep import DEFAULT_THREADS, MAX_SECONDS, Study, prepare, run_study_full
 from .table import as_dict, equal_cost, format_equal_cost, format_rows, write_table
 
 __all__ = [
     "DEFAULT_THREADS",
+    "MAX_SECONDS",
     "PlanEntry",
     "Reference",
     "Study",
@@ -71,6 +72,7 @@ def run_study(
     repeats: int = 3,
     threads: int | None = DEFAULT_THREADS,
     backend: str = "auto",
+    max_seconds: float | None = MAX_SECONDS,
     progress=None,
 ) -> Study:
     """Run the work–precision study of ``scene``.
@@ -90,6 +92,9 @@ def run_study(
         afterwards.
     backend : {"auto", "numpy"}
         "numpy" runs every fixed-step method on the generic path (same-path comparisons).
+    max_seconds : float or None, default 5
+        A series (method and variant) stops after a point whose median CPU time per call
+        exceeds this; the points left out are listed in ``metadata["skipped"]`` (None: never).
     progress : callable, optional
         Called with each :class:`StudyRow` as it is measured.
 
@@ -98,5 +103,12 @@ def run_study(
     Study
     """
     return run_study_full(
-        scene, methods=methods, quick=quick, repeats=repeats, threads=threads, backend=backend, progress=progress
+        scene,
+        methods=methods,
+        quick=quick,
+        repeats=repeats,
+        threads=threads,
+        backend=backend,
+        max_seconds=max_seconds,
+        progress=progress,
     )

@@ -15,6 +15,8 @@ __all__ = ["Study", "run_study_full"]
 #: numba threads of a study unless asked otherwise: one trajectory has nothing to run in
 #: parallel, and a thread pool's start-up would be timed as the cost of every compiled call
 DEFAULT_THREADS = 1
+#: a series stops once one of its points takes longer than this (CPU seconds per call)
+MAX_SECONDS = 5.0
 
 
 @dataclass
@@ -91,11 +93,14 @@ def run_study_full(
     repeats: int = 3,
     threads: int | None = DEFAULT_THREADS,
     backend: str = "auto",
+    max_seconds: float | None = MAX_SECONDS,
     progress=None,
 ) -> Study:
     """Run the study of ``scene``; see :func:`lieint.study.run_study` for the parameters."""
     if backend not in ("auto", "numpy"):
         raise ValueError(f"`backend` must be 'auto' or 'numpy'; got {backend!r}.")
+    if max_seconds is not None and not (isinstance(max_seconds, int | float) and max_seconds > 0):
+        raise ValueError(f"`max_seconds` must be a positive number or None; got {max_seconds!r}.")
     ensemble = scene.ensemble
     scene, system, y0 = prepare(scene)
     plan = study_plan(system, scene, methods, quick=quick)
@@ -103,7 +108,7 @@ def run_study_full(
     scale = state_scale(y0, reference.fields)
     previous = set_threads(None)
     used_threads = set_threads(threads)
-    rows = []
+    rows, skipped = [], []
     try:
         for entry in plan:
             for variant in entry.variants:
@@ -126,6 +131,18 @@ def run_study_full(
                         progress(row)
                     if i == 0 and row.fallback:
                         _warm_kernel(scene, system, y0, entry, variant, backend)
+                    rest = entry.settings[i + 1 :]
+                    if max_seconds is not None and rest and row.cpu_median > max_seconds:
+                        # finer steps and tighter tolerances cost more still: stop the series, say so
+                        skipped.append(
+                            {
+                                "method": entry.method,
+                                "variant": variant.name,
+                                "settings": [entry.label(s, scene.t_end - scene.t_start) for s in rest],
+                                "reason": f"{row.setting} took {row.cpu_median:.1f} s CPU > {max_seconds:g} s",
+                            }
+                        )
+                        break
     finally:  # the caller's thread setting is theirs
         set_threads(previous)
     metadata = {
@@ -142,6 +159,8 @@ def run_study_full(
         "span": [scene.t_start, scene.t_end],
         "scene_step": scene.step,
         "reference": {"kind": reference.kind, "floor": reference.floor, "exact": reference.exact},
+        "max_seconds": max_seconds,
+        "skipped": skipped,
     }
     if ensemble:
         metadata["note"] = "the scene's [ensemble] was dropped: the study runs the nominal trajectory"
