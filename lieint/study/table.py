@@ -22,11 +22,7 @@ from pathlib import Path
 __all__ = ["BUDGETS_MS", "equal_cost", "format_equal_cost", "format_rows", "write_table"]
 
 #: CPU budgets of the equal-cost table, in milliseconds
-BUDGETS_MS = (1.0, 3.0, 10.0, 30.0, 100.0, 300.0, 1000.0, 3000.0)
-
-
-def _series_key(row):
-    return row.series
+BUDGETS_MS = (1.0, 3.0, 10.0, 30.0, 100.0, 300.0, 1000.0, 3000.0, 10000.0, 30000.0)
 
 
 def equal_cost(study, budgets_ms=BUDGETS_MS) -> dict:
@@ -40,9 +36,9 @@ def equal_cost(study, budgets_ms=BUDGETS_MS) -> dict:
     cheapest = min(r.cpu_median for r in rows) * 1e3
     dearest = max(r.cpu_median for r in rows) * 1e3
     budgets = [b for b in budgets_ms if cheapest <= b <= 3 * dearest]
-    series, resolved = {}, {}
+    series = {}
     for row in rows:
-        series.setdefault(_series_key(row), []).append(row)
+        series.setdefault(row.series, []).append(row)
     table, flags = {}, {}
     for label, points in series.items():
         errors, marks = [], []
@@ -52,8 +48,7 @@ def equal_cost(study, budgets_ms=BUDGETS_MS) -> dict:
             errors.append(None if best is None else best.error)
             marks.append(None if best is None else best.resolved)
         table[label], flags[label] = errors, marks
-    resolved = flags
-    return {"budgets_ms": budgets, "series": table, "resolved": resolved}
+    return {"budgets_ms": budgets, "series": table, "resolved": flags}
 
 
 def _err(value, resolved) -> str:
