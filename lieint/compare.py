@@ -128,6 +128,7 @@ def studies(args):
     if args.methods and args.methods.strip() != "all":
         methods = [m.strip() for m in args.methods.split(",") if m.strip()]
     repeats = args.repeats or (5 if args.full else 3)
+    several = len(scenes) > 1
     for key, scene in scenes.items():
         yield (
             key,
@@ -139,6 +140,7 @@ def studies(args):
                 threads=args.threads,
                 backend=args.backend,
                 max_seconds=args.max_seconds,
+                skip_inapplicable=several,  # over several scenes a named method may not apply to all
             ),
         )
 
@@ -204,6 +206,8 @@ def _print_text(study, fmt, written, format_rows, format_equal_cost) -> None:
     fallbacks = [r for r in study.rows if r.fallback]
     for r in fallbacks:
         print(f"fallback: {r.method} {r.setting} ran on the generic path: {r.backend_reason}")
+    for name, reason in meta["not_applicable"].items():
+        print(f"not applicable: {name}: {reason}")
     for skip in meta["skipped"]:
         print(f"skipped: {skip['method']} ({skip['variant']}) {', '.join(skip['settings'])}: {skip['reason']}")
     for r in study.rows:

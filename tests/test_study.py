@@ -2,7 +2,7 @@
 and back ends, the metadata, the plan read from the registry, the equal-cost table."""
 
 import json
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from functools import partial
 
 import numpy as np
@@ -12,7 +12,7 @@ from scipy.integrate import solve_ivp
 import lieint
 from lieint.compare import default_scene
 from lieint.methods import registry
-from lieint.methods.base import MethodSpec
+from lieint.methods.base import Method, MethodSpec
 from lieint.methods.scipy_ivp import StateLayout
 from lieint.scenes import embedded_scene
 from lieint.study import (
@@ -267,3 +267,39 @@ def test_a_series_stops_after_a_point_over_the_time_limit_and_says_so():
     assert "> 1e-09 s" in skip["reason"]
     with pytest.raises(ValueError, match="`max_seconds` must be a positive number or None; got 0"):
         run_study(replace(default_scene(), t_end=1.0), methods=["rk4"], max_seconds=0)
+
+
+@dataclass(frozen=True)
+class _BallsOnly(Method):
+    """RKMK4 that declares it applies to rolling balls only (a method with requirements)."""
+
+    name = "balls_only"
+    order = 4
+
+    def check_system(self, system):
+        from lieint.systems import RollingBall
+
+        if not isinstance(system, RollingBall):
+            raise ValueError(f"`method` 'balls_only' steps rolling balls only; got {type(system).__name__}.")
+
+    def step(self, system, t, y, h, state):
+        return registry.get_method("rkmk4").step(system, t, y, h, state)
+
+
+def test_a_method_that_does_not_apply_is_left_out_of_the_default_plan_and_of_studies_of_several_scenes(
+    monkeypatch, capsys, tmp_path
+):
+    from lieint.cli import main
+
+    spec = MethodSpec("balls_only", "test-family", 4, lambda coordinates=None: _BallsOnly())
+    monkeypatch.setitem(registry._SPECS, spec.name, spec)
+    scene, system, _ = prepare(replace(default_scene(), t_end=1.0))
+    assert "balls_only" not in {e.method for e in study_plan(system, scene)}
+    with pytest.raises(ValueError, match="rolling balls only"):
+        study_plan(system, scene, ["balls_only"])
+    argv = ["compare", "dzhanibekov", "incline_ball", "--methods", "balls_only", "--t-end", "0.2", "--repeats", "1"]
+    assert main([*argv, "--no-plots", "--out-dir", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    assert "not applicable: balls_only: `method` 'balls_only' steps rolling balls only; got EulerTop." in out
+    incline = json.loads((tmp_path / "incline_ball" / "work_precision.json").read_text())
+    assert {r["method"] for r in incline["rows"]} == {"balls_only"}

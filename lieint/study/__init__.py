@@ -73,6 +73,7 @@ def run_study(
     threads: int | None = DEFAULT_THREADS,
     backend: str = "auto",
     max_seconds: float | None = MAX_SECONDS,
+    skip_inapplicable: bool = False,
     progress=None,
 ) -> Study:
     """Run the work–precision study of ``scene``.
@@ -95,6 +96,9 @@ def run_study(
     max_seconds : float or None, default 5
         A series (method and variant) stops after a point whose median CPU time per call
         exceeds this; the points left out are listed in ``metadata["skipped"]`` (None: never).
+    skip_inapplicable : bool, default False
+        Leave out named methods that do not apply to this scene's system, listing them with
+        their reasons in ``metadata["not_applicable"]``, instead of raising ``ValueError``.
     progress : callable, optional
         Called with each :class:`StudyRow` as it is measured.
 
@@ -110,5 +114,6 @@ def run_study(
         threads=threads,
         backend=backend,
         max_seconds=max_seconds,
+        skip_inapplicable=skip_inapplicable,
         progress=progress,
     )

@@ -97,7 +97,7 @@ def fixed_steps(span: float, h_scene: float, order: int | None, quick: bool) -> 
     return tuple(counts)
 
 
-def study_plan(system, scene, methods=None, *, quick: bool = True) -> list[PlanEntry]:
+def study_plan(system, scene, methods=None, *, quick: bool = True, skipped: dict | None = None) -> list[PlanEntry]:
     """The plan for ``scene`` (whose system is ``system``).
 
     Parameters
@@ -108,9 +108,12 @@ def study_plan(system, scene, methods=None, *, quick: bool = True) -> list[PlanE
         Gives the span, the step around which fixed steps are swept, and ``project``.
     methods : None, "all" or list of str
         None and "all": every registered method that applies; else the names given, in the
-        registry's order (a name that does not apply is an error).
+        registry's order (a name that does not apply is an error, unless ``skipped`` is given).
     quick : bool
         The quick sweep (fewer points) of the main job, or the full one.
+    skipped : dict, optional
+        When given, a named method that does not apply is left out and recorded here
+        (name → the method's reason) instead of raising — for studies over several scenes.
 
     Raises
     ------
@@ -132,9 +135,11 @@ def study_plan(system, scene, methods=None, *, quick: bool = True) -> list[PlanE
         spec = specs[name]
         try:
             get_method(name).check_system(system)
-        except ValueError:
-            if strict:
+        except ValueError as exc:
+            if strict and skipped is None:
                 raise
+            if strict:
+                skipped[name] = str(exc)
             continue
         if spec.adaptive:
             tols = TOLERANCES_QUICK if quick else TOLERANCES

@@ -94,6 +94,7 @@ def run_study_full(
     threads: int | None = DEFAULT_THREADS,
     backend: str = "auto",
     max_seconds: float | None = MAX_SECONDS,
+    skip_inapplicable: bool = False,
     progress=None,
 ) -> Study:
     """Run the study of ``scene``; see :func:`lieint.study.run_study` for the parameters."""
@@ -103,7 +104,8 @@ def run_study_full(
         raise ValueError(f"`max_seconds` must be a positive number or None; got {max_seconds!r}.")
     ensemble = scene.ensemble
     scene, system, y0 = prepare(scene)
-    plan = study_plan(system, scene, methods, quick=quick)
+    not_applicable: dict[str, str] = {}
+    plan = study_plan(system, scene, methods, quick=quick, skipped=not_applicable if skip_inapplicable else None)
     reference = reference_for(scene, system, y0)
     scale = state_scale(y0, reference.fields)
     previous = set_threads(None)
@@ -161,6 +163,7 @@ def run_study_full(
         "reference": {"kind": reference.kind, "floor": reference.floor, "exact": reference.exact},
         "max_seconds": max_seconds,
         "skipped": skipped,
+        "not_applicable": not_applicable,
     }
     if ensemble:
         metadata["note"] = "the scene's [ensemble] was dropped: the study runs the nominal trajectory"
