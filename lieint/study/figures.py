@@ -119,6 +119,7 @@ def plot_long_run(scene, path, factor: float = 10.0) -> Path:
     """Drift of the integral invariants over ``factor`` × the scene's span (see the module
     docstring); returns the path written."""
     from ..drift import deviation
+    from ..groups.base import DexpinvRangeError
     from ..ivp import integrate
     from ..scenes import build_system
 
@@ -136,7 +137,12 @@ def plot_long_run(scene, path, factor: float = 10.0) -> Path:
             extra = {"t_eval": grid}
         else:
             extra = {"save_every": 10}
-        sol = integrate(system, y0, span, project=scene.project, **kwargs, **extra)
+        try:
+            sol = integrate(system, y0, span, project=scene.project, **kwargs, **extra)
+        except (DexpinvRangeError, np.linalg.LinAlgError) as exc:  # said in the legend, not hidden
+            for ax in axes[0]:
+                ax.plot([], [], label=f"{label} (raised: {str(exc)[:50]})")
+            continue
         keep = sol.t > sol.t[0]
         for ax, name in zip(axes[0], names, strict=True):
             d = deviation(sol.invariants[name], sol.invariants[name][0], "integral", 0)
