@@ -29,42 +29,12 @@ def _positive_int(text: str) -> int:
 
 
 def _build_parser() -> argparse.ArgumentParser:
-    from .compare import default_scene
+    from .compare import add_compare_parser, default_scene
 
     scene = default_scene()
-    moments = tuple(float(x) for x in scene.mass_tensor.trace() - scene.mass_tensor.diagonal())
-    w0 = tuple(float(x) for x in scene.initial["angular_velocity"])
     parser = argparse.ArgumentParser(prog="lieint", description="Structure-preserving integrators for rigid bodies.")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
-    cmp = sub.add_parser(
-        "compare",
-        help="work-precision study of the integrators on a scene (default: a 3D top near its unstable axis)",
-        description=(
-            "Work-precision study: for each method sweep the step size (fixed-step methods) or the tolerance "
-            "(adaptive Lie-group methods; scipy's RK45, DOP853, Radau and LSODA with and without projection), "
-            "measure the global error of the scene's main field against the exact solution where one exists "
-            f"(the default scene: a top with I = {moments} started at w = {w0}, close "
-            "to its unstable middle axis, T = 100, against Jacobi elliptic functions; a uniform ball on an "
-            "incline) or else against DOP853 at rtol 1e-13, the CPU time (median of repeats, one run), and the "
-            "energy, Casimir and orthogonality errors. Prints the table and writes work_precision.csv/.json, "
-            "work_precision.png (error against CPU time) and long_run.png (invariant drift over 10x the span) "
-            "into --out-dir."
-        ),
-        formatter_class=argparse.ArgumentDefaultsHelpFormatter,
-    )
-    cmp.add_argument(
-        "scene", nargs="?", help="a scene TOML file or an embedded scene's name (default: the default scene)"
-    )
-    cmp.add_argument(
-        "--methods",
-        help="comma-separated method names, or 'all' for every registered method that applies "
-        "(default: rkmk4, rkmk6, rk4, rkmk45, rkmk853, scipy:RK45, scipy:DOP853, scipy:Radau, scipy:LSODA)",
-    )
-    cmp.add_argument("--full", action="store_true", help="all sweep points and 5 repeats (default: a quick sweep)")
-    cmp.add_argument("--t-end", type=_positive_float, help="override the scene's final time")
-    cmp.add_argument("--out-dir", default="lieint-compare", help="where the table and figures go")
-    cmp.add_argument("--no-plots", action="store_true", help="write the table only")
-    cmp.add_argument("--format", choices=("table", "csv", "json"), default="table", help="printed output format")
+    add_compare_parser(sub, scene)
     sub.add_parser(
         "methods",
         help="list the method names lieint.integrate accepts",
@@ -255,71 +225,9 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def _compare(args, parser) -> int:
-    from dataclasses import replace
-    from pathlib import Path
+    from .compare import run_compare
 
-    from .compare import default_scene
-    from .scenes import SceneError, embedded_scenes, load_scene
-    from .study import plot_long_run, plot_work_precision, run_study, write_table
-
-    try:
-        if args.scene is None:
-            scene = default_scene()
-        elif Path(args.scene).exists() or args.scene.endswith(".toml"):
-            scene = load_scene(args.scene)
-        elif args.scene in embedded_scenes():
-            scene = embedded_scenes()[args.scene]
-        else:
-            raise SceneError(f"no scene file {args.scene!r} and no embedded scene of that name")
-        if args.t_end is not None:
-            scene = replace(scene, t_end=scene.t_start + args.t_end)
-        methods = None
-        if args.methods:
-            methods = "all" if args.methods.strip() == "all" else [m.strip() for m in args.methods.split(",")]
-        rows, kind = run_study(scene, quick=not args.full, repeats=5 if args.full else 2, methods=methods)
-    except (SceneError, ValueError) as exc:
-        print(f"lieint compare: {exc}", file=sys.stderr)
-        return 2
-    out_dir = Path(args.out_dir)
-    csv_path, json_path = write_table(rows, out_dir)
-    if args.format == "table":
-        print(f"{scene.name}: T = {scene.t_end - scene.t_start:g}; error = max_t |y - y_ref| / |y0| against {kind}")
-    print(_format_study(rows, args.format))
-    if args.format == "table":
-        written = [csv_path, json_path]
-        if not args.no_plots:
-            written.append(plot_work_precision(rows, out_dir / "work_precision.png", f"{scene.name}: work-precision"))
-            written.append(plot_long_run(scene, out_dir / "long_run.png"))
-        print("wrote " + ", ".join(str(p) for p in written))
-    return 0
-
-
-def _format_study(rows, fmt: str) -> str:
-    import json
-    from dataclasses import asdict
-
-    if fmt == "json":
-        return json.dumps([asdict(r) for r in rows], indent=2)
-    cols = [
-        ("method", "method", "{}"),
-        ("setting", "step/tol", "{}"),
-        ("projection", "proj", "{}"),
-        ("steps", "steps", "{:d}"),
-        ("nfev", "evals", "{:d}"),
-        ("cpu_time", "CPU [s]", "{:.4f}"),
-        ("error", "error", "{:.2e}"),
-        ("energy_drift", "energy drift", "{:.2e}"),
-        ("casimir_drift", "Casimir drift", "{:.2e}"),
-        ("orthogonality", "|RᵀR-I|", "{:.1e}"),
-    ]
-    cells = [[spec.format(getattr(r, key)) for key, _, spec in cols] for r in rows]
-    if fmt == "csv":
-        return "\n".join([",".join(k for k, _, _ in cols)] + [",".join(c) for c in cells])
-    head = [title for _, title, _ in cols]
-    widths = [max(len(head[i]), *(len(c[i]) for c in cells)) for i in range(len(cols))]
-    line = "  ".join(h.rjust(w) for h, w in zip(head, widths, strict=True))
-    body = ["  ".join(c.rjust(w) for c, w in zip(r, widths, strict=True)) for r in cells]
-    return "\n".join([line, "-" * len(line), *body])
+    return run_compare(args)
 
 
 def _scenes(args) -> int:

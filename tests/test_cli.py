@@ -7,38 +7,58 @@ import sys
 import pytest
 
 from lieint.cli import main
-from lieint.compare import default_scene
-from lieint.study import run_study
+from lieint.scenes import embedded_scenes
 
 
 def test_compare_prints_the_table_and_writes_files(tmp_path, capsys):
     code = main(["compare", "--methods", "rkmk4,rk4,scipy:DOP853", "--t-end", "5", "--out-dir", str(tmp_path)])
     assert code == 0
     out = capsys.readouterr().out
-    for word in ("method", "step/tol", "steps", "CPU [s]", "error", "energy drift", "Casimir drift", "|RᵀR-I|"):
+    for word in (
+        "method",
+        "variant",
+        "step/tol",
+        "back end",
+        "CPU min [ms]",
+        "CPU med [ms]",
+        "wall min [ms]",
+        "wall med [ms]",
+        "error",
+        "energy drift",
+        "Casimir drift",
+        "numba threads 1",
+        "error reached within a CPU budget",
+    ):
         assert word in out
-    assert "exact (Jacobi elliptic)" in out
+    assert "exact (Jacobi elliptic, attitude by quadrature)" in out
     for name in ("work_precision.csv", "work_precision.json", "work_precision.png", "long_run.png"):
         assert (tmp_path / name).stat().st_size > 100
-    rows = json.loads((tmp_path / "work_precision.json").read_text())
+    rows = json.loads((tmp_path / "work_precision.json").read_text())["rows"]
     assert {r["method"] for r in rows} == {"rkmk4", "rk4", "scipy:DOP853"}
-    assert {r["projection"] for r in rows if r["method"] == "scipy:DOP853"} == {True, False}
+    assert {r["variant"] for r in rows if r["method"] == "scipy:DOP853"} == {"plain", "projected saves"}
 
 
-def test_study_errors_fall_with_the_step_and_lie_methods_keep_casimirs():
-    from dataclasses import replace
+def test_compare_all_studies_every_embedded_scene(tmp_path, capsys):
+    argv = ["compare", "--all", "--methods", "rkmk4,scipy:DOP853", "--t-end", "0.5", "--repeats", "1"]
+    assert main([*argv, "--no-plots", "--format", "json", "--out-dir", str(tmp_path)]) == 0
+    studies = {s["scene"]: s for s in json.loads(capsys.readouterr().out)}
+    scenes = embedded_scenes()
+    assert set(studies) == {s.name for s in scenes.values()}
+    for key, scene in scenes.items():
+        study = studies[scene.name]
+        assert {(r["method"], r["variant"]) for r in study["rows"]} >= {
+            ("scipy:DOP853", "plain"),
+            ("scipy:DOP853", "projected saves"),
+        }
+        assert all(r["success"] and r["error"] is not None for r in study["rows"])
+        assert study["metadata"]["reference"]["exact"] == (key in ("dzhanibekov", "incline_ball"))
+        assert (tmp_path / key / "work_precision.json").exists()
 
-    rows, _ = run_study(replace(default_scene(), t_end=5.0), quick=True, repeats=1, methods=["rkmk4", "rk4"])
-    rk = [r for r in rows if r.method == "rkmk4"]
-    assert rk[0].error > 100 * rk[-1].error  # h = 0.02 → 0.00125 over the quick sweep
-    assert all(r.casimir_drift < 1e-13 for r in rk)
-    # measured: 7.5e-13 against 6.4e-15 (ratio 117) at T = 5
-    assert max(r.casimir_drift for r in rows if r.method == "rk4") > 50 * max(r.casimir_drift for r in rk)
 
-
-def test_study_on_the_incline_uses_the_exact_acceleration(tmp_path, capsys):
-    assert main(["compare", "incline_ball", "--methods", "rkmk4", "--no-plots", "--out-dir", str(tmp_path)]) == 0
-    assert "exact ((n+2)/(n+4) g sin θ, n = 3)" in capsys.readouterr().out
+def test_study_on_the_incline_uses_the_exact_solution(tmp_path, capsys):
+    argv = ["compare", "incline_ball", "--methods", "rkmk4", "--t-end", "0.5", "--repeats", "1", "--no-plots"]
+    assert main([*argv, "--out-dir", str(tmp_path)]) == 0
+    assert "exact ((n+2)/(n+4) g sin θ, n = 3, with R and Ω)" in capsys.readouterr().out
 
 
 def test_unknown_method_and_scene_are_clear_errors(capsys, tmp_path):
@@ -63,7 +83,17 @@ def test_console_script_help_explains_every_option():
     out = subprocess.run(
         [sys.executable, "-m", "lieint", "compare", "--help"], capture_output=True, text=True, check=True
     ).stdout
-    for opt in ("--methods", "--full", "--t-end", "--out-dir", "--no-plots", "--format"):
+    for opt in (
+        "--all",
+        "--methods",
+        "--repeats",
+        "--threads",
+        "--full",
+        "--t-end",
+        "--out-dir",
+        "--no-plots",
+        "--format",
+    ):
         assert opt in out
 
 
