@@ -19,7 +19,7 @@ from .base import Method, MethodSpec, StepResult
 from .moser_veselov import require_free_top
 from .registry import register
 
-__all__ = ["ExactFlow", "free_top_increment"]
+__all__ = ["ExactFlow", "free_top_increment", "require_free_top3"]
 
 
 def free_top_increment(inertia, A: np.ndarray, h: float) -> np.ndarray:

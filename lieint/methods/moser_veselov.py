@@ -177,10 +177,10 @@ class MoserVeselovComposition(Method):
     ``ω_kᵀ`` and returns ``(A_k, R_k)``), so the symmetric compositions of
     :func:`~lieint.methods.splitting.composition_coefficients` raise its order: ``"yoshida"``
     takes 3 (order 4) and 7 (order 6) Moser–Veselov steps per step. (Order 8 is not offered:
-its 21 substeps reach ``1.1 h`` in size, and the Moser–Veselov equation has no solution near
-the identity once ``h‖Ω‖`` approaches 1 for a flat body.) Each substep
-    is a Moser–Veselov step, so everything it keeps — energy, Casimirs, Manakov integrals,
-    space momentum, symplecticity — the composition keeps, in any n.
+    its 21 substeps reach ``1.1 h`` in size, and the Moser–Veselov equation has no solution
+    near the identity once ``h‖Ω‖`` approaches 1 for a flat body.) Each substep is a
+    Moser–Veselov step, so everything it keeps — energy, Casimirs, Manakov integrals, space
+    momentum, symplecticity — the composition keeps, in any n.
 
     These are compositions (any n), not the modified-moment Moser–Veselov methods of
     McLachlan & Zanna (2005) and Hairer & Vilmart (2006) (``moser_veselov4/6/8``, n = 3), which

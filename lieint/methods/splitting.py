@@ -244,6 +244,8 @@ def _build(
     composition = "yoshida" if composition is AUTO else composition
     free = "rotations" if free is AUTO else free
     label = name if split is None else f"{name}[{split}]"
+    if composition != "yoshida":
+        label = f"{label}[{composition}]"
     if free != "rotations":
         label = f"{label}[free={free}]"
     return Splitting(label, order, split, composition, free)
