@@ -61,8 +61,12 @@ class Study:
 
 def prepare(scene: Scene):
     """``(scene, system, y0)`` with the orientation added to the outputs (R is compared too) and
-    an ``[ensemble]`` table dropped: a study runs the scene's nominal trajectory."""
-    scene = replace(scene, outputs=tuple(dict.fromkeys((*scene.outputs, "orientation"))), ensemble=None)
+    an ``[ensemble]`` table dropped: a study runs the scene's nominal trajectory.
+
+    A body named by ``[body] system`` integrates its whole state whatever the outputs, so
+    only scenes built from the body tables (where R is simulated on demand) get the addition."""
+    outputs = scene.outputs if scene.system is not None else (*scene.outputs, "orientation")
+    scene = replace(scene, outputs=tuple(dict.fromkeys(outputs)), ensemble=None)
     system, y0 = build_system(scene)
     return scene, system, y0
 
