@@ -7,7 +7,18 @@ body (n = 3: 64, n = 6: 4096, n = 8: 65536), so matrices stay the cheaper repres
 large n.
 """
 
-from .algebra import GA, algebra, bivector_to_skew, matrix_to_rotor, rotor_to_matrix, skew_to_bivector, to_values
+from .algebra import (
+    GA,
+    algebra,
+    bivector_to_skew,
+    from_values,
+    matrix_to_rotor,
+    resolve,
+    rotor_to_matrix,
+    skew_to_bivector,
+    to_values,
+)
+from .exp import exp
 from .rotor_top import RotorEulerTop, Spin
 from .torque import torque, wedge_vectors
 
