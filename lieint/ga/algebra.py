@@ -19,17 +19,16 @@ from functools import cache
 import clifford
 import numpy as np
 
-from ..groups.bivectors import bivector_coordinates, from_bivector_coordinates
 from ..groups.so import so_log
 
 __all__ = [
     "GA",
     "algebra",
     "bivector_to_skew",
-    "matrix_to_rotor",
-    "rotor_to_matrix",
     "from_values",
+    "matrix_to_rotor",
     "resolve",
+    "rotor_to_matrix",
     "skew_to_bivector",
     "to_values",
 ]

@@ -41,7 +41,15 @@ def _builtin() -> dict[str, Callable]:
         "free_body": FreeBody,
         "rolling_ball": RollingBall,
         "chaplygin_ball": ChaplyginBall,
+        "motor_rigid_body": _motor_rigid_body,
     }
+
+
+def _motor_rigid_body(**parameters):
+    """:class:`lieint.ga.MotorRigidBody` (clifford is imported only when one is built)."""
+    from ..ga.motor import MotorRigidBody
+
+    return MotorRigidBody(**parameters)
 
 
 def system_factories() -> dict[str, Callable]:
