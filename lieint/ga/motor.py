@@ -32,6 +32,7 @@ body is the heavy top (with springs, if any).
 from __future__ import annotations
 
 from collections.abc import Mapping
+from types import MappingProxyType
 
 import numpy as np
 
@@ -143,7 +144,9 @@ def springs_array(springs) -> np.ndarray:
         for i, s in enumerate(items):
             missing = {"body_point", "anchor", "stiffness"} - set(s)
             if missing:
-                raise ValueError(f"`springs[{i}]` needs the keys body_point, anchor, stiffness; missing {sorted(missing)}.")
+                raise ValueError(
+                    f"`springs[{i}]` needs the keys body_point, anchor, stiffness; missing {sorted(missing)}."
+                )
             rows.append(
                 [*check_vector(s["body_point"], f"springs[{i}].body_point", 3)]
                 + [*check_vector(s["anchor"], f"springs[{i}].anchor", 3)]
@@ -208,9 +211,11 @@ class MotorRigidBody(LieGroupSystem):
 
     autonomous = True
     structure = frozenset({"motor_rigid_body"})
-    field_kinds = {"motor": "motor", "momentum": "line"}
+    field_kinds = MappingProxyType({"motor": "motor", "momentum": "line"})
 
-    def __init__(self, mass_tensor, mass, gravity=None, *, springs=None, fixed_point: bool = False, center_of_mass=None):
+    def __init__(
+        self, mass_tensor, mass, gravity=None, *, springs=None, fixed_point: bool = False, center_of_mass=None
+    ):
         self.top = EulerTop(mass_tensor, orientation=False)
         if self.top.n != 3:
             raise ValueError(f"`mass_tensor` must be 3 × 3 (PGA Cl(3,0,1) is 3D); got n = {self.top.n}.")
@@ -228,7 +233,9 @@ class MotorRigidBody(LieGroupSystem):
                 "`center_of_mass` is for a body with a fixed point (relative to the pivot); a free body's "
                 "reference point is its centre of mass."
             )
-        self.center_of_mass = np.zeros(3) if center_of_mass is None else check_vector(center_of_mass, "center_of_mass", 3)
+        self.center_of_mass = (
+            np.zeros(3) if center_of_mass is None else check_vector(center_of_mass, "center_of_mass", 3)
+        )
         self.group = ProductGroup(MotorGroup(), VectorSpace((16,)))
         self.fields = {"motor": (16,), "momentum": (16,)}
 
@@ -361,7 +368,9 @@ class MotorRigidBody(LieGroupSystem):
         ``velocity`` (of the centre of mass). With a fixed point, ``center`` and ``velocity``
         are fixed by the pivot and must be left out."""
         if self.fixed_point and (center is not None or velocity is not None):
-            raise ValueError("`center` and `velocity` are fixed by the pivot of a body with a fixed point; leave them out.")
+            raise ValueError(
+                "`center` and `velocity` are fixed by the pivot of a body with a fixed point; leave them out."
+            )
         s = EulerTop(self.B, orientation=True).initial_state(Omega=Omega, A=A, R=R, angular_velocity=angular_velocity)
         A0, R0 = s["A"], s["R"]
         c = np.zeros(3) if center is None else check_vector(center, "center", 3, batch=True)
@@ -392,5 +401,3 @@ class MotorRigidBody(LieGroupSystem):
             f"MotorRigidBody(mass={self.mass:g}, gravity={g}, springs={len(self.springs)}, "
             f"fixed_point={self.fixed_point})"
         )
-
-

@@ -38,7 +38,21 @@ class _PGA:
 
     size = 16
     #: indices of the blades in clifford's pga layout
-    SCALAR, E0, E01, E02, E03, E12, E13, E23, E012, E013, E023, E123, E0123 = 0, 1, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15
+    SCALAR, E0, E01, E02, E03, E12, E13, E23, E012, E013, E023, E123, E0123 = (
+        0,
+        1,
+        5,
+        6,
+        7,
+        8,
+        9,
+        10,
+        11,
+        12,
+        13,
+        14,
+        15,
+    )
     E0I = np.array([5, 6, 7])
     EUCLID_BIVECTOR = np.array([8, 9, 10])  # e12, e13, e23: Cl(3)'s blade order
     ROTOR = np.array([0, 8, 9, 10])

@@ -76,7 +76,7 @@ def as_multivectors(values, kind: str, *, time_axis: bool = False):
         return _to_mv(ga.vector(values), ga)
     if kind == "rotor":
         size = values.shape[-1]
-        n = int(round(np.log2(size))) if size > 0 else 0
+        n = size.bit_length() - 1 if size > 0 else 0
         if 2**n != size:
             raise ValueError(f"values of kind 'rotor' must hold 2ⁿ coefficients; got shape {values.shape}.")
         return _to_mv(values, algebra(n))
@@ -86,9 +86,7 @@ def as_multivectors(values, kind: str, *, time_axis: bool = False):
         if values.shape[-1] != PGA.size:
             raise ValueError(f"values of kind {kind!r} must hold the 16 PGA coefficients; got shape {values.shape}.")
         return PGA.multivectors(values)
-    raise ValueError(
-        f"values of kind {kind!r} have no multivector form; kinds with one are {list(MULTIVECTOR_KINDS)}."
-    )
+    raise ValueError(f"values of kind {kind!r} have no multivector form; kinds with one are {list(MULTIVECTOR_KINDS)}.")
 
 
 def _kind_of(system, name: str) -> str:

@@ -229,7 +229,9 @@ class RotorForm(LieGroupSystem):
         self.n = n = shape[0]
         self.ga = algebra(n)
         self.group = SpinCover(system.group, n)
-        self.fields = {("rotor" if k == "R" else k): ((self.ga.size,) if k == "R" else s) for k, s in system.fields.items()}
+        self.fields = {
+            ("rotor" if k == "R" else k): ((self.ga.size,) if k == "R" else s) for k, s in system.fields.items()
+        }
         self.autonomous = system.autonomous
         self.passive = bool(getattr(system, "orientation_is_passive", False))
         self._standins: dict = {}
@@ -293,9 +295,7 @@ class RotorForm(LieGroupSystem):
         for name, inv in self.system.invariants.items():
             if name == "orthogonality":
                 continue  # R of a rotor is orthogonal; the rotor's own defect replaces it
-            declared[name] = Invariant(
-                lambda t, y, f=inv.function: f(t, _WithR(y, ga)), inv.kind, inv.description
-            )
+            declared[name] = Invariant(lambda t, y, f=inv.function: f(t, _WithR(y, ga)), inv.kind, inv.description)
 
         def rotor_defect(t, y):
             S = y["rotor"]
@@ -332,9 +332,7 @@ class RotorForm(LieGroupSystem):
         if rotor is None:
             S = matrix_to_rotor(R, as_multivector=False)
         batch = R.shape[:-2]
-        return {
-            k: (np.broadcast_to(S, batch + S.shape[-1:]).copy() if k == "rotor" else s[k]) for k in self.fields
-        }
+        return {k: (np.broadcast_to(S, batch + S.shape[-1:]).copy() if k == "rotor" else s[k]) for k in self.fields}
 
     def _check_unit(self, S: np.ndarray, name: str) -> None:
         ga = self.ga
