@@ -19,7 +19,7 @@ from .algebra import (
     skew_to_bivector,
     to_values,
 )
-from .exp import exp
+from .exponential import exp
 from .motor import MotorGroup, MotorRigidBody
 from .results import as_multivectors, read_multivectors
 from .rotor_top import RotorEulerTop, Spin

@@ -137,7 +137,7 @@ class GA:
 
         Exact to round-off for every bivector, simple or not (:func:`lieint.ga.exp`).
         """
-        from .exp import rotor_exp_of_skew
+        from .exponential import rotor_exp_of_skew
 
         return rotor_exp_of_skew(X, 0.5)
 

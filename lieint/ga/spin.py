@@ -33,7 +33,7 @@ from ..groups.so import SO
 from ..groups.vector import ProductGroup
 from ..systems.base import Invariant, LieGroupSystem, Output, State
 from .algebra import GA, algebra, matrix_to_rotor, resolve
-from .exp import rotor_exp_of_skew, simple_planes, so_exp_with_rotor
+from .exponential import rotor_exp_of_skew, simple_planes, so_exp_with_rotor
 
 __all__ = ["RotorForm", "SpinCover", "rotor_cay_of_skew", "rotor_form"]
 
@@ -52,7 +52,7 @@ def rotor_cay_of_skew(X: np.ndarray) -> np.ndarray:
         out = b.copy()
         out[..., 0] = 1.0
         return out / np.sqrt(1.0 + np.sum(b * b, axis=-1, keepdims=True))
-    from .exp import _plane_bivectors
+    from .exponential import _plane_bivectors
 
     theta, u, v = simple_planes(X)
     factors = 0.5 * theta[..., None] * _plane_bivectors(ga, u, v)
@@ -333,6 +333,11 @@ class RotorForm(LieGroupSystem):
             S = matrix_to_rotor(R, as_multivector=False)
         batch = R.shape[:-2]
         return {k: (np.broadcast_to(S, batch + S.shape[-1:]).copy() if k == "rotor" else s[k]) for k in self.fields}
+
+    def from_matrix_state(self, y: Mapping[str, np.ndarray]) -> State:
+        """The rotor form of a state of the system: R replaced by its rotor (nonnegative scalar part)."""
+        S = matrix_to_rotor(np.asarray(y["R"], dtype=float), as_multivector=False)
+        return {k: (S if k == "rotor" else np.asarray(y[k])) for k in self.fields}
 
     def _check_unit(self, S: np.ndarray, name: str) -> None:
         ga = self.ga
