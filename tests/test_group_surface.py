@@ -72,8 +72,8 @@ def shape_of(g):
 
 def every_group_class():
     """Every concrete LieGroup subclass the package defines (loaded modules included)."""
-    import lieint.ga.motor  # noqa: F401  (defines MotorGroup)
-    import lieint.ga.rotor_top  # noqa: F401  (defines Spin)
+    import lieint.ga.motor
+    import lieint.ga.rotor_top
     import lieint.ga.spin  # noqa: F401  (defines SpinCover)
 
     seen, todo = set(), [LieGroup]
