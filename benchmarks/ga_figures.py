@@ -202,6 +202,7 @@ def main() -> None:
     else:
         exp_figures(5)
         rotor_figures(10_000, 0.001)
+        rotor_figures(10_000, 0.01)
         motor_figures(50.0)
         speed_figures(1500, 5)
 
