@@ -1,6 +1,6 @@
 """Figures of geometric algebra in lieint: the exponential, the rotor forms, the PGA motor body.
 
-Run: ``OPENBLAS_NUM_THREADS=1 python benchmarks/ga_figures.py [--quick]``
+Run: ``OPENBLAS_NUM_THREADS=1 python benchmarks/ga_figures.py [--quick] [--part exp|rotor|motor|speed]``
 
 Prints
 
@@ -193,18 +193,18 @@ def speed_figures(steps: int, reps: int) -> None:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="smaller runs (a smoke test of this script)")
+    parser.add_argument("--part", choices=["all", "exp", "rotor", "motor", "speed"], default="all")
     args = parser.parse_args()
-    if args.quick:
-        exp_figures(1)
-        rotor_figures(1000, 0.001)
-        motor_figures(2.0)
-        speed_figures(200, 2)
-    else:
-        exp_figures(5)
-        rotor_figures(10_000, 0.001)
-        rotor_figures(10_000, 0.01)
-        motor_figures(50.0)
-        speed_figures(1500, 5)
+    run = {p: args.part in ("all", p) for p in ("exp", "rotor", "motor", "speed")}
+    if run["exp"]:
+        exp_figures(1 if args.quick else 5)
+    if run["rotor"]:
+        for h in (0.001,) if args.quick else (0.001, 0.01):
+            rotor_figures(1000 if args.quick else 10_000, h)
+    if run["motor"]:
+        motor_figures(2.0 if args.quick else 50.0)
+    if run["speed"]:
+        speed_figures(200, 2) if args.quick else speed_figures(1500, 5)
 
 
 if __name__ == "__main__":

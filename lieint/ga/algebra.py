@@ -79,6 +79,8 @@ class GA:
             self.dual4 = self.product(unit, pseudo)[:, self.bivector_index]
             pairs_prod = self.product(unit[:, None, :], unit[None, :, :])[..., -1]
             self.wedge4 = 0.5 * (pairs_prod + pairs_prod.T)
+            self.ones6_pm = np.ones((nb, 2))  # |B|² twice: for φ₊² and φ₋²
+            self.signs_pm = np.array([1.0, -1.0])
         # the same table restricted to the even subalgebra (rotors): a quarter of the work
         even = np.flatnonzero(grades % 2 == 0)
         self.even_index = even

@@ -19,6 +19,8 @@ it against mpmath).
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from .algebra import GA, algebra, from_values, resolve
@@ -104,19 +106,36 @@ def _exp4(ga: GA, B: np.ndarray) -> np.ndarray:
     cosines and sincs depend smoothly on φ±², which carry only round-off relative to |B|².
     """
     bi = B[..., ga.bivector_index]
+    if bi.ndim == 1:  # one body: a dozen scalar operations cost less than numpy's per-call overhead
+        return _exp4_single(ga, bi)
     dual = bi @ ga.dual4  # bivector coefficients of B I
-    norm2 = np.einsum("...i,...i->...", bi, bi)
-    beta = np.einsum("...i,...i->...", bi, bi @ ga.wedge4)  # ⟨B²⟩₄ = B ∧ B on I
-    out = np.empty(B.shape)
-    out[...] = 0.0
-    halves = []
-    for sign in (1.0, -1.0):
-        phi = np.sqrt(np.maximum(norm2 - sign * beta, 0.0))
-        halves.append((np.cos(phi), _sinc(phi)))
-    (cp, sp), (cm, sm) = halves
-    out[..., 0] = 0.5 * (cp + cm)
-    out[..., -1] = 0.5 * (cp - cm)
-    out[..., ga.bivector_index] = (0.5 * sp)[..., None] * (bi + dual) + (0.5 * sm)[..., None] * (bi - dual)
+    # |B|² and ⟨B²⟩₄ (B ∧ B on I) in one bilinear form: columns (1, ±1) give φ±² = |B|² ∓ β
+    phi2 = (bi * bi) @ ga.ones6_pm
+    phi2 = phi2 - np.einsum("...i,...i->...", bi, bi @ ga.wedge4)[..., None] * ga.signs_pm
+    phi = np.sqrt(np.maximum(phi2, 0.0))
+    c, s = np.cos(phi), 0.5 * _sinc(phi)
+    out = np.zeros(B.shape)
+    out[..., 0] = 0.5 * (c[..., 0] + c[..., 1])
+    out[..., -1] = 0.5 * (c[..., 0] - c[..., 1])
+    out[..., ga.bivector_index] = s[..., 0:1] * (bi + dual) + s[..., 1:2] * (bi - dual)
+    return out
+
+
+def _exp4_single(ga: GA, bi: np.ndarray) -> np.ndarray:
+    """:func:`_exp4` of one bivector (coefficients e12, e13, e14, e23, e24, e34) in scalars."""
+    b12, b13, b14, b23, b24, b34 = (float(x) for x in bi)
+    norm2 = b12 * b12 + b13 * b13 + b14 * b14 + b23 * b23 + b24 * b24 + b34 * b34
+    beta = float(bi @ ga.wedge4 @ bi)
+    out = np.zeros(16)
+    cs = []
+    for phi2 in (norm2 - beta, norm2 + beta):
+        phi = math.sqrt(phi2) if phi2 > 0.0 else 0.0
+        cs.append((math.cos(phi), 0.5 * (math.sin(phi) / phi if phi > 0.0 else 1.0)))
+    (cp, sp), (cm, sm) = cs
+    dual = bi @ ga.dual4
+    out[0] = 0.5 * (cp + cm)
+    out[15] = 0.5 * (cp - cm)
+    out[ga.bivector_index] = (sp + sm) * bi + (sp - sm) * dual
     return out
 
 

@@ -173,8 +173,8 @@ class _PGA:
         """``e^B`` of bivectors, exact (module docstring)."""
         w = B[..., self.EUCLID_BIVECTOR]
         a2 = np.einsum("...i,...i->...", w, w)
-        BB = self.product(B, B)
-        m = 0.5 * BB[..., self.E0123]
+        b = B[..., self.BIVECTOR]
+        m = np.einsum("...i,...i->...", b, b @ self._half_wedge)  # ½⟨B²⟩₄
         a = np.sqrt(a2)
         sinc = np.divide(np.sin(a), a, out=np.ones_like(a), where=a != 0.0)
         small = a < 1e-2
@@ -192,6 +192,14 @@ class _PGA:
         """``I ω`` for Euclidean bivectors ω (coefficients e12, e13, e23): an ideal bivector."""
         unit = self._I_times_euclid
         return w @ unit
+
+    @cached_property
+    def _half_wedge(self) -> np.ndarray:
+        """The symmetric bilinear form ``b ↦ ½⟨B²⟩₄`` on bivector coefficients."""
+        basis = np.zeros((6, 16))
+        basis[np.arange(6), self.BIVECTOR] = 1.0
+        pairs = self.product(basis[:, None, :], basis[None, :, :])[..., self.E0123]
+        return 0.25 * (pairs + pairs.T)
 
     @cached_property
     def _I_times_euclid(self) -> np.ndarray:
