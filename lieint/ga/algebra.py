@@ -81,23 +81,10 @@ class GA:
             self.wedge4 = 0.5 * (pairs_prod + pairs_prod.T)
             self.ones6_pm = np.ones((nb, 2))  # |B|² twice: for φ₊² and φ₋²
             self.signs_pm = np.array([1.0, -1.0])
-        # the same table restricted to the even subalgebra (rotors): a quarter of the work
-        even = np.flatnonzero(grades % 2 == 0)
-        self.even_index = even
-        self._Je = np.searchsorted(even, J[np.ix_(even, even)])
-        self._Se = S[np.ix_(even, even)]
 
     def product(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
         """Geometric product of coefficient arrays (broadcast over leading dimensions)."""
         return np.einsum("...i,...ik->...k", a, b[..., self._J] * self._S)
-
-    def even_product(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-        """Geometric product of even multivectors (rotors), reading only their even coefficients."""
-        e = self.even_index
-        be = b[..., e]
-        out = np.zeros(np.broadcast_shapes(a.shape, b.shape))
-        out[..., e] = np.einsum("...i,...ik->...k", a[..., e], be[..., self._Je] * self._Se)
-        return out
 
     def reverse(self, a: np.ndarray) -> np.ndarray:
         """Reversion ``ã`` (sign ``(−1)^{g(g−1)/2}`` on grade g)."""
