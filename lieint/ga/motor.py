@@ -270,11 +270,12 @@ class MotorRigidBody(LieGroupSystem):
         batch = M.shape[:-1]
         moment = np.zeros(batch + (3,))
         force = np.zeros(batch + (3,))
-        ref = PGA.translation(M)  # the reference point: moments are taken about it
+        # the reference point, about which moments are taken (the origin with a fixed point)
+        ref = np.zeros(batch + (3,)) if self.fixed_point else PGA.translation(M) if len(self.springs) else None
         if self.gravity is not None:
             f = np.broadcast_to(self.mass * self.gravity, batch + (3,))
             if self.fixed_point:  # about the centre of mass itself gravity has no moment
-                moment = moment + np.cross(self.center(M) - ref, f)
+                moment = moment + np.cross(self.center(M), f)
             force = force + f
         if len(self.springs):
             sp = self.springs

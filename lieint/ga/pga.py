@@ -230,11 +230,24 @@ class _PGA:
         return out
 
     def translation(self, M: np.ndarray) -> np.ndarray:
-        """c of motors ``T_c S``: ``T_c = M S̃``."""
-        S = np.zeros(M.shape)
-        S[..., self.ROTOR] = M[..., self.ROTOR]
-        T = self.product(M, self.reverse(S)) / np.einsum("...i,...i->...", S, S)[..., None]
-        return -2.0 * T[..., self.E0I]
+        """c of motors ``T_c S``: ``T_c = M S̃/(S S̃)``, read off as ``c = −2 ⟨M S̃⟩_{e0i}/(S S̃)``
+        (a bilinear form in the e0 and the Euclidean even coefficients of M)."""
+        S = M[..., self.ROTOR]
+        num = np.einsum("...i,...j,ijk->...k", M[..., self._E0_EVEN], S, self._translation_form)
+        return num / np.einsum("...i,...i->...", S, S)[..., None]
+
+    _E0_EVEN = np.array([5, 6, 7, 15])
+
+    @cached_property
+    def _translation_form(self) -> np.ndarray:
+        """``(m, s) ↦ −2 ⟨M S̃⟩_{e0i}`` for the e0 part m and the rotor part s of M."""
+        form = np.zeros((4, 4, 3))
+        for a, i in enumerate(self._E0_EVEN):
+            for b, j in enumerate(self.ROTOR):
+                ei, ej = np.zeros(16), np.zeros(16)
+                ei[i], ej[j] = 1.0, 1.0
+                form[a, b] = -2.0 * self.product(ei, self.reverse(ej))[self.E0I]
+        return form
 
     def normalize(self, M: np.ndarray) -> np.ndarray:
         """Exact projection onto unit motors: ``M / √(M M̃)`` with ``M M̃ = s + p I`` a dual number,
