@@ -131,6 +131,25 @@ class Solution:
             for name in names
         }
 
+    def multivectors(self, name: str):
+        """A bivector-, rotor- or vector-valued field or output as clifford multivectors.
+
+        Parameters
+        ----------
+        name : str
+            A state field or output whose declared kind has a multivector form: ``"A"`` (a
+            bivector), ``"rotor"``, ``"R"``/``"orientation"`` (rotors, sign continuous in time),
+            vectors and points, PGA motors and lines (:mod:`lieint.ga.results`).
+
+        Returns
+        -------
+        clifford.MVArray
+            Shape ``(m, *batch)`` over the saved times.
+        """
+        from .ga.results import solution_multivectors  # clifford is imported on use only
+
+        return solution_multivectors(self, name)
+
     def __repr__(self) -> str:
         return (
             f"Solution(method={self.method!r}, saved={self.t.size}, batch={self.batch_shape}, nsteps={self.nsteps}, "

@@ -75,6 +75,15 @@ SYSTEM_CASES = {
         },
         {"angular_velocity": [0.3, 1.0, 0.4], "velocity": [0.2, 0.0, -0.1]},
     ),
+    "motor_rigid_body": (
+        {
+            "mass_tensor": B3,
+            "mass": 2.0,
+            "gravity": [0.0, 0.0, -9.81],
+            "springs": [[0.5, 0.0, 0.0, 0.5, 0.0, 1.0, 8.0, 0.2], [-0.5, 0.0, 0.0, -0.5, 0.0, 1.0, 8.0, 0.2]],
+        },
+        {"angular_velocity": [0.3, 1.0, 0.4], "velocity": [0.2, 0.0, 0.1]},
+    ),
 }
 
 

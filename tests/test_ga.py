@@ -96,13 +96,18 @@ def test_rotor_path_and_matrix_path_agree_to_round_off(rng, n, method):
     assert b.drift("rotor_defect") < 1e-13
 
 
-def test_rotor_path_projection_and_cayley_refusal(rng):
+def test_rotor_path_projection_and_cayley(rng):
     rot = ga.RotorEulerTop(np.diag([1.0, 2.0, 3.0, 4.0]))
     y0 = rot.initial_state(Omega=random_skew(rng, 4))
     sol = lieint.integrate(rot, y0, (0, 2), h=0.01, project=True)
     assert sol.drift("rotor_defect") < 1e-15
-    with pytest.raises(ValueError, match="Cayley coordinates are not available for the rotor representation"):
-        lieint.integrate(rot, y0, (0, 1), h=0.1, coordinates="cayley")
+    # Cayley coordinates: the rotor of cay(X) is the normalised outer exponential of ω/2
+    mat = lieint.EulerTop(rot.B)
+    a = lieint.integrate(rot, y0, (0, 1), h=0.1, coordinates="cayley")
+    b = lieint.integrate(
+        mat, mat.initial_state(Omega=rot.system.angular_velocity(y0["A"])), (0, 1), h=0.1, coordinates="cayley"
+    )
+    np.testing.assert_allclose(rot.rotation_matrix(a.states["rotor"]), b.states["R"], atol=1e-14)
 
 
 def test_initial_state_accepts_clifford_bivectors_and_results_convert_back(rng):

@@ -31,7 +31,24 @@ GROUPS = {
     ),
     "Spin(3)": (lambda: _spin(3), lambda rng, b: random_skew(rng, 3, b, 0.5)),
     "Spin(4)": (lambda: _spin(4), lambda rng, b: random_skew(rng, 4, b, 0.5)),
+    "rotors over SO(4)": (lambda: _cover(SO(4), 4), lambda rng, b: random_skew(rng, 4, b, 0.5)),
+    "rotors over SE(3)": (lambda: _cover(SE(3), 3), lambda rng, b: _se_algebra(rng, 3, b)),
+    "motors": (lambda: _motors(), lambda rng, b: _se_algebra(rng, 3, b)),
 }
+
+
+def _cover(base, n):
+    from lieint.ga.spin import SpinCover
+
+    return SpinCover(base, n)
+
+
+def _motors():
+    from lieint.ga.motor import MotorGroup
+
+    return MotorGroup()
+
+
 BATCHES = [(), (4,), (2, 3)]
 SURFACE = ("identity", "multiply", "inverse", "exp", "log", "project", "cay", "dexpinv", "dcayinv", "lincomb")
 
@@ -55,7 +72,9 @@ def shape_of(g):
 
 def every_group_class():
     """Every concrete LieGroup subclass the package defines (loaded modules included)."""
-    import lieint.ga.rotor_top  # noqa: F401  (defines Spin)
+    import lieint.ga.motor
+    import lieint.ga.rotor_top
+    import lieint.ga.spin  # noqa: F401  (defines SpinCover)
 
     seen, todo = set(), [LieGroup]
     while todo:

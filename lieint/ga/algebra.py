@@ -19,14 +19,15 @@ from functools import cache
 import clifford
 import numpy as np
 
-from ..groups.bivectors import bivector_coordinates, from_bivector_coordinates
 from ..groups.so import so_log
 
 __all__ = [
     "GA",
     "algebra",
     "bivector_to_skew",
+    "from_values",
     "matrix_to_rotor",
+    "resolve",
     "rotor_to_matrix",
     "skew_to_bivector",
     "to_values",
@@ -56,6 +57,10 @@ class GA:
         self.reverse_sign = np.where((grades * (grades - 1) // 2) % 2 == 0, 1.0, -1.0)
         self.vector_index = np.flatnonzero(grades == 1)
         self.bivector_index = np.flatnonzero(grades == 2)
+        # the (i, j), i < j, of each grade-2 blade e_ij in clifford's order
+        pairs = [self.layout.bladeTupList[k] for k in self.bivector_index]
+        self.identity_matrix = np.eye(n)
+        self.bivector_pairs = (np.array([p[0] - 1 for p in pairs]), np.array([p[1] - 1 for p in pairs]))
         # Gather table of the geometric product: (ab)_k = Σ_i a_i b_{J[i,k]} S[i,k].
         i, k, j = self.layout.gmt.coords
         J = np.zeros((self.size, self.size), dtype=np.intp)
@@ -63,6 +68,19 @@ class GA:
         J[i, k] = j
         S[i, k] = self.layout.gmt.data
         self._J, self._S = J, S
+        if n == 4:
+            # bivector → bivector maps of Cl(4): B ↦ B I (the dual) and the bilinear form of B ∧ B
+            # on the pseudoscalar I (the last blade), read off clifford's tables
+            nb = len(self.bivector_index)
+            unit = np.zeros((nb, self.size))
+            unit[np.arange(nb), self.bivector_index] = 1.0
+            pseudo = np.zeros(self.size)
+            pseudo[-1] = 1.0
+            self.dual4 = self.product(unit, pseudo)[:, self.bivector_index]
+            pairs_prod = self.product(unit[:, None, :], unit[None, :, :])[..., -1]
+            self.wedge4 = 0.5 * (pairs_prod + pairs_prod.T)
+            self.ones6_pm = np.ones((nb, 2))  # |B|² twice: for φ₊² and φ₋²
+            self.signs_pm = np.array([1.0, -1.0])
 
     def product(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
         """Geometric product of coefficient arrays (broadcast over leading dimensions)."""
@@ -85,13 +103,19 @@ class GA:
 
     def bivector(self, X: np.ndarray) -> np.ndarray:
         """Coefficients of the bivector of a skew matrix X."""
+        i, j = self.bivector_pairs
         out = np.zeros(np.shape(X)[:-2] + (self.size,))
-        out[..., self.bivector_index] = bivector_coordinates(X)
+        out[..., self.bivector_index] = X[..., i, j]
         return out
 
     def skew(self, a: np.ndarray) -> np.ndarray:
         """Skew matrix of the grade-2 part of ``a``."""
-        return from_bivector_coordinates(a[..., self.bivector_index], self.n)
+        i, j = self.bivector_pairs
+        c = a[..., self.bivector_index]
+        out = np.zeros(a.shape[:-1] + (self.n, self.n))
+        out[..., i, j] = c
+        out[..., j, i] = -c
+        return out
 
     def sandwich(self, R: np.ndarray, x: np.ndarray) -> np.ndarray:
         """``R x R̃``."""
@@ -100,27 +124,11 @@ class GA:
     def rotor_exp(self, X: np.ndarray) -> np.ndarray:
         """Rotor ``exp(ω/2)`` of the bivector of the skew matrix X (Spin(n) element).
 
-        n ≤ 3 (every bivector simple, ``ω² = −θ²``): ``cos(θ/2) + sin(θ/2) ω/θ``. Otherwise a
-        Taylor series in the algebra with scaling and squaring, then normalisation.
+        Exact to round-off for every bivector, simple or not (:func:`lieint.ga.exp`).
         """
-        half = 0.5 * self.bivector(X)
-        if self.n <= 3:
-            theta = np.sqrt(np.sum(bivector_coordinates(X) ** 2, axis=-1))[..., None]
-            small = theta < 1e-8
-            safe = np.where(small, 1.0, theta)
-            sinc = np.where(small, 1.0 - theta**2 / 24.0, np.sin(0.5 * safe) / (0.5 * safe))
-            return self.scalar(np.cos(0.5 * theta[..., 0])) + sinc * half
-        norm = np.sqrt(np.sum(half * half, axis=-1))
-        squarings = int(max(0, np.ceil(np.log2(max(float(np.max(norm, initial=0.0)), 1e-300) / 0.25))))
-        scaled = half / 2.0**squarings
-        term = self.scalar(np.ones(half.shape[:-1]))
-        out = term.copy()
-        for k in range(1, 14):
-            term = self.product(term, scaled) / k
-            out = out + term
-        for _ in range(squarings):
-            out = self.product(out, out)
-        return self.normalize(out)
+        from .exponential import rotor_exp_of_skew
+
+        return rotor_exp_of_skew(X, 0.5)
 
     def normalize(self, R: np.ndarray) -> np.ndarray:
         """Nearest rotor: ``R (R̃R)^{-1/2}`` — the Clifford analogue of the polar factor.
@@ -155,13 +163,89 @@ def algebra(n: int) -> GA:
     return GA(int(n))
 
 
-def to_values(mv, n: int | None = None) -> np.ndarray:
-    """Coefficient array ``(..., 2ⁿ)`` of a clifford MultiVector or MVArray (or an array)."""
-    if isinstance(mv, clifford.MultiVector):
-        return np.asarray(mv.value, dtype=float)
-    if isinstance(mv, np.ndarray) and mv.dtype == object:
-        return np.stack([to_values(m) for m in mv.ravel()]).reshape(mv.shape + (-1,))
-    return np.asarray(mv, dtype=float)
+def to_values(mv, n=None) -> np.ndarray:
+    """Coefficient array ``(..., 2ⁿ)`` of a clifford MultiVector or MVArray (or an array).
+
+    ``n`` (an int or a clifford layout), when given, is checked against the coefficients.
+    """
+    if n is None:
+        if isinstance(mv, clifford.MultiVector):
+            return np.asarray(mv.value, dtype=float)
+        if isinstance(mv, np.ndarray) and mv.dtype == object:
+            return np.stack([to_values(m) for m in mv.ravel()]).reshape(mv.shape + (-1,))
+        return np.asarray(mv, dtype=float)
+    return resolve(mv, n, "mv")[0]
+
+
+def _dims_of(n, name: str) -> int:
+    """``n`` from an int or a (Euclidean) clifford layout."""
+    if isinstance(n, clifford.Layout):
+        sig = np.asarray(n.sig)
+        if not np.all(sig == 1):
+            raise ValueError(
+                f"`{name}`: lieint.ga works in Euclidean Cl(n); got a layout of signature {sig.tolist()} "
+                "(PGA motors live in lieint.ga.motor)."
+            )
+        return int(n.dims)
+    return algebra(n).n
+
+
+def resolve(x, n=None, name: str = "x") -> tuple[np.ndarray, GA, str]:
+    """Read multivector(s) given as clifford objects or coefficient arrays.
+
+    Parameters
+    ----------
+    x : clifford.MultiVector, clifford.MVArray or array_like
+        Plain arrays hold coefficients ``(..., 2ⁿ)`` in clifford's blade order.
+    n : int or clifford.Layout, optional
+        Needed for plain arrays (their size alone does not say which algebra they belong to:
+        16 coefficients are Cl(4) or the PGA Cl(3,0,1)); checked against clifford objects.
+    name : str
+        The argument's name in error messages.
+
+    Returns
+    -------
+    values : ndarray, shape (..., 2ⁿ)
+    ga : GA
+        The algebra.
+    kind : {"multivector", "mvarray", "array"}
+        What was given, so that results come back alike (:func:`from_values`).
+    """
+    layout = _layout_of(x)
+    if layout is not None:
+        dims = _dims_of(layout, name)
+        if n is not None and _dims_of(n, "n") != dims:
+            raise ValueError(f"`{name}` is a multivector of Cl({dims}) but `n` = {_dims_of(n, 'n')} was given.")
+        kind = "multivector" if isinstance(x, clifford.MultiVector) else "mvarray"
+        return to_values(x), algebra(dims), kind
+    try:
+        values = np.asarray(x, dtype=float)
+    except (TypeError, ValueError):
+        raise TypeError(
+            f"`{name}` must be a clifford MultiVector/MVArray or an array of coefficients; got {type(x).__name__}."
+        ) from None
+    size = values.shape[-1] if values.ndim else 0
+    if n is None:
+        guess = int(np.log2(size)) if size > 0 and size & (size - 1) == 0 else None
+        hint = f" (e.g. n={guess} for Cl({guess}))" if guess is not None and 2 <= guess <= _MAX_N else ""
+        raise ValueError(
+            f"`{name}` is a plain array of shape {values.shape}: pass `n` (or a clifford layout) to say which "
+            f"algebra its coefficients belong to{hint}, or pass clifford multivectors."
+        )
+    ga = algebra(_dims_of(n, "n"))
+    if size != ga.size:
+        raise ValueError(
+            f"`{name}` must hold the {ga.size} coefficients of a multivector of Cl({ga.n}) on its last axis; "
+            f"got shape {values.shape}."
+        )
+    return values, ga, "array"
+
+
+def from_values(values: np.ndarray, ga: GA, kind: str):
+    """Coefficients back to the kind :func:`resolve` reported (clifford objects or an array)."""
+    if kind == "array":
+        return values
+    return _to_mv(values, ga)
 
 
 def _to_mv(values: np.ndarray, ga: GA):
@@ -178,14 +262,13 @@ def skew_to_bivector(X):
     return _to_mv(ga.bivector(X), ga)
 
 
-def bivector_to_skew(B, n: int | None = None) -> np.ndarray:
-    """Skew matrices ``(..., n, n)`` of clifford bivector(s) (other grades must vanish)."""
-    layout = _layout_of(B)
-    n = layout.dims if layout is not None else n
-    if n is None:
-        raise ValueError("`n` is needed to read bivectors given as plain coefficient arrays.")
-    ga = algebra(n)
-    values = to_values(B)
+def bivector_to_skew(B, n=None) -> np.ndarray:
+    """Skew matrices ``(..., n, n)`` of bivector(s) (other grades must vanish).
+
+    ``B``: clifford MultiVector/MVArray, or coefficient arrays ``(..., 2ⁿ)`` with ``n`` (an int
+    or a clifford layout).
+    """
+    values, ga, _ = resolve(B, n, "B")
     other = np.delete(values, ga.bivector_index, axis=-1)
     scale = max(float(np.max(np.abs(values), initial=0.0)), 1e-300)
     if np.max(np.abs(other), initial=0.0) > 1e-12 * scale:
@@ -196,24 +279,27 @@ def bivector_to_skew(B, n: int | None = None) -> np.ndarray:
     return ga.skew(values)
 
 
-def rotor_to_matrix(R) -> np.ndarray:
-    """Rotation matrices ``(..., n, n)`` of clifford rotors (MultiVector/MVArray or arrays with ``n``)."""
-    layout = _layout_of(R)
-    ga = algebra(layout.dims)
-    return ga.rotor_matrix(to_values(R))
+def rotor_to_matrix(R, n=None) -> np.ndarray:
+    """Rotation matrices ``(..., n, n)`` of rotors: ``Q e_i = R e_i R̃``.
+
+    ``R``: clifford MultiVector/MVArray, or coefficient arrays ``(..., 2ⁿ)`` with ``n`` (an int
+    or a clifford layout), e.g. ``rotor_to_matrix(sol.states["rotor"], n=3)``.
+    """
+    values, ga, _ = resolve(R, n, "R")
+    return ga.rotor_matrix(values)
 
 
 def matrix_to_rotor(Q, reference=None, *, as_multivector: bool = True):
     """Rotor(s) of rotation matrices: ``exp(log(Q)/2)``.
 
     The double cover leaves a sign free; it is chosen so that the rotor has a nonnegative
-    scalar part, or, given ``reference`` rotors, a nonnegative inner product with them
-    (continuity along a trajectory).
+    scalar part, or, given ``reference`` rotors (clifford objects or coefficient arrays), a
+    nonnegative inner product with them (continuity along a trajectory).
     """
     Q = np.asarray(Q, dtype=float)
     ga = algebra(Q.shape[-1])
     R = ga.rotor_exp(so_log(Q))
-    ref = to_values(reference) if reference is not None else ga.scalar(np.ones(R.shape[:-1]))
+    ref = resolve(reference, ga.n, "reference")[0] if reference is not None else ga.scalar(np.ones(R.shape[:-1]))
     sign = np.where(np.sum(R * ref, axis=-1, keepdims=True) < 0, -1.0, 1.0)
     R = sign * R
     return _to_mv(R, ga) if as_multivector else R
@@ -223,5 +309,6 @@ def _layout_of(mv):
     if isinstance(mv, clifford.MultiVector):
         return mv.layout
     if isinstance(mv, np.ndarray) and mv.dtype == object and mv.size:
-        return mv.ravel()[0].layout
+        first = mv.ravel()[0]
+        return first.layout if isinstance(first, clifford.MultiVector) else None
     return None

@@ -1,5 +1,7 @@
 """The Euler top with its orientation stored as a rotor of Spin(n).
 
+Spin(n) as a group of its own, and the Euler top's rotor form (:class:`lieint.ga.RotorForm`).
+
 The rotor moves by ``exp(hΩ/2)`` on the right (``S ↦ S exp(u/2)``, the double cover of
 ``R ↦ R exp(u)``) and the body momentum by the sandwich ``A ↦ S̃ A S`` (= ``QᵀAQ``). The exact
 projection is the rotor normalisation ``S (S̃S)^{-1/2}``. Same generator, same method, same
@@ -9,17 +11,14 @@ products instead of n × n matrix products.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
-
 import numpy as np
 
-from .._validation import check_skew
 from ..groups.base import LieGroup
-from ..groups.bivectors import bivector_dimension, skew_part
+from ..groups.bivectors import bivector_dimension
 from ..groups.so import SO
-from ..systems.base import Invariant, Output, State
 from ..systems.euler_top import EulerTop
-from .algebra import algebra, matrix_to_rotor
+from .algebra import algebra
+from .spin import RotorForm
 
 __all__ = ["RotorEulerTop", "Spin"]
 
@@ -79,8 +78,10 @@ class Spin(LieGroup):
         return self.so.ad_spectral_radius(X)
 
 
-class RotorEulerTop(EulerTop):
+class RotorEulerTop(RotorForm):
     """:class:`lieint.EulerTop` with the orientation as a rotor: state ``{"A", "rotor"}``.
+
+    The rotor form (:class:`lieint.ga.RotorForm`) of ``EulerTop(B)``.
 
     Parameters
     ----------
@@ -92,84 +93,8 @@ class RotorEulerTop(EulerTop):
     """
 
     def __init__(self, B):
-        super().__init__(B, orientation=False)
-        self.ga = algebra(self.n)
-        self.group = Spin(self.n)
-        self.fields = {"A": (self.n, self.n), "rotor": (self.ga.size,)}
-
-    def rotation_matrix(self, rotor: np.ndarray) -> np.ndarray:
-        """R ∈ SO(n) of rotors ``(..., 2ⁿ)``."""
-        return self.ga.rotor_matrix(rotor)
-
-    def act(self, g, y: State) -> State:
-        ga = self.ga
-        A = ga.skew(ga.product(ga.product(ga.reverse(g), ga.bivector(y["A"])), g))
-        return {"A": A, "rotor": ga.product(y["rotor"], g)}
-
-    def infinitesimal_action(self, xi, y: State) -> State:
-        A = y["A"]
-        return {"A": A @ xi - xi @ A, "rotor": self.ga.product(y["rotor"], 0.5 * self.ga.bivector(xi))}
-
-    def project(self, y: State) -> State:
-        return {"A": skew_part(y["A"]), "rotor": self.ga.normalize(y["rotor"])}
-
-    @property
-    def invariants(self) -> dict[str, Invariant]:
-        ga = self.ga
-
-        def momentum(t, y):
-            R = ga.rotor_matrix(y["rotor"])
-            return R @ y["A"] @ np.swapaxes(R, -1, -2)
-
-        def rotor_defect(t, y):
-            S = y["rotor"]
-            return np.linalg.norm(ga.product(ga.reverse(S), S) - ga.scalar(np.ones(S.shape[:-1])), axis=-1)
-
-        declared = dict(super().invariants)
-        declared["momentum"] = Invariant(momentum, "integral", "space momentum R A Rᵀ")
-        declared["rotor_defect"] = Invariant(rotor_defect, "defect", "‖S̃S − 1‖ (rotor off Spin(n))")
-        return declared
-
-    @property
-    def outputs(self) -> dict[str, Output]:
-        out = dict(super().outputs)
-        out["orientation"] = Output(
-            lambda t, y: self.rotation_matrix(y["rotor"]), (self.n, self.n), "orientation R", "rotation"
-        )
-        return out
-
-    def compiled(self):
-        return None  # the compiled kernels step matrices, not rotors
-
-    def initial_state(self, *, Omega=None, A=None, R=None, angular_velocity=None, rotor=None) -> State:
-        """As :meth:`lieint.EulerTop.initial_state`, with the orientation given as ``R`` (a matrix,
-        converted to the rotor with nonnegative scalar part) or ``rotor`` (clifford rotor(s))."""
-        if R is not None and rotor is not None:
-            raise ValueError("Give the orientation as `R` or as `rotor`, not both.")
-        top = EulerTop(self.B, orientation=True)
-        s = top.initial_state(Omega=Omega, A=A, R=R, angular_velocity=angular_velocity)
-        if rotor is not None:
-            from .algebra import to_values
-
-            S = to_values(rotor)
-            if S.shape[-1] != self.ga.size:
-                raise ValueError(
-                    f"`rotor` must be a rotor of Cl({self.n}) ({self.ga.size} coefficients); got shape {S.shape}."
-                )
-            defect = np.max(np.abs(self.ga.product(self.ga.reverse(S), S) - self.ga.scalar(np.ones(S.shape[:-1]))))
-            if defect > 1e-10:
-                raise ValueError(f"`rotor` must be a unit rotor (S̃S = 1); got ‖S̃S − 1‖ = {defect:.3g}.")
-            batch = np.broadcast_shapes(s["A"].shape[:-2], S.shape[:-1])
-            return {
-                "A": np.broadcast_to(s["A"], batch + s["A"].shape[-2:]).copy(),
-                "rotor": np.broadcast_to(S, batch + S.shape[-1:]).copy(),
-            }
-        return {"A": s["A"], "rotor": matrix_to_rotor(s["R"], as_multivector=False)}
-
-    def validate_state(self, y: Mapping[str, np.ndarray], name: str = "y0") -> State:
-        out = super(EulerTop, self).validate_state(y, name)  # keys, shapes, finiteness
-        out["A"] = check_skew(out["A"], f"{name}['A']")
-        return out
+        super().__init__(EulerTop(B))
+        self.B = self.system.B
 
     def __repr__(self) -> str:
         return f"RotorEulerTop(n={self.n})"

@@ -12,7 +12,9 @@ Only the effects the scene declares are simulated:
   ``orthogonality``, or the centre of a ball), the centre only if an output needs it
   (``center``, ``contact_path``, ``velocity``, or the energy of a ball on an incline);
 * a body given as ``system = "name"`` is built by that system's factory
-  (:mod:`lieint.systems.catalog`), from the scene's parameters.
+  (:mod:`lieint.systems.catalog`), from the scene's parameters;
+* ``[body] orientation = "rotor"`` gives the rotor form of the system
+  (:class:`lieint.ga.RotorForm`: R carried as a rotor of Spin(n)).
 
 The requested outputs are read through what the system declares (its ``outputs`` and
 ``invariants``), so any system -- a built-in one or one another package installs -- runs,
@@ -52,7 +54,7 @@ def build_system(scene: Scene):
     if scene.system is not None:
         return _named_system(scene)
     wants = set(scene.outputs)
-    need_R = bool(wants & _NEEDS_R)
+    need_R = bool(wants & _NEEDS_R) or scene.orientation == "rotor"
     g = scene.gravity
     XG = scene.center_of_mass
     offset = XG is not None and bool(np.any(XG != 0))
@@ -108,10 +110,21 @@ def build_system(scene: Scene):
                 center=ini.get("center"),
                 velocity=ini.get("velocity"),
             )
+        system, y0 = _orientation_form(scene, system, y0)
     except (TypeError, ValueError) as exc:
         raise SceneError(f"{scene.source or '<scene>'}: {exc}") from None
     _check_outputs(scene, system)
     return system, y0
+
+
+def _orientation_form(scene: Scene, system, y0):
+    """The rotor form of the system when the scene asks for ``orientation = "rotor"``."""
+    if scene.orientation != "rotor":
+        return system, y0
+    from ..ga.spin import RotorForm  # clifford only for scenes that ask for rotors
+
+    rotor = RotorForm(system)
+    return rotor, rotor.from_matrix_state(y0)
 
 
 def _top_state(system, ini):
@@ -131,6 +144,7 @@ def _named_system(scene: Scene):
         _check_initial_keys(scene, system)
         y0 = system.initial_state(**scene.initial)
         y0 = system.validate_state(y0, "initial state")
+        system, y0 = _orientation_form(scene, system, y0)
     except (TypeError, ValueError) as exc:
         raise SceneError(f"{scene.source or '<scene>'}: {exc}") from None
     _check_outputs(scene, system)

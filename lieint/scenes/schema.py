@@ -6,7 +6,8 @@ A scene declares the body, the support (``fixed_point`` | ``rolling`` | ``free``
     [scene]       name, description
     [body]        mass_tensor | principal_moments | uniform = true (+ dimension),
                   mass, center_of_mass, radius
-                  | system = "name", parameters = {…}  (a system by name, see below)
+                  | system = "name", parameters = {…}  (a system by name, see below),
+                  orientation = "matrix" | "rotor"  (R on SO(n), or a rotor of Spin(n))
     [support]     type, normal
     [forces]      gravity = [gx, gy, gz] | {magnitude = 9.81, incline = "pi/6"}
     [initial]     angular_velocity (n = 3) | omega (bivector) | momentum (bivector),
@@ -44,6 +45,8 @@ else:  # pragma: no cover
 __all__ = ["SUPPORTS", "Scene", "SceneError", "load_scene", "parse_scene"]
 
 SUPPORTS = ("fixed_point", "rolling", "free")
+#: how a body carries its orientation: a rotation matrix, or a rotor of Spin(n) (lieint.ga)
+ORIENTATIONS = ("matrix", "rotor")
 
 _TABLES: dict[str, set[str]] = {
     "scene": {"name", "description"},
@@ -57,6 +60,7 @@ _TABLES: dict[str, set[str]] = {
         "radius",
         "system",
         "parameters",
+        "orientation",
     },
     "support": {"type", "normal"},
     "forces": {"gravity"},
@@ -109,6 +113,8 @@ class Scene:
     atol: float = 1e-10
     #: ``[[events]]``: dicts with name, output, component, value, direction, terminal
     events: tuple = ()
+    #: "matrix" (R ∈ SO(n)) or "rotor" (the rotor form, lieint.ga.RotorForm)
+    orientation: str = "matrix"
 
 
 def load_scene(path) -> Scene:
@@ -321,8 +327,10 @@ class _Reader:
 
         name = self.string("scene", "name", self.required(meta, "scene", "name"))
         description = self.string("scene", "description", meta.get("description", ""))
+        orientation = self.string("body", "orientation", body.get("orientation", "matrix"), ORIENTATIONS)
         if "system" in body:
-            return self.named_system_scene(name, description, body, initial, integ, output)
+            scene = self.named_system_scene(name, description, body, initial, integ, output)
+            return replace(scene, orientation=orientation)
         if "support" not in self.data:
             raise SceneError(f"{self.source}: missing required table [support] (or name a [body] system)")
         kind = self.string("support", "type", self.required(support, "support", "type"), SUPPORTS)
@@ -352,6 +360,7 @@ class _Reader:
         quantities = self.quantities(output)
         ensemble = self.ensemble(self.table("ensemble"), init) if "ensemble" in self.data else None
         return Scene(
+            orientation=orientation,
             ensemble=ensemble,
             name=name,
             dimension=n,
@@ -373,7 +382,7 @@ class _Reader:
     def named_system_scene(self, name, description, body, initial, integ, output) -> Scene:
         """A body given by a system's name and numeric parameters (see the module docstring)."""
         system = self.string("body", "system", body["system"])
-        extra = sorted(set(body) - {"system", "parameters"})
+        extra = sorted(set(body) - {"system", "parameters", "orientation"})
         if extra:
             raise self.fail("body", extra[0], 'does not apply to a body given as `system = "name"`; use `parameters`')
         for table in ("support", "forces"):

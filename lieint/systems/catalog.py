@@ -47,7 +47,15 @@ def _builtin() -> dict[str, Callable]:
         "constant_force_particle": constant_force_particle,
         "surface_particle": surface_particle,
         "atoms_body": AtomsBody,
+        "motor_rigid_body": _motor_rigid_body,
     }
+
+
+def _motor_rigid_body(**parameters):
+    """:class:`lieint.ga.MotorRigidBody` (clifford is imported only when one is built)."""
+    from ..ga.motor import MotorRigidBody
+
+    return MotorRigidBody(**parameters)
 
 
 def system_factories() -> dict[str, Callable]:

@@ -64,6 +64,8 @@ class EulerTop(LieGroupSystem):
 
     autonomous = True
     structure = frozenset({"free_top"})
+    #: R moves only itself and nothing reads it (lets the rotor form skip computing it)
+    orientation_is_passive = True
 
     def __init__(self, B, *, orientation: bool = True):
         self.inertia = InertiaOperator(B, "B")

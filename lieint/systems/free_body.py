@@ -45,6 +45,8 @@ class FreeBody(LieGroupSystem):
 
     autonomous = True
     structure = frozenset({"free_body"})
+    #: R moves only itself and nothing reads it (lets the rotor form skip computing it)
+    orientation_is_passive = True
 
     def __init__(self, mass_tensor, mass, gravity=None, *, orientation: bool = True):
         self.top = EulerTop(mass_tensor, orientation=orientation)

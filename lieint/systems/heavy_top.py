@@ -54,6 +54,8 @@ class HeavyTop(LieGroupSystem):
 
     autonomous = True
     structure = frozenset({"heavy_top"})
+    #: R moves only itself and nothing reads it (lets the rotor form skip computing it)
+    orientation_is_passive = True
 
     def __init__(self, mass_tensor, mass, center_of_mass, gravity, *, orientation: bool = True):
         self.top = EulerTop(mass_tensor, orientation=False)

@@ -88,6 +88,11 @@ class RollingPose:
     ``fields``, ``track_center``, ``normal`` and ``radius``.
     """
 
+    @property
+    def orientation_is_passive(self) -> bool:
+        """R moves only itself unless the centre is tracked (it moves by ``p + R v``)."""
+        return not self.track_center
+
     def _pose_fields(self, n: int, orientation: bool) -> None:
         if orientation or self.track_center:  # the centre moves by p + R v: it needs R
             self.fields["R"] = (n, n)
