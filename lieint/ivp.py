@@ -138,6 +138,13 @@ def integrate(
         events=events,
         project=bool(project),
         order=stepper.order,
+        group_action=(
+            True
+            if getattr(stepper, "group_action", False)
+            else "fields"
+            if getattr(stepper, "keeps_group_fields", False)
+            else False
+        ),
     )
     driver = Driver(
         system,

@@ -132,6 +132,18 @@ class LieGroupSystem(ABC):
     def infinitesimal_action(self, xi: np.ndarray, y: State) -> State:
         """``d/ds ρ(exp(s ξ), y)`` at ``s = 0``: the vector field of the generator."""
 
+    def relative_element(self, y0: State, y1: State):
+        """The group element ``g`` with ``ρ(g, y₀) = y₁`` read off two states, or None.
+
+        Dense output on the group (:mod:`lieint.dense`) needs the increment of a step. A method
+        that does not report it (a composition of exact flows, a discrete Lagrangian map) still
+        moves the state by the group action, and a state that carries a group element ``Y``
+        acted on by right multiplication (``Y ↦ Y g``, e.g. the attitude R) determines it:
+        ``g = Y₀⁻¹ Y₁``. The default is None (the state does not determine ``g``; dense output
+        then interpolates in the embedding space); systems with such a field override it.
+        """
+        return None
+
     # -- derived ---------------------------------------------------------------------
     def vector_field(self, t: float | np.ndarray, y: State) -> State:
         """``ẏ`` on the embedding space (used by classical and scipy baselines)."""
