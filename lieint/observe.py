@@ -15,7 +15,14 @@ import numpy as np
 from .dense import DenseOutput, EmbeddedHermite, Increment, LieHermite
 from .events import EventLog, as_events
 
-__all__ = ["StepObserver"]
+__all__ = ["StepObserver", "group_action_of"]
+
+
+def group_action_of(method) -> bool | str:
+    """How ``method`` moves the state, as :class:`StepObserver` takes it (``group_action``)."""
+    if getattr(method, "group_action", False):
+        return True
+    return "fields" if getattr(method, "keeps_group_fields", False) else False
 
 
 class StepObserver:
