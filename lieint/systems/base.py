@@ -18,8 +18,10 @@ To add a system, subclass :class:`LieGroupSystem` and implement
    ``defect`` that the exact flow keeps at zero), :attr:`outputs` (derived quantities by name,
    :class:`Output`; the state fields are outputs already), :attr:`structure` (tags that let
    special methods recognise what they can step, e.g. ``"free_top"``), :meth:`initial_state`
-   (the state from physical keywords; scenes pass their ``[initial]`` keys to it) and
-   :meth:`compiled` (what a compiled kernel needs, see :mod:`lieint.fast`).
+   (the state from physical keywords; scenes pass their ``[initial]`` keys to it),
+   :meth:`compiled` (what a compiled kernel needs, see :mod:`lieint.fast`) and
+   :meth:`relative_element` (the group element between two states, when the state determines
+   it: dense output on the group for methods that report no increment, :mod:`lieint.dense`).
 
 Generators and actions must be pure array functions (no hidden state), so that a compiled
 fast path can replace them. A system that another package installs under the entry-point group
