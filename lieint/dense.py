@@ -16,8 +16,12 @@ last one (p ≤ 6) or two (p ≤ 8) earlier step ends in the chart of ``y₀``, 
 derivatives (degree 5 or 7, local error ``O(h⁶)`` or ``O(h⁸)``), so the dense solution has
 the method's order (except on the first steps of a run, where fewer earlier ends exist).
 
-Methods without a group increment (classical Runge–Kutta on the embedding) get the same cubic
-Hermite interpolant on the state arrays with the vector field at both ends. scipy's solvers
+A method that moves the state by the group action without reporting its increment (the
+Moser–Veselov maps, the splittings, the exact flow) gets it from the two states: the system's
+``relative_element(y₀, y₁)`` gives ``g = R₀ᵀR₁`` when the state carries the attitude R, and
+``u₁ = log g``. Methods without a group increment (classical Runge–Kutta on the embedding, and
+any step of a system whose state does not determine ``g``) get the same cubic Hermite
+interpolant on the state arrays with the vector field at both ends. scipy's solvers
 bring their own dense output.
 
 Each interpolant costs one generator evaluation at the end of its step (the next step's start
@@ -90,9 +94,26 @@ class LieHermite:
         generator ``ξ_j`` there. Each adds two conditions (``u(θ_j) = v_j``,
         ``u′(θ_j) = h dexp⁻¹_{−v_j}(ξ_j)``), raising the degree by two and the order of the
         interpolant by two (cubic: 4, quintic: 6, degree 7: 8).
+    mismatch : dict, optional
+        ``y₁ − ρ(exp(u₁), y₀)`` per field, for a method that keeps only some fields on the
+        group orbit: added with the weight ``h₀₁(θ) = 3θ² − 2θ³`` (zero value and slope at
+        θ = 0, value 1 and slope 0 at θ = 1), so the curve ends at ``y₁``.
     """
 
-    def __init__(self, system, t0: float, t1: float, y0: dict, u1, xi0, xi1, y1: dict | None = None, earlier=()):
+    def __init__(
+        self,
+        system,
+        t0: float,
+        t1: float,
+        y0: dict,
+        u1,
+        xi0,
+        xi1,
+        y1: dict | None = None,
+        earlier=(),
+        mismatch: dict | None = None,
+    ):
+        self.mismatch = mismatch
         group = system.group
         self.system, self.t0, self.t1, self.y0, self.y1 = system, float(t0), float(t1), y0, y1
         self.h = h = self.t1 - self.t0
@@ -127,7 +148,11 @@ class LieHermite:
         if self.y1 is not None and float(t) == self.t1:
             return self.y1
         theta = (float(t) - self.t0) / self.h
-        return self.system.act(self.system.group.exp(self.algebra(theta)), self.y0)
+        y = self.system.act(self.system.group.exp(self.algebra(theta)), self.y0)
+        if self.mismatch is not None:
+            w = _hermite(theta)[2]
+            y = {k: v + w * self.mismatch[k] for k, v in y.items()}
+        return y
 
 
 class EmbeddedHermite:

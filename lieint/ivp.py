@@ -10,7 +10,7 @@ import numpy as np
 from ._validation import check_finite_positive
 from .driver import Driver
 from .methods.registry import AUTO, get_method
-from .observe import StepObserver
+from .observe import StepObserver, group_action_of
 from .solution import Solution
 from .systems.base import LieGroupSystem
 
@@ -138,6 +138,7 @@ def integrate(
         events=events,
         project=bool(project),
         order=stepper.order,
+        group_action=group_action_of(stepper),
     )
     driver = Driver(
         system,

@@ -15,7 +15,14 @@ import numpy as np
 from .dense import DenseOutput, EmbeddedHermite, Increment, LieHermite
 from .events import EventLog, as_events
 
-__all__ = ["StepObserver"]
+__all__ = ["StepObserver", "group_action_of"]
+
+
+def group_action_of(method) -> bool | str:
+    """How ``method`` moves the state, as :class:`StepObserver` takes it (``group_action``)."""
+    if getattr(method, "group_action", False):
+        return True
+    return "fields" if getattr(method, "keeps_group_fields", False) else False
 
 
 class StepObserver:
@@ -37,12 +44,30 @@ class StepObserver:
         The method's order p: Lie-group interpolants then also match the last one (p = 5, 6)
         or two (p ≥ 7) earlier step ends, so that the dense output has order min(p, 8)
         (cubic, quintic, degree 7; the first steps of a run have fewer earlier ends).
+    group_action : {False, True, "fields"}
+        How the method moves the state. True: by the group action, so a step that reports no
+        :class:`~lieint.dense.Increment` gets one from the system's
+        :meth:`~lieint.systems.base.LieGroupSystem.relative_element` (``g = R₀ᵀR₁``) and is
+        interpolated on the group like any Lie-group step. "fields": only the group-valued
+        fields stay on the group (the Lie–Poisson midpoint); the curve ``ρ(exp(u(θ)), y₀)`` is
+        then corrected by ``h₀₁(θ) (y₁ − ρ(exp(u₁), y₀))`` so that it ends at ``y₁`` (the
+        correction vanishes to round-off on the fields moved as ``Y ↦ Y g``).
     """
 
     def __init__(
-        self, system, t0: float, *, t_eval=None, dense_output: bool = False, events=None, project=False, order=None
+        self,
+        system,
+        t0: float,
+        *,
+        t_eval=None,
+        dense_output: bool = False,
+        events=None,
+        project=False,
+        order=None,
+        group_action=False,
     ):
         self.system, self.t0 = system, float(t0)
+        self.group_action = group_action
         self.extra_nodes = 0 if not order or order <= 4 else 1 if order <= 6 else 2
         self.history: list[tuple] = []  # (t_j, ξ_j, u_j) of the last steps, newest last
         self.t_eval = None if t_eval is None else np.asarray(t_eval, dtype=float)
@@ -92,7 +117,11 @@ class StepObserver:
 
     def _interpolant(self, t0: float, y0: dict, t1: float, y1: dict, result):
         system = self.system
-        lie = isinstance(result.dense, Increment)
+        increment = result.dense
+        if self.group_action and not isinstance(increment, Increment):
+            g = system.relative_element(y0, y1)
+            increment = None if g is None else Increment(g=g)
+        lie = isinstance(increment, Increment)
         evaluate = system.generator if lie else system.vector_field
         if self._cache is not None and self._cache[0] == t0 and self._cache[1] is y0 and self._cache[3] == lie:
             d0 = self._cache[2]
@@ -104,7 +133,7 @@ class StepObserver:
         self._cache = (t1, y1, d1, lie)
         if lie:
             group = system.group
-            u = result.dense.algebra(group)
+            u = increment.algebra(group)
             earlier, g = [], None
             for tj, xij, uj in reversed(self.history):
                 back = group.exp(group.negate(uj))
@@ -113,7 +142,11 @@ class StepObserver:
                 earlier.append((tj, group.negate(uj) if len(earlier) == 0 else group.log(g), xij))
             if self.extra_nodes:
                 self.history = [*self.history, (t0, d0, u)][-self.extra_nodes :]
-            return LieHermite(system, t0, t1, y0, u, d0, d1, y1, earlier)
+            mismatch = None
+            if self.group_action == "fields":
+                moved = system.act(group.exp(u), y0)
+                mismatch = {k: y1[k] - moved[k] for k in y1}
+            return LieHermite(system, t0, t1, y0, u, d0, d1, y1, earlier, mismatch=mismatch)
         return EmbeddedHermite(t0, t1, y0, y1, d0, d1)
 
     # -- the result ------------------------------------------------------------------------

@@ -7,6 +7,7 @@ to the catalog is covered (and must come with a case below, or the coverage test
 
 from __future__ import annotations
 
+import re
 import textwrap
 
 import h5py
@@ -85,6 +86,17 @@ SYSTEM_CASES = {
         {"angular_velocity": [0.3, 1.0, 0.4], "velocity": [0.2, 0.0, 0.1]},
     ),
 }
+
+# attitude from sampled body rates (data only): w(t) = (0.3 cos t, 1 − 0.2 t, 0.4 sin 2t) at
+# 41 times on [0, 4] (the spans below stay inside), from a turn of 0.3 about the z axis
+_RATE_TIMES = np.linspace(0.0, 4.0, 41)
+SYSTEM_CASES["prescribed_rotation"] = (
+    {
+        "times": _RATE_TIMES.tolist(),
+        "rates": [[0.3 * np.cos(t), 1.0 - 0.2 * t, 0.4 * np.sin(2.0 * t)] for t in _RATE_TIMES],
+    },
+    {"R": [[np.cos(0.3), -np.sin(0.3), 0.0], [np.sin(0.3), np.cos(0.3), 0.0], [0.0, 0.0, 1.0]]},
+)
 
 
 def test_every_builtin_system_has_a_case():
@@ -317,12 +329,7 @@ def first_applicable_system(name) -> str | None:
 def test_every_method_runs_a_scene_streamed_and_resumed(name, tmp_path, capsys):
     # long enough for an adaptive method to take several steps before the stop
     system_name = first_applicable_system(name)
-    if system_name is None:
-        # a method for systems no scene names (Magnus: generators of t only) is refused, naming the method
-        scene = write_scene(tmp_path, "euler_top", name, t_end=0.6)
-        with pytest.raises(ValueError, match="`method`"):
-            lieint.cli.main(["run", str(scene)])
-        return
+    assert system_name is not None, f"no built-in system case that {name!r} applies to: add one to SYSTEM_CASES"
     scene = write_scene(tmp_path, system_name, name, t_end=3.0 if SPECS[name].adaptive else 0.6)
     assert lieint.cli.main(["run", str(scene)]) == 0
     assert f"with {name}" in capsys.readouterr().out
@@ -385,3 +392,28 @@ def test_scipy_methods_report_the_steps_they_take(name, tmp_path, capsys):
     lieint.run(scene, out, progress=False)
     _, attrs = read_run(out)
     assert int(attrs["steps_done"]) == in_memory.stats.nsteps > 3
+
+
+# -- a scene whose method does not apply to its system is refused, not a traceback -------------
+
+
+def first_refusing_system(name) -> str | None:
+    """The first built-in system case the method does not apply to (None: it applies to all)."""
+    method = lieint.get_method(name)
+    for system_name in SYSTEM_CASES:
+        if not applies(method, build(system_name)[0]):
+            return system_name
+    return None
+
+
+@pytest.mark.parametrize("name", [n for n in METHODS if first_refusing_system(n) is not None])
+def test_a_method_that_does_not_apply_to_the_scene_is_refused(name, tmp_path, capsys):
+    system_name = first_refusing_system(name)
+    scene = write_scene(tmp_path, system_name, name)
+    out = tmp_path / "refused.h5"
+    for argv in (["run", str(scene)], ["run", str(scene), "--out", str(out), "--quiet"]):
+        assert lieint.cli.main(argv) == 2
+        err = capsys.readouterr().err
+        assert err.startswith("lieint run: ") and re.search(rf"`?method`? {re.escape(repr(name))}", err), err
+        assert "Traceback" not in err
+    assert not out.exists()  # nothing is written for a run that cannot start

@@ -80,6 +80,10 @@ class Method(ABC):
     self_controlled: bool = False
     #: True when the new state is the old one moved by the group action (keeps its invariants)
     group_action: bool = False
+    #: True when the state's group-valued fields (the attitude R) stay on the group to round-off
+    #: although the other fields are not moved by the group action (the Lie–Poisson midpoint):
+    #: dense output then interpolates those fields on the group (:mod:`lieint.dense`)
+    keeps_group_fields: bool = False
 
     def check_system(self, system) -> None:
         """Raise ``ValueError`` naming ``method`` when this method cannot step ``system``.

@@ -77,6 +77,8 @@ class LieMidpoint(Method):
     name: str = "lie_midpoint"
     order: int = 2
 
+    keeps_group_fields = True  # R₁ = R₀ cay(hΩ(A_m)) is orthogonal to round-off
+
     def check_system(self, system) -> None:
         structure = getattr(system, "structure", frozenset())
         if not any(s in structure for s in _STRUCTURES):

@@ -24,7 +24,9 @@ import numpy as np
 from ..drift import DriftMonitor
 from ..driver import Carry, Driver, Segment
 from ..methods.registry import get_method
-from ..scenes import Scene, SceneError, build_system, scene_solver_options
+from ..scenes import Scene, build_system, scene_solver_options
+from ..scenes.engine import scene_events
+from .run_events import StreamedEvents
 from .store import Checkpoint, NoSpaceError, OutputFile, StoreError, available_room
 
 __all__ = ["SEGMENT_BYTES", "RunReport", "StreamedRun", "scene_fingerprint"]
@@ -82,15 +84,21 @@ class StreamedRun:
 
         self.version = __version__
         self.scene, self.out = scene, Path(out)
-        if scene.events:
-            raise SceneError(
-                f"{scene.source or '<scene>'}: [[events]] are located by `lieint run` without --out (and by "
-                "lieint.scenes.run_scene); streamed runs do not record them"
-            )
         self.system, y0 = build_system(scene)
         options = scene_solver_options(scene)
         method = get_method(options.pop("method"), coordinates=options.pop("coordinates"))
-        self.driver = Driver(self.system, method, (scene.t_start, scene.t_end), **options)
+        #: the scene's [[events]], recorded in the file (None without events)
+        self.events: StreamedEvents | None = None
+        if scene.events:
+            self.events = StreamedEvents(
+                self.system,
+                method,
+                scene.t_start,
+                scene_events(self.system, y0, scene),
+                project=bool(options.get("project", False)),
+            )
+        observer = self.events.observer if self.events is not None else None
+        self.driver = Driver(self.system, method, (scene.t_start, scene.t_end), **options, observer=observer)
         self.y0 = self.driver.initial(y0)
         self.batch_ndim = len(self.system.batch_shape(self.y0))
         declared = self.system.invariants
@@ -211,6 +219,8 @@ class StreamedRun:
             self.driver.t0,
             self._dataset_attrs(),
         )
+        if self.events is not None:
+            self.events.create(self.output.f, self.driver.user_state(self.carry))
         initial = {n: v[0] for n, v in rows.get("invariants", {}).items()}
         self.monitor = DriftMonitor(self.kinds, initial, self.batch_ndim)
 
@@ -242,6 +252,8 @@ class StreamedRun:
         for name in self.kinds:
             self.monitor.worst[name] = arrays[f"drift:{name}"]
         self.output = OutputFile.reopen(self.out, rows)
+        if self.events is not None:
+            self.events.restore(self.output.f, arrays, attrs, self.carry.t, self.driver.user_state(self.carry))
         return f"resuming at step {self.carry.k} (t = {self.carry.t:.6g}) with {rows} saved rows"
 
     def _replay(self, rows: int) -> str:
@@ -250,6 +262,8 @@ class StreamedRun:
         first = self.driver.loop.first_row(self.carry)
         self.monitor.update(self.rows_of(first.t, first.states).get("invariants", {}))
         self.output = OutputFile.reopen(self.out, rows)
+        if self.events is not None:
+            self.events.restart(self.output.f)
         have = 1
         while have < rows and not self.driver.done(self.carry):
             seg = self.driver.advance(self.carry, 1000)
@@ -259,6 +273,8 @@ class StreamedRun:
                 self.monitor.update(part.get("invariants", {}))
             if keep < seg.rows:  # rows past what was saved: write them now
                 self._write(Segment(seg.t[keep:], {k: v[keep:] for k, v in seg.states.items()}))
+            elif self.events is not None:
+                self.events.write_new(self.output.f)
             have += seg.rows
         return f"resuming {self.driver.method.name} by recomputing from t = {self.driver.t0:g} ({rows} rows on disk)"
 
@@ -279,6 +295,8 @@ class StreamedRun:
         return seg
 
     def _write(self, seg: Segment) -> None:
+        if self.events is not None:
+            self.events.write_new(self.output.f)
         if seg.rows == 0:
             return
         groups = self.rows_of(seg.t, seg.states)
@@ -295,9 +313,14 @@ class StreamedRun:
         if not replay:
             arrays.update({f"state:{k}": np.asarray(v) for k, v in c.state.items()})
             arrays.update({f"method:{k}": np.asarray(v) for k, v in (c.method_state or {}).items()})
+        extra = {}
+        if self.events is not None and not replay:
+            event_arrays, extra = self.events.checkpoint()
+            arrays.update(event_arrays)
         self.checkpoint_file.write(
             arrays,
             {
+                **extra,
                 "lieint_version": self.version,
                 "scene_fingerprint": self.fingerprint,
                 "backend": self.driver.backend,

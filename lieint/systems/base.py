@@ -18,8 +18,10 @@ To add a system, subclass :class:`LieGroupSystem` and implement
    ``defect`` that the exact flow keeps at zero), :attr:`outputs` (derived quantities by name,
    :class:`Output`; the state fields are outputs already), :attr:`structure` (tags that let
    special methods recognise what they can step, e.g. ``"free_top"``), :meth:`initial_state`
-   (the state from physical keywords; scenes pass their ``[initial]`` keys to it) and
-   :meth:`compiled` (what a compiled kernel needs, see :mod:`lieint.fast`).
+   (the state from physical keywords; scenes pass their ``[initial]`` keys to it),
+   :meth:`compiled` (what a compiled kernel needs, see :mod:`lieint.fast`) and
+   :meth:`relative_element` (the group element between two states, when the state determines
+   it: dense output on the group for methods that report no increment, :mod:`lieint.dense`).
 
 Generators and actions must be pure array functions (no hidden state), so that a compiled
 fast path can replace them. A system that another package installs under the entry-point group
@@ -131,6 +133,18 @@ class LieGroupSystem(ABC):
     @abstractmethod
     def infinitesimal_action(self, xi: np.ndarray, y: State) -> State:
         """``d/ds ρ(exp(s ξ), y)`` at ``s = 0``: the vector field of the generator."""
+
+    def relative_element(self, y0: State, y1: State):
+        """The group element ``g`` with ``ρ(g, y₀) = y₁`` read off two states, or None.
+
+        Dense output on the group (:mod:`lieint.dense`) needs the increment of a step. A method
+        that does not report it (a composition of exact flows, a discrete Lagrangian map) still
+        moves the state by the group action, and a state that carries a group element ``Y``
+        acted on by right multiplication (``Y ↦ Y g``, e.g. the attitude R) determines it:
+        ``g = Y₀⁻¹ Y₁``. The default is None (the state does not determine ``g``; dense output
+        then interpolates in the embedding space); systems with such a field override it.
+        """
+        return None
 
     # -- derived ---------------------------------------------------------------------
     def vector_field(self, t: float | np.ndarray, y: State) -> State:

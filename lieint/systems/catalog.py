@@ -14,7 +14,13 @@ A scene then names it, with numeric parameters passed as keywords to the factory
     system = "pendulum"
     parameters = { length = 1.0, mass = 2.0 }
 
-Scenes stay data: they name an installed system, never Python code to import.
+Scenes stay data: they name an installed system, never Python code to import. A system whose
+input is a function takes it as samples: ``prescribed_rotation`` (:class:`~lieint.PrescribedRotation`)
+takes ``rates`` (body rates ``(m, 3)``) and their ``times`` ``(m,)``::
+
+    [body]
+    system = "prescribed_rotation"
+    parameters = { times = [0.0, 0.5, 1.0, 1.5, 2.0], rates = [[0.3, 1.0, 0.0], ...] }
 """
 
 from __future__ import annotations
@@ -35,6 +41,7 @@ def _builtin() -> dict[str, Callable]:
     from .free_body import FreeBody
     from .heavy_top import HeavyTop
     from .particles import CentralForceParticle, constant_force_particle, surface_particle
+    from .prescribed import PrescribedRotation
     from .rolling_ball import RollingBall
 
     return {
@@ -48,6 +55,7 @@ def _builtin() -> dict[str, Callable]:
         "surface_particle": surface_particle,
         "atoms_body": AtomsBody,
         "motor_rigid_body": _motor_rigid_body,
+        "prescribed_rotation": PrescribedRotation,
     }
 
 

@@ -131,6 +131,12 @@ class EulerTop(LieGroupSystem):
             out["R"] = y["R"] @ g
         return out
 
+    def relative_element(self, y0: State, y1: State):
+        """``g = R₀ᵀ R₁`` (the attitude is moved by ``R ↦ R g``); None without attitude."""
+        if not self.orientation:
+            return None
+        return np.swapaxes(y0["R"], -1, -2) @ y1["R"]
+
     def infinitesimal_action(self, xi: np.ndarray, y: State) -> State:
         A = y["A"]
         out = {"A": A @ xi - xi @ A}

@@ -128,6 +128,10 @@ class PrescribedRotation(LieGroupSystem):
     def act(self, g: np.ndarray, y: State) -> State:
         return {"R": y["R"] @ g}
 
+    def relative_element(self, y0: State, y1: State):
+        """``g = R₀ᵀ R₁``."""
+        return np.swapaxes(y0["R"], -1, -2) @ y1["R"]
+
     def infinitesimal_action(self, xi: np.ndarray, y: State) -> State:
         return {"R": y["R"] @ xi}
 
