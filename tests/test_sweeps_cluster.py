@@ -90,8 +90,20 @@ def test_distributed_equals_the_one_process_ensemble_bit_for_bit(client, tmp_pat
     sol = lieint.integrate(top, top.initial_state(angular_velocity=w), (0, 10), h=0.01, project=True, save_every=10)
     assert sol.stats.backend == "numba"
     for field in ("A", "R"):
-        assert np.array_equal(ds[f"state_{field}"].values, np.swapaxes(sol.states[field], 0, 1))
+        swept, here = ds[f"state_{field}"].values, np.swapaxes(sol.states[field], 0, 1)
+        assert np.array_equal(swept, here), _mismatch(swept, here)
     assert np.array_equal(ds["drift_energy"].values, sol.drift("energy"))
+
+
+def _mismatch(swept, here) -> str:
+    """Where and by how much, and which compiled specialisations this process holds."""
+    from lieint.fast import lanes
+
+    members = np.flatnonzero(np.abs(swept - here).reshape(len(swept), -1).max(axis=1) > 0)
+    return (
+        f"max |difference| {np.abs(swept - here).max():.3e} in members {members[:10].tolist()} ...; "
+        f"run_lanes signatures in this process: {lanes.run_lanes.signatures}"
+    )
 
 
 def test_a_worker_killed_mid_sweep_changes_nothing(client, tmp_path, reference):
