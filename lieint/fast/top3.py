@@ -9,7 +9,8 @@ The generic path moves dicts of batched matrices through Python for every stage;
   truncated at the method's degree, or classical RK on the embedded equations;
 * the projection is one Newton–Schulz step ``R ← R(3I − RᵀR)/2`` toward the polar factor,
   which for ``‖RᵀR − I‖ ~ 1e-16`` is the polar factor to round-off;
-* bodies of an ensemble run in parallel threads (``prange``).
+* bodies of an ensemble run in parallel threads (``prange``); a single body, or fewer bodies
+  than threads, runs serially in the calling thread.
 
 ``lieint.integrate`` dispatches here automatically (``backend="auto"``) and the generic numpy
 path remains the reference: ``tests/test_fast.py`` checks that they agree to round-off.
@@ -21,6 +22,9 @@ import numpy as np
 from numba import njit, prange
 
 __all__ = ["integrate_top3"]
+
+# (2π)²: the dexp⁻¹ series of so(3) converges for |u| < 2π (the spectral radius of ad_u is |u|)
+_RADIUS2 = (2.0 * np.pi) ** 2
 
 
 @njit(cache=True, inline="always")
@@ -53,7 +57,10 @@ def _rodrigues(u, Q):
 
 @njit(cache=True)
 def _lie_step(pi, R, Iinv, A, b, h, coeffs, K, u, Q, tmp_pi, tmp_R):
-    """One RKMK step (right action, exp coordinates) in place on pi (3,) and R (3, 3)."""
+    """One RKMK step (right action, exp coordinates) in place on pi (3,) and R (3, 3).
+
+    Returns False, leaving pi and R as they were, when a stage increment ``u`` reaches the
+    radius of the dexp⁻¹ series (``|u| ≥ 2π`` on so(3)): the same exact test as the generic path."""
     s = b.shape[0]
     degree = coeffs.shape[0] - 1
     for i in range(s):
@@ -71,6 +78,8 @@ def _lie_step(pi, R, Iinv, A, b, h, coeffs, K, u, Q, tmp_pi, tmp_R):
             K[i, 1] = Iinv[1] * pi[1]
             K[i, 2] = Iinv[2] * pi[2]
             continue
+        if u[0] * u[0] + u[1] * u[1] + u[2] * u[2] >= _RADIUS2:
+            return False
         _rodrigues(u, Q)
         # Π_i = Qᵀ Π, ξ = I⁻¹ Π_i
         x0 = Iinv[0] * (Q[0, 0] * pi[0] + Q[1, 0] * pi[1] + Q[2, 0] * pi[2])
@@ -107,6 +116,7 @@ def _lie_step(pi, R, Iinv, A, b, h, coeffs, K, u, Q, tmp_pi, tmp_R):
         pi[r] = tmp_pi[r]
         for c2 in range(3):
             R[r, c2] = tmp_R[r, c2]
+    return True
 
 
 @njit(cache=True)
@@ -164,38 +174,73 @@ def _newton_schulz(R, tmp):
             R[r, c2] = out[r, c2]
 
 
+@njit(cache=True)
+def _run_body(
+    n, pi0, R0, Iinv, A, b, coeffs, lie, h, h_last, k_from, k_to, nsteps, save_steps, project, out_pi, out_R, fin_pi, fin_R
+):
+    """Steps k_from < k ≤ k_to of body n on the global grid (the last global step has size
+    h_last); states after the steps listed in save_steps go to out_*, the state after k_to to
+    fin_*. Returns -1, or the step k at which a stage left the dexp⁻¹ radius (the run stops)."""
+    s = b.shape[0]
+    pi = pi0[n].copy()
+    R = R0[n].copy()
+    K = np.zeros((s, 3))
+    KR = np.zeros((s, 3, 3))
+    u = np.zeros(3)
+    Q = np.zeros((3, 3))
+    tpi = np.zeros(3)
+    tR = np.zeros((3, 3))
+    slot = 0
+    status = -1
+    for k in range(k_from, k_to):
+        hk = h if k < nsteps - 1 else h_last
+        if lie:
+            if not _lie_step(pi, R, Iinv, A, b, hk, coeffs, K, u, Q, tpi, tR):
+                status = k
+                break
+        else:
+            _classical_step(pi, R, Iinv, A, b, hk, K, KR, tpi, tR)
+        if project:
+            _newton_schulz(R, Q)
+        if slot < save_steps.shape[0] and save_steps[slot] == k + 1:
+            out_pi[slot, n] = pi
+            out_R[slot, n] = R
+            slot += 1
+    fin_pi[n] = pi
+    fin_R[n] = R
+    return status
+
+
 @njit(cache=True, parallel=True)
-def _run(
+def _run_parallel(
     pi0, R0, Iinv, A, b, coeffs, lie, h, h_last, k_from, k_to, nsteps, save_steps, project, out_pi, out_R, fin_pi, fin_R
 ):
-    """Steps k_from < k ≤ k_to of the global grid (the last global step has size h_last);
-    states after the steps listed in save_steps go to out_*, the state after k_to to fin_*."""
+    """Bodies in parallel threads (``prange``); per-body status as :func:`_run_body`."""
     nb = pi0.shape[0]
-    s = b.shape[0]
+    status = np.empty(nb, dtype=np.int64)
     for n in prange(nb):
-        pi = pi0[n].copy()
-        R = R0[n].copy()
-        K = np.zeros((s, 3))
-        KR = np.zeros((s, 3, 3))
-        u = np.zeros(3)
-        Q = np.zeros((3, 3))
-        tpi = np.zeros(3)
-        tR = np.zeros((3, 3))
-        slot = 0
-        for k in range(k_from, k_to):
-            hk = h if k < nsteps - 1 else h_last
-            if lie:
-                _lie_step(pi, R, Iinv, A, b, hk, coeffs, K, u, Q, tpi, tR)
-            else:
-                _classical_step(pi, R, Iinv, A, b, hk, K, KR, tpi, tR)
-            if project:
-                _newton_schulz(R, Q)
-            if slot < save_steps.shape[0] and save_steps[slot] == k + 1:
-                out_pi[slot, n] = pi
-                out_R[slot, n] = R
-                slot += 1
-        fin_pi[n] = pi
-        fin_R[n] = R
+        status[n] = _run_body(
+            n, pi0, R0, Iinv, A, b, coeffs, lie, h, h_last, k_from, k_to, nsteps, save_steps, project,
+            out_pi, out_R, fin_pi, fin_R,
+        )  # fmt: skip
+    return status
+
+
+@njit(cache=True)
+def _run_serial(
+    pi0, R0, Iinv, A, b, coeffs, lie, h, h_last, k_from, k_to, nsteps, save_steps, project, out_pi, out_R, fin_pi, fin_R
+):
+    """Bodies one after the other in the calling thread: a single trajectory (or fewer bodies
+    than threads) pays no thread start-up or scheduling, which on a busy machine costs
+    milliseconds per call."""
+    nb = pi0.shape[0]
+    status = np.empty(nb, dtype=np.int64)
+    for n in range(nb):
+        status[n] = _run_body(
+            n, pi0, R0, Iinv, A, b, coeffs, lie, h, h_last, k_from, k_to, nsteps, save_steps, project,
+            out_pi, out_R, fin_pi, fin_R,
+        )  # fmt: skip
+    return status
 
 
 def integrate_top3(
@@ -213,17 +258,20 @@ def integrate_top3(
     nsteps,
     save_steps,
     project: bool,
+    parallel: bool = False,
 ):
-    """Run the compiled loop over steps ``k_from < k ≤ k_to``.
+    """Run the compiled loop over steps ``k_from < k ≤ k_to`` (bodies in threads if ``parallel``).
 
     Returns ``(Π, R)`` at the global save steps in that range, shapes ``(m, N, 3)`` and
-    ``(m, N, 3, 3)``, and the final ``(Π, R)``; all in the principal frame.
+    ``(m, N, 3, 3)``, the final ``(Π, R)``, all in the principal frame, and the first step at
+    which a stage left the dexp⁻¹ radius (-1: none).
     """
     save_steps = np.asarray(save_steps, dtype=np.int64)
     m, N = save_steps.size, pi0.shape[0]
     out_pi, out_R = np.empty((m, N, 3)), np.empty((m, N, 3, 3))
     fin_pi, fin_R = np.empty((N, 3)), np.empty((N, 3, 3))
-    _run(
+    run = _run_parallel if parallel else _run_serial
+    status = run(
         np.ascontiguousarray(pi0),
         np.ascontiguousarray(R0),
         1.0 / np.asarray(moments, dtype=float),
@@ -243,4 +291,5 @@ def integrate_top3(
         fin_pi,
         fin_R,
     )
-    return out_pi, out_R, fin_pi, fin_R
+    bad = status[status >= 0]
+    return out_pi, out_R, fin_pi, fin_R, int(bad.min()) if bad.size else -1
