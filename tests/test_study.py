@@ -81,15 +81,36 @@ def _point(scene_name, method, n, t_end=20.0, **scene_changes):
     return row, scene, system, y0
 
 
-def test_a_fallback_to_the_generic_path_is_recorded_and_said():
-    # RKMK6 at h = 1 on the flipping top: beyond the compiled kernel's a-priori dexp⁻¹ bound
+def _kernel_declining_steps_above(monkeypatch, h_max: float) -> None:
+    """A compiled kernel that declines steps above ``h_max`` (the compiled 3D-top kernel itself
+    covers every step now): how the study sees a run the driver sends down the generic path."""
+    import lieint.fast
+
+    kernel_for = lieint.fast.kernel_for
+
+    def declining(system, method, y0, plan):
+        if plan.h > h_max:
+            return None, f"this kernel declines steps above {h_max}"
+        return kernel_for(system, method, y0, plan)
+
+    monkeypatch.setattr(lieint.fast, "kernel_for", declining)
+
+
+def test_a_fallback_to_the_generic_path_is_recorded_and_said(monkeypatch):
+    _kernel_declining_steps_above(monkeypatch, 0.5)
     coarse, _, system, y0 = _point("dzhanibekov", "rkmk6", 100, t_end=100.0)
     fine, *_ = _point("dzhanibekov", "rkmk6", 10000, t_end=100.0)
     direct = lieint.integrate(system, y0, (0.0, 100.0), h=1.0, method="rkmk6", save_every=1)
     assert coarse.backend == direct.stats.backend == "numpy"  # what the driver really ran
-    assert coarse.fallback and "dexp" in coarse.backend_reason
+    assert coarse.fallback and "declines steps above 0.5" in coarse.backend_reason
     assert fine.backend == "numba" and not fine.fallback
     assert coarse.series != fine.series and "fallback" in coarse.series  # separate curves in the figures
+
+
+def test_coarse_rkmk6_steps_stay_compiled():
+    # the compiled kernel checks the dexp⁻¹ radius exactly per stage: no fallback at h = 1
+    coarse, *_ = _point("dzhanibekov", "rkmk6", 100, t_end=100.0)
+    assert coarse.backend == "numba" and not coarse.fallback
 
 
 def test_a_point_whose_run_raises_is_a_failed_row_with_its_reason():
@@ -249,10 +270,11 @@ def test_markdown_output_is_a_table_per_study(capsys, tmp_path):
 def test_a_series_that_starts_on_a_fallback_warms_the_kernel_before_timing_it(monkeypatch):
     from lieint.study import sweep
 
+    _kernel_declining_steps_above(monkeypatch, 1.0)
     calls = []
     warm = sweep._warm_kernel
     monkeypatch.setattr(sweep, "_warm_kernel", lambda *a: calls.append(a[3].method) or warm(*a))
-    # the top's scene step 0.3: the coarsest RKMK6 step (1.2) is beyond the kernel's bound
+    # the top's scene step 0.3: the coarsest RKMK6 step (1.2) is declined by the kernel
     study = run_study(replace(default_scene(), step=0.3), methods=["rkmk6"], repeats=1)
     assert study.rows[0].fallback and study.rows[-1].backend == "numba"
     assert calls == ["rkmk6"]

@@ -85,7 +85,9 @@ def _fix_large(t2, a, b, lanes):
 
 
 @njit(cache=True, fastmath={"contract", "reassoc", "nsz", "arcp"})
-def _lanes_block(blk, pi, q, Iinv, A, b, c, coeffs, h, h_last, k_from, k_to, nsteps, save_steps, project, out_pi, out_q):
+def _lanes_block(
+    blk, pi, q, Iinv, A, b, c, coeffs, h, h_last, k_from, k_to, nsteps, save_steps, project, out_pi, out_q
+):
     """Block ``blk`` of lanes over steps k_from < k ≤ k_to; returns -1 or the step at which a
     stage increment reached the dexp⁻¹ radius ``|u| = 2π`` (the block stops there)."""
     N = pi.shape[1]
@@ -246,7 +248,9 @@ def _lanes_serial(pi, q, Iinv, A, b, c, coeffs, h, h_last, k_from, k_to, nsteps,
     return status
 
 
-def run_lanes(pi, q, Iinv, A, b, c, coeffs, h, h_last, k_from, k_to, nsteps, save_steps, project, out_pi, out_q, parallel):
+def run_lanes(
+    pi, q, Iinv, A, b, c, coeffs, h, h_last, k_from, k_to, nsteps, save_steps, project, out_pi, out_q, parallel
+):
     """RKMK (exp coordinates) on bodies in lanes. ``pi`` (3, N) and the quaternions ``q`` (4, N)
     are updated in place; states after the listed global save steps go to ``out_pi`` (m, 3, N)
     and ``out_q`` (m, 4, N). Blocks of lanes run in threads when ``parallel``. Returns -1, or

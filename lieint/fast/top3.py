@@ -176,7 +176,25 @@ def _newton_schulz(R, tmp):
 
 @njit(cache=True)
 def _run_body(
-    n, pi0, R0, Iinv, A, b, coeffs, lie, h, h_last, k_from, k_to, nsteps, save_steps, project, out_pi, out_R, fin_pi, fin_R
+    n,
+    pi0,
+    R0,
+    Iinv,
+    A,
+    b,
+    coeffs,
+    lie,
+    h,
+    h_last,
+    k_from,
+    k_to,
+    nsteps,
+    save_steps,
+    project,
+    out_pi,
+    out_R,
+    fin_pi,
+    fin_R,
 ):
     """Steps k_from < k ≤ k_to of body n on the global grid (the last global step has size
     h_last); states after the steps listed in save_steps go to out_*, the state after k_to to
