@@ -71,9 +71,10 @@ def add_compare_parser(sub, scene=None):
     cmp.add_argument(
         "--max-seconds",
         type=_positive_float,
-        default=5.0,
+        default=None,
         metavar="S",
-        help="stop a method's sweep after a point taking more than S CPU seconds per call (listed as skipped)",
+        help="stop a method's sweep after a point taking more than S CPU seconds per call (listed as skipped; "
+        "default: 1 s, with --full 5 s)",
     )
     cmp.add_argument("--full", action="store_true", help="the full sweep (6-8 points per method) and 5 repeats")
     cmp.add_argument("--t-end", type=_positive_float, help="override the scenes' span (T = t_end - t_start)")
@@ -139,7 +140,7 @@ def studies(args):
                 repeats=repeats,
                 threads=args.threads,
                 backend=args.backend,
-                max_seconds=args.max_seconds,
+                max_seconds="auto" if args.max_seconds is None else args.max_seconds,
                 skip_inapplicable=several,  # over several scenes a named method may not apply to all
             ),
         )

@@ -287,7 +287,7 @@ def test_a_series_stops_after_a_point_over_the_time_limit_and_says_so():
     (skip,) = study.metadata["skipped"]
     assert skip["method"] == "rkmk4" and skip["settings"] == ["h=0.02", "h=0.01", "h=0.005"]
     assert "> 1e-09 s" in skip["reason"]
-    with pytest.raises(ValueError, match="`max_seconds` must be a positive number or None; got 0"):
+    with pytest.raises(ValueError, match="`max_seconds` must be a positive number, 'auto' or None; got 0"):
         run_study(replace(default_scene(), t_end=1.0), methods=["rk4"], max_seconds=0)
 
 
@@ -325,3 +325,19 @@ def test_a_method_that_does_not_apply_is_left_out_of_the_default_plan_and_of_stu
     assert "not applicable: balls_only: `method` 'balls_only' steps rolling balls only; got EulerTop." in out
     incline = json.loads((tmp_path / "incline_ball" / "work_precision.json").read_text())
     assert {r["method"] for r in incline["rows"]} == {"balls_only"}
+
+
+def test_the_quick_sweep_stops_slow_series_sooner_and_warms_up_on_part_of_the_span(monkeypatch):
+    from lieint.study import measure
+
+    spans = []
+    real = measure.integrate
+    monkeypatch.setattr(measure, "integrate", lambda *a, **k: spans.append(a[2]) or real(*a, **k))
+    scene = replace(default_scene(), t_end=2.0)
+    quick = run_study(scene, methods=["rk4"], repeats=1)
+    full = run_study(scene, methods=["rk4"], repeats=1, quick=False, max_seconds="auto")
+    assert quick.metadata["max_seconds"] == 1.0 and full.metadata["max_seconds"] == 5.0
+    # one warm-up per series over the first part of the span (at least ten steps), then whole spans
+    short = [s for s in spans if s[1] < 2.0]
+    assert len(short) == 2 and all(0.1 <= s[1] < 2.0 for s in short)
+    assert len(spans) - len(short) == len(quick.rows) + len(full.rows)

@@ -34,12 +34,13 @@ from .machine import machine_info, set_threads
 from .measure import StudyRow, Timing, timed
 from .plan import PlanEntry, Variant, study_plan
 from .reference import Reference, reference_for, state_error
-from .sweep import DEFAULT_THREADS, MAX_SECONDS, Study, prepare, run_study_full
+from .sweep import DEFAULT_THREADS, MAX_SECONDS, QUICK_MAX_SECONDS, Study, prepare, run_study_full
 from .table import as_dict, equal_cost, format_equal_cost, format_rows, write_table
 
 __all__ = [
     "DEFAULT_THREADS",
     "MAX_SECONDS",
+    "QUICK_MAX_SECONDS",
     "PlanEntry",
     "Reference",
     "Study",
@@ -72,7 +73,7 @@ def run_study(
     repeats: int = 3,
     threads: int | None = DEFAULT_THREADS,
     backend: str = "auto",
-    max_seconds: float | None = MAX_SECONDS,
+    max_seconds: float | str | None = "auto",
     skip_inapplicable: bool = False,
     progress=None,
 ) -> Study:
@@ -87,15 +88,17 @@ def run_study(
     quick : bool, default True
         The quick sweep (4 steps or tolerances per method) or the full one.
     repeats : int, default 3
-        Timed calls per point after the warm-up (fewer for points slower than 2 s).
+        Timed calls per point after the warm-up (fewer for slow points, see ``max_seconds``).
     threads : int or None, default 1
         Threads of numba's compiled kernels during the study (None: numba's default); restored
         afterwards.
     backend : {"auto", "numpy"}
         "numpy" runs every fixed-step method on the generic path (same-path comparisons).
-    max_seconds : float or None, default 5
+    max_seconds : float, "auto" or None, default "auto"
         A series (method and variant) stops after a point whose median CPU time per call
-        exceeds this; the points left out are listed in ``metadata["skipped"]`` (None: never).
+        exceeds this; the points left out are listed in ``metadata["skipped"]`` (None: never;
+        "auto": ``QUICK_MAX_SECONDS`` = 1 s in the quick sweep, ``MAX_SECONDS`` = 5 s in the full
+        one). Points slower than 0.5 s (quick) or 2 s (full) are timed once.
     skip_inapplicable : bool, default False
         Leave out named methods that do not apply to this scene's system, listing them with
         their reasons in ``metadata["not_applicable"]``, instead of raising ``ValueError``.

@@ -1,11 +1,13 @@
 """One point of a study: run, time honestly, say which back end ran, measure the error.
 
-Timing: one untimed warm-up call per series (numba compilation or its cache load, scipy's
-first-call imports, caches; its wall time is kept as ``cold_wall`` of the series' first point),
-then ``repeats`` timed calls of the whole :func:`lieint.integrate` call — what a user pays — each
-with the process CPU time (all threads) and the wall time; the row keeps the minimum and the
-median of each. A point whose timed calls exceed ``BUDGET`` seconds stops repeating early (its
-``repeats`` says how many calls were timed).
+Timing: one untimed warm-up call per series — the same call over the first
+``WARM_UP_FRACTION`` of the span: same system, method, step or tolerances, projection and back
+end, so the same compiled code, numba cache loads, scipy first-call imports and caches; its wall
+time is kept as ``cold_wall`` of the series' first point — then ``repeats`` timed calls of the
+whole :func:`lieint.integrate` call — what a user pays — each with the process CPU time (all
+threads) and the wall time; the row keeps the minimum and the median of each. A point whose
+timed calls exceed the budget (``BUDGET`` seconds in the full sweep, ``QUICK_BUDGET`` in the
+quick one) stops repeating early (its ``repeats`` says how many calls were timed).
 
 Back end: the driver reports which loop ran (``Solution.stats.backend``: "numba", "numpy",
 "scipy") and why. A run on the generic numpy path although both the system and the method
@@ -19,6 +21,7 @@ from __future__ import annotations
 
 import statistics
 import time
+import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -33,6 +36,10 @@ __all__ = ["BUDGET", "StudyRow", "Timing", "measure_point", "timed"]
 
 #: seconds of timed calls after which a point stops repeating (slow points are timed fewer times)
 BUDGET = 2.0
+#: the same for the quick sweep (the main job): a point slower than this is timed once
+QUICK_BUDGET = 0.5
+#: the warm-up call covers this fraction of the span (what it warms does not depend on the span)
+WARM_UP_FRACTION = 0.05
 
 
 @dataclass
@@ -47,16 +54,17 @@ class Timing:
     repeats: int
 
 
-def timed(fn, repeats: int, *, warm_up: bool = True, budget: float = BUDGET):
-    """``(Timing, result)``: one untimed warm-up call of ``fn`` (unless ``warm_up`` is False),
-    then ``repeats`` timed calls — fewer when the timed calls so far exceed ``budget`` seconds of
-    wall time (at least one is always timed; ``Timing.repeats`` says how many were)."""
+def timed(fn, repeats: int, *, warm_up: bool = True, budget: float = BUDGET, warm_fn=None):
+    """``(Timing, result)``: one untimed warm-up call (of ``warm_fn``, by default ``fn``; none
+    when ``warm_up`` is False), then ``repeats`` timed calls of ``fn`` — fewer when the timed
+    calls so far exceed ``budget`` seconds of wall time (at least one is always timed;
+    ``Timing.repeats`` says how many were)."""
     if not isinstance(repeats, int) or repeats < 1:
         raise ValueError(f"`repeats` must be a positive integer; got {repeats!r}.")
     cold = float("nan")
     if warm_up:
         w0 = time.perf_counter()
-        fn()
+        (fn if warm_fn is None else warm_fn)()
         cold = time.perf_counter() - w0
     cpus, walls, result = [], [], None
     while len(cpus) < repeats and (not walls or sum(walls) < budget):
@@ -139,12 +147,14 @@ def measure_point(
     repeats: int = 3,
     backend: str = "auto",
     warm_up: bool = True,
+    budget: float = BUDGET,
 ) -> StudyRow:
     """Run and time one point, and measure its error against ``reference``.
 
-    ``warm_up`` runs one untimed call first; the study warms up once per series (the first
-    point of each method and variant), which is what first-call costs (compilation, imports)
-    depend on.
+    ``warm_up`` runs one untimed call first (the same settings over the first
+    ``WARM_UP_FRACTION`` of the span); the study warms up once per series (the first point of
+    each method and variant), which is what first-call costs (compilation, imports) depend on.
+    ``budget``: seconds of timed calls after which the point stops repeating.
     """
     span = (scene.t_start, scene.t_end)
     T = span[1] - span[0]
@@ -153,11 +163,11 @@ def measure_point(
     if entry.kind == "fixed":
         n = int(setting)
 
-        def fn():
+        def run(t1, full=True):
             return integrate(
                 system,
                 y0,
-                span,
+                (span[0], t1),
                 h=T / n,
                 method=entry.method,
                 project=variant.project,
@@ -166,24 +176,24 @@ def measure_point(
             )
     elif method.self_controlled:
 
-        def fn():
+        def run(t1, full=True):
             return integrate(
                 system,
                 y0,
-                span,
+                (span[0], t1),
                 method=entry.method,
                 rtol=setting,
                 atol=setting * ATOL_RATIO,
                 project=variant.project,
-                t_eval=grid,
+                t_eval=grid if full else None,
             )
     else:
 
-        def fn():
+        def run(t1, full=True):
             return integrate(
                 system,
                 y0,
-                span,
+                (span[0], t1),
                 method=entry.method,
                 rtol=setting,
                 atol=setting * ATOL_RATIO,
@@ -191,8 +201,21 @@ def measure_point(
                 save_every=1,
             )
 
+    def fn():
+        return run(span[1])
+
+    def warm_fn():
+        # the same settings over the first part of the span (at least ten steps of a fixed
+        # grid): it warms what the timed calls use; their warnings are the ones that count
+        part = WARM_UP_FRACTION * T
+        if entry.kind == "fixed":
+            part = max(part, 10 * T / int(setting))
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            return run(span[0] + min(T, part), full=False)
+
     try:
-        timing, sol = timed(fn, repeats, warm_up=warm_up)
+        timing, sol = timed(fn, repeats, warm_up=warm_up, budget=budget, warm_fn=warm_fn)
     except (DexpinvRangeError, np.linalg.LinAlgError) as exc:  # the step is too large for this method
         return _failed(scene, entry, variant, setting, T, str(exc))
     stats = sol.stats

@@ -6,7 +6,7 @@ from dataclasses import dataclass, field, replace
 
 from ..scenes import Scene, build_system
 from .machine import machine_info, set_threads
-from .measure import StudyRow, measure_point
+from .measure import BUDGET, QUICK_BUDGET, WARM_UP_FRACTION, StudyRow, measure_point
 from .plan import PlanEntry, study_plan
 from .reference import RESOLVED, Reference, reference_for, state_scale
 
@@ -15,8 +15,11 @@ __all__ = ["Study", "run_study_full"]
 #: numba threads of a study unless asked otherwise: one trajectory has nothing to run in
 #: parallel, and a thread pool's start-up would be timed as the cost of every compiled call
 DEFAULT_THREADS = 1
-#: a series stops once one of its points takes longer than this (CPU seconds per call)
+#: a series stops once one of its points takes longer than this (CPU seconds per call): the
+#: full sweep's limit, and the quick sweep's (the main job ``lieint compare`` is the quick sweep,
+#: and the methods without a compiled kernel cost seconds per call at its finer points)
 MAX_SECONDS = 5.0
+QUICK_MAX_SECONDS = 1.0
 
 
 @dataclass
@@ -97,15 +100,17 @@ def run_study_full(
     repeats: int = 3,
     threads: int | None = DEFAULT_THREADS,
     backend: str = "auto",
-    max_seconds: float | None = MAX_SECONDS,
+    max_seconds: float | str | None = "auto",
     skip_inapplicable: bool = False,
     progress=None,
 ) -> Study:
     """Run the study of ``scene``; see :func:`lieint.study.run_study` for the parameters."""
+    if isinstance(max_seconds, str) and max_seconds == "auto":
+        max_seconds = QUICK_MAX_SECONDS if quick else MAX_SECONDS
     if backend not in ("auto", "numpy"):
         raise ValueError(f"`backend` must be 'auto' or 'numpy'; got {backend!r}.")
     if max_seconds is not None and not (isinstance(max_seconds, int | float) and max_seconds > 0):
-        raise ValueError(f"`max_seconds` must be a positive number or None; got {max_seconds!r}.")
+        raise ValueError(f"`max_seconds` must be a positive number, 'auto' or None; got {max_seconds!r}.")
     ensemble = scene.ensemble
     scene, system, y0 = prepare(scene)
     not_applicable: dict[str, str] = {}
@@ -131,6 +136,7 @@ def run_study_full(
                         repeats=repeats,
                         backend=backend,
                         warm_up=i == 0,
+                        budget=QUICK_BUDGET if quick else BUDGET,
                     )
                     rows.append(row)
                     if progress:
@@ -158,9 +164,11 @@ def run_study_full(
         "repeats": repeats,
         "sweep": "quick" if quick else "full",
         "timing": (
-            "warm: one untimed call per method and variant first (its wall time is cold_wall of the "
-            "series' first point), then up to `repeats` timed calls of lieint.integrate (fewer when "
-            "they exceed 2 s); CPU = process time of all threads, wall = elapsed"
+            "warm: one untimed call per method and variant first, over the first "
+            f"{WARM_UP_FRACTION:g} of the span with the same settings (compilation, caches; its wall time "
+            "is cold_wall of the series' first point), then up to `repeats` timed calls of "
+            f"lieint.integrate over the whole span (fewer when they exceed {QUICK_BUDGET if quick else BUDGET:g} s); "
+            "CPU = process time of all threads, wall = elapsed"
         ),
         "span": [scene.t_start, scene.t_end],
         "scene_step": scene.step,
