@@ -397,9 +397,7 @@ class _FixedLoop:
         return _stopped(
             d,
             carry,
-            Segment(
-                np.array([plan.time(int(s)) for s in saves[:slot]]), {k: v[:slot] for k, v in saved.items()}, failure
-            ),
+            Segment(plan.times(saves[:slot]), {k: v[:slot] for k, v in saved.items()}, failure),
         )
 
 
@@ -444,7 +442,7 @@ class _KernelLoop:
             failure = _nonfinite(done, plan.time(done), f"Reduce the step `h` = {plan.h:g}", after=True)
         carry.nfev += self.kernel.stages * (done - carry.k)
         carry.k, carry.t = done, plan.time(done)
-        return Segment(np.array([plan.time(int(s)) for s in saves]), states, failure)
+        return Segment(plan.times(saves), states, failure)
 
 
 class _AdaptiveLoop:

@@ -180,17 +180,23 @@ def _check_t_eval(t_eval, t0: float, t1: float) -> np.ndarray:
     return t_save
 
 
+#: saved states at which the step is checked against the motion's fastest rotation
+_WARN_SAMPLES = 200
+
+
 def _warn_if_unresolved(system, sol: Solution, h: float) -> None:
     """Warn when ``h ξ`` at the saved states exceeds π in ad spectral radius (see LieStepWarning)."""
     if sol.t.size == 0:
         return
-    picks = np.unique(np.linspace(0, sol.t.size - 1, min(sol.t.size, 200)).astype(int))
+    if sol.t.size <= _WARN_SAMPLES:  # every saved state (views: no copy, no index arithmetic)
+        picks, sampled = range(sol.t.size), sol.states
+    else:
+        picks = np.unique(np.linspace(0, sol.t.size - 1, _WARN_SAMPLES).astype(int))
+        sampled = {k: v[picks] for k, v in sol.states.items()}
     with np.errstate(all="ignore"):
         if getattr(system, "autonomous", False):
             # ξ does not depend on t: one batched evaluation over the sampled states
-            scaled = system.group.lincomb(
-                [h], [system.generator(float(sol.t[0]), {k: v[picks] for k, v in sol.states.items()})]
-            )
+            scaled = system.group.lincomb([h], [system.generator(float(sol.t[0]), sampled)])
             rho = system.group.ad_radius_upper_bound(scaled)
             if np.any(rho >= np.pi):
                 rho = system.group.ad_spectral_radius(scaled)

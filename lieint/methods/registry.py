@@ -117,13 +117,13 @@ def get_method(method="rkmk4", coordinates: str | None = None, **options) -> Met
         return method
     if not isinstance(method, str):
         raise TypeError(f"`method` must be a method name or a method object; got {type(method).__name__}.")
-    specs = method_specs()
-    spec = specs.get(method)
+    _discover()
+    spec = _SPECS.get(method)  # the sorted listing is built only for messages (it costs a sort per call)
     if spec is None:
-        raise ValueError(f"`method`: unknown method {method!r}; valid names are {list(specs)}.")
+        raise ValueError(f"`method`: unknown method {method!r}; valid names are {list(method_specs())}.")
     if coordinates is not None:
         if not spec.coordinates:
-            with_coords = [name for name, s in specs.items() if s.coordinates]
+            with_coords = [name for name, s in method_specs().items() if s.coordinates]
             raise ValueError(
                 f"`coordinates` = {coordinates!r} does not apply to {method!r}, which has no coordinate map; "
                 f"methods with coordinates: {with_coords}."
