@@ -4,13 +4,17 @@ Run: ``python benchmarks/long_time.py`` (10⁶ steps per run: long, tens of minu
 machine; ``--steps 100000`` for a shorter study, ``--quick`` for a smoke run of 10⁴ steps).
 
 For each body — the 3D top (moments 1, 2, 3), the 4D top (``b = 0.5, 0.9, 1.3, 2.0``), the
-3D heavy top — and each method it applies to, one run of N steps saves 2000 states; printed:
+3D heavy top — and each method it applies to, one run of N steps saves every state; printed:
 
-* the relative energy error ``e(t) = max_{s ≤ t} |H(s) − H(0)|/|H(0)|`` at the end and its
-  *growth exponent*: the least-squares slope of ``log e`` against ``log t`` over the last three
-  decades of the run (``t ≥ t_N/1000``). Bounded errors give ≈ 0, a linear drift 1, a
-  random walk of round-off 0.5 — the last is what methods that keep the energy exactly show
-  (their error stays at 1e-13 … 1e-12, far below the others);
+* the relative energy error ``e(t) = max_{s ≤ t} |H(s) − H(0)|/|H(0)|`` (s over every step) at
+  the end and its *growth exponent*: the least-squares slope of ``log e`` against ``log t``
+  over the last three decades of the run (``t ≥ t_N/1000``). Bounded errors give ≈ 0, a linear
+  drift 1, a random walk of round-off 0.5 — the last is what methods that keep the energy
+  exactly show (their error stays at 1e-13 … 1e-12, far below the others). Beside it, the
+  same fit on 2000 evenly spaced states only ("sparse"): the maximum of a bounded oscillation
+  over a sample that grows with t keeps rising as more samples fall near its peaks, so the
+  sparse fit reads a positive exponent from a bounded error — on the chaotic heavy top, whose
+  peaks come at irregular times, splitting2 gives 0.14 sparse against 0.01 every step;
 * the Casimir drift (rotation angles of A, heavy top its Casimirs of se(3)*), and for the
   Moser–Veselov runs in n = 4 and 6 the Manakov integrals;
 * the split comparison of the 3D top (Fassò 2003): ``splitting2`` with each order of the axes;
@@ -30,7 +34,11 @@ import lieint
 
 
 def growth_exponent(t: np.ndarray, err: np.ndarray, decades: float = 3.0) -> float:
-    """Slope of ``log max_{s≤t} err(s)`` against ``log t`` over the last ``decades`` of t."""
+    """Slope of ``log max_{s≤t} err(s)`` against ``log t`` over the last ``decades`` of t.
+
+    The running maximum is over the samples given: pass every step, since on a sparse sample
+    the maximum of a bounded oscillation still climbs as samples accumulate near its peaks.
+    """
     running = np.maximum.accumulate(np.abs(err))
     keep = (t >= t[-1] / 10.0**decades) & (running > 0) & (t > 0)
     return float(np.polyfit(np.log(t[keep]), np.log(running[keep]), 1)[0])
@@ -52,13 +60,18 @@ METHODS = ["rkmk4", "lie_midpoint", "moser_veselov", "splitting2", "splitting4"]
 
 
 def run(system, y0, h, method, steps):
-    save = max(steps // 2000, 1)
+    """One run saving every step (the energy error's maximum is over all of them)."""
     t0 = time.perf_counter()
-    sol = lieint.integrate(system, y0, (0.0, steps * h), h=h, method=method, save_every=save)
+    sol = lieint.integrate(system, y0, (0.0, steps * h), h=h, method=method)
     seconds = time.perf_counter() - t0
     H = system.evaluate_invariants(sol.t, sol.states, ["energy"])["energy"]
     err = (H - H[0]) / abs(H[0])
     return sol, err, seconds
+
+
+def sparse(steps: int) -> slice:
+    """The 2000 evenly spaced states an earlier version of this study saved."""
+    return slice(None, None, max(steps // 2000, 1))
 
 
 def equal_cost():
@@ -97,7 +110,10 @@ def main(argv=None):
         return
     steps = 10_000 if args.quick else args.steps
     print(f"{steps:,} steps per run\n")
-    print(f"{'body':7s} {'method':22s} {'h':>6s} {'energy err':>11s} {'growth':>7s} {'Casimirs':>9s} {'s':>8s}")
+    print(
+        f"{'body':7s} {'method':22s} {'h':>6s} {'energy err':>11s} {'growth':>7s} {'sparse':>7s} "
+        f"{'Casimirs':>9s} {'s':>8s}"
+    )
     for name, (system, y0, h) in bodies().items():
         if args.bodies and name not in args.bodies:
             continue
@@ -108,9 +124,11 @@ def main(argv=None):
                 continue
             sol, err, seconds = run(system, y0, h, method, steps)
             cas = float(np.max(sol.drift("casimirs")))
+            every = sparse(steps)
             line = (
                 f"{name:7s} {method:22s} {h:6.3g} {np.max(np.abs(err)):11.2e} "
-                f"{growth_exponent(sol.t, err):7.2f} {cas:9.1e} {seconds:8.1f}"
+                f"{growth_exponent(sol.t, err):7.2f} {growth_exponent(sol.t[every], err[every]):7.2f} "
+                f"{cas:9.1e} {seconds:8.1f}"
             )
             if "manakov" in system.invariants and method.startswith("moser_veselov"):
                 line += f"   Manakov {float(np.max(sol.drift('manakov'))):.1e}"

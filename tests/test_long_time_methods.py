@@ -197,6 +197,26 @@ def test_splitting_energy_stays_bounded_while_rkmk4_drifts(body, h):
     assert growth_exponent(t4, err4) > 0.8
 
 
+@pytest.mark.slow
+def test_splitting_energy_error_on_the_chaotic_heavy_top_is_bounded_and_of_order_two():
+    # The heavy top of benchmarks/long_time.py (centre of mass off the axis: chaotic). A bounded
+    # error of a symplectic method of order 2 is h²·(a function of the state) (backward error
+    # analysis), with no trend; a drift — of the method or a biased round-off — would shift the
+    # mean of the signed error and raise the maxima of later windows, and round-off would not
+    # scale with h². Every step is sampled (the running maximum of a sparse sample still
+    # climbs).
+    T = 400.0
+    scaled = []
+    for h in (0.04, 0.02):
+        t, err = energy_error(HEAVY, YH, "splitting2", h, round(T / h))
+        first, second = err[t <= T / 2], err[t > T / 2]
+        peak = np.max(np.abs(err))
+        assert np.max(np.abs(second)) < 1.15 * np.max(np.abs(first)), h
+        assert abs(np.mean(second) - np.mean(first)) < 0.05 * peak, h
+        scaled.append(peak / h**2)
+    assert scaled[0] == pytest.approx(scaled[1], rel=0.1), scaled
+
+
 # -- bad input --------------------------------------------------------------------------------
 
 

@@ -22,7 +22,10 @@ the incomplete elliptic integral of the third kind ``Π(ν; φ | m) = ∫₀^φ 
 + (ν/3) s³ R_J(c², d², 1, 1 − ν s²)`` with ``(s, c, d) = (sn r, cn r, dn r)`` from the Landen
 evaluation of :func:`~lieint.systems.euler_top_exact.jacobi_elliptic`, so that ``d² = 1 − m s²``
 and the complementary parameter ``p = 1 − m`` are never formed by cancellation near the
-separatrix. This module is a reference for tests and a building block of the ``exact_flow``
+separatrix. The large parts, ``(G/I₁)t`` and the ``2jΠ(ν|m)`` of the whole half periods, are
+added and reduced modulo 2π from constants carried to ~32 digits
+(:mod:`lieint.systems._phase`): in doubles ψ, of size 10³ over t = 1000, would carry an error
+``|ψ|·ε ≈ 2e-13``. This module is a reference for tests and a building block of the ``exact_flow``
 method.
 """
 
@@ -30,31 +33,40 @@ from __future__ import annotations
 
 import numpy as np
 
-from .euler_top_exact import _setup, energy_momentum_gaps, jacobi_elliptic
+from .euler_top_exact import _setup, elliptic_functions_of_phase, energy_momentum_gaps, jacobi_elliptic
 
 __all__ = ["euler_top_rotation"]
 
 
 def _third_kind(nu: float, u: np.ndarray, p: float) -> np.ndarray:
     """``Π(ν; am u | 1 − p)`` for real u (any size), ν ≤ 0."""
-    from scipy.special import ellipkm1, elliprf, elliprj
+    from scipy.special import ellipkm1
 
     u = np.asarray(u, dtype=float)
     if p == 0.0:  # on the separatrix am is bounded (K = ∞): no reduction
-        j = np.zeros_like(u)
-        r = u
-        complete = 0.0
-    else:
-        K = float(ellipkm1(p))
-        j = np.round(u / (2.0 * K))
-        r = u - 2.0 * K * j
-        complete = float(elliprf(0.0, p, 1.0) + nu / 3.0 * elliprj(0.0, p, 1.0, 1.0 - nu)) if nu != 0.0 else K
+        return _incomplete_third_kind(nu, u, p)
+    K = float(ellipkm1(p))
+    j = np.round(u / (2.0 * K))
+    return 2.0 * j * _complete_third_kind(nu, p) + _incomplete_third_kind(nu, u - 2.0 * K * j, p)
+
+
+def _complete_third_kind(nu: float, p: float) -> float:
+    """``Π(ν | 1 − p) = R_F(0, p, 1) + (ν/3) R_J(0, p, 1, 1 − ν)``."""
+    from scipy.special import elliprf, elliprj
+
+    return float(elliprf(0.0, p, 1.0) + (nu / 3.0 * elliprj(0.0, p, 1.0, 1.0 - nu) if nu != 0.0 else 0.0))
+
+
+def _incomplete_third_kind(nu: float, r: np.ndarray, p: float) -> np.ndarray:
+    """``Π(ν; am r | 1 − p)`` for ``|r| ≤ K``: ``s R_F(c², d², 1) + (ν/3) s³ R_J(c², d², 1, 1 − ν s²)``."""
+    from scipy.special import elliprf, elliprj
+
     s, c, d = jacobi_elliptic(r, p)
     c2, d2 = c * c, d * d
     incomplete = s * elliprf(c2, d2, 1.0)
     if nu != 0.0:
         incomplete = incomplete + nu / 3.0 * s**3 * elliprj(c2, d2, 1.0, 1.0 - nu * s * s)
-    return 2.0 * j * complete + incomplete
+    return incomplete
 
 
 def _frame(Pi: np.ndarray) -> np.ndarray:
@@ -99,15 +111,19 @@ def euler_top_rotation(moments, w0, t) -> np.ndarray:
     wp0 = e.sgn * w0[e.perm]
     Pi0 = np.array([I1, I2, I3]) * wp0
     G = float(np.linalg.norm(Pi0))
-    u = e.u0 + e.lam * t
-    sn, cn, dn = jacobi_elliptic(u, e.p)
-    Pi = np.stack([I1 * a1 * cn, I2 * a2 * sn, I3 * a3 * dn], axis=-1)
     d1, _, d3 = energy_momentum_gaps((I1, I2, I3), wp0)  # G² − 2E I₁, 2E I₃ − G², exactly rounded
-    psi = (G / I1) * t
+    # u = u₀ + λt = 2jK + r and ψ mod 2π from constants carried to ~32 digits: in doubles the
+    # long phases λt, (G/I₁)t and j·2K·(…) would each carry an error ~ ε·|λt| (MATH.md §11)
+    phase, j, r, sn, cn, dn = elliptic_functions_of_phase(e, moments, w0, t, attitude=d3 != 0.0)
+    Pi = np.stack([I1 * a1 * cn, I2 * a2 * sn, I3 * a3 * dn], axis=-1)
+    rest = np.zeros_like(t)
     if d3 != 0.0:  # (both d3 and d1 are negative when the axes are relabelled in descending order)
         nu = -I1 * d3 / (I3 * d1)
-        third = _third_kind(nu, np.concatenate([[e.u0], u]), e.p)
-        psi = psi - G * (I3 - I1) / (I1 * I3 * e.lam) * (third[1:] - third[0])
+        c = G * (I3 - I1) / (I1 * I3 * e.lam)
+        # Π(ν; am u) = 2jΠ(ν|m) + Π(ν; am r): the 2jΠ(ν|m) part is κj, reduced in reduce_psi
+        in_period = _incomplete_third_kind(nu, r, e.p)
+        rest = -c * (in_period - _third_kind(nu, np.array([e.u0]), e.p)[0])
+    psi = phase.reduce_psi(t, j, rest)
     c, s = np.cos(psi), np.sin(psi)
     Rz = np.zeros((t.size, 3, 3))
     Rz[:, 0, 0] = Rz[:, 1, 1] = c

@@ -138,6 +138,27 @@ def _setup(moments, w0) -> _Elliptic | None:
     return _Elliptic(perm, sgn, (float(a1), float(a2), float(a3)), u0, float(lam), p)
 
 
+def elliptic_functions_of_phase(e: _Elliptic, moments, w0, t: np.ndarray, attitude: bool = False):
+    """``(phase, j, r, sn, cn, dn)`` of ``u = u₀ + λt = 2jK + r`` from the reduced phase r.
+
+    ``r`` (``|r| ≤ K``) is formed from λ and 2K known to ~32 digits with error-free products
+    and sums (:mod:`lieint.systems._phase`): in double precision ``u`` itself would carry
+    ``|λt|·ε`` (≈ 1e-13 over t = 1000), an error growing with t. Then
+    ``sn u = (−1)^j sn r``, ``cn u = (−1)^j cn r``, ``dn u = dn r`` (the half period 2K
+    flips sn and cn). ``phase`` is the :class:`~lieint.systems._phase.LongPhase` (with κ
+    when ``attitude``), for the precession angle.
+    """
+    from ._phase import long_phase
+
+    I = np.asarray(moments, dtype=float)[e.perm]
+    w = e.sgn * np.asarray(w0, dtype=float)[e.perm]
+    phase = long_phase(I, w, e.lam, attitude)
+    j, r = phase.reduce_u(e.u0, t)
+    sn, cn, dn = jacobi_elliptic(r, e.p)
+    sign = 1.0 - 2.0 * np.mod(j, 2.0)
+    return phase, j, r, sign * sn, sign * cn, dn
+
+
 def euler_top_angular_velocity(moments, w0, t) -> np.ndarray:
     """Body angular velocity ``w(t)`` of the free 3D top in its principal frame.
 
@@ -159,7 +180,7 @@ def euler_top_angular_velocity(moments, w0, t) -> np.ndarray:
     e = _setup(moments, w0)
     if e is None:
         return np.broadcast_to(np.asarray(w0, dtype=float), (t.size, 3)).copy()
-    sn, cn, dn = jacobi_elliptic(e.u0 + e.lam * t, e.p)
+    sn, cn, dn = elliptic_functions_of_phase(e, moments, w0, t)[3:]
     a1, a2, a3 = e.a
     wp = np.stack([a1 * cn, a2 * sn, a3 * dn], axis=-1)
     out = np.empty_like(wp)
