@@ -89,48 +89,96 @@ class Plan:
 
 @dataclass(frozen=True)
 class StepSizeController:
-    """Integral (I) step-size control on an embedded error estimate.
+    """Integral (I) step-size control on an embedded error estimate — scipy's ``RungeKutta``
+    controller, constant for constant.
 
-    A step with error norm ``err > 1`` is rejected and retried with a smaller step; an accepted
-    one proposes ``h·min(factor_max, max(factor_min, safety·err^{−1/(q+1)}))`` with q the order of
-    the error estimate.
+    The error of a step ``y₀ → y₁`` is measured on the state the user integrates, every field
+    (the body momentum A *and* the attitude R of a top), componentwise against the tolerances::
+
+        err = RMS_i( e_i / (atol + rtol·max(|y₀,i|, |y₁,i|)) ),        e = y₁ − ŷ₁,
+
+    the RMS over all components of all fields (scipy's ``_estimate_error_norm`` on the vector
+    it integrates). DOP853's 8(5,3) pair combines its two estimates e₅, e₃ (each scaled as
+    above, ‖·‖ the RMS norm) as ``err = ‖e₅‖² / √(‖e₅‖² + 0.01‖e₃‖²)``.
+
+    A step with ``err ≥ 1`` is rejected and retried with ``h·max(factor_min, safety·err^{−1/(q+1)})``;
+    an accepted one proposes ``h·min(factor_max, safety·err^{−1/(q+1)})``, capped at ``h`` right
+    after a rejection, with q the order of the error estimate (2, 4 and 7 for the 3(2), 5(4) and
+    8(5,3) pairs, scipy's ``error_estimator_order``). The order-p solution is propagated (local
+    extrapolation). The first trial step is scipy's (Hairer's) :meth:`initial_step`.
 
     Parameters
     ----------
     rtol, atol : float
         Relative and absolute tolerances on every state component.
     safety, factor_min, factor_max : float
-        The usual safeguards.
+        scipy's safeguards (0.9, 0.2, 10).
     """
 
     rtol: float
     atol: float
     safety: float = 0.9
     factor_min: float = 0.2
-    factor_max: float = 5.0
+    factor_max: float = 10.0
 
-    def error_norm(self, y0: dict, y1: dict, error: dict) -> float:
-        """RMS over every state component of ``|e| / (atol + rtol·max(|y₀|, |y₁|))``."""
+    def _scaled(self, y0: dict, y1: dict, error: dict) -> tuple[float, int]:
+        """``Σ_i (e_i/sc_i)²`` and the number of components."""
         total, count = 0.0, 0
         for name, e in error.items():
             scale = self.atol + self.rtol * np.maximum(np.abs(y0[name]), np.abs(y1[name]))
             r = e / scale
             total += float(np.sum(r * r))
             count += r.size
-        return float(np.sqrt(total / max(count, 1)))
+        return total, max(count, 1)
 
-    def initial_step(self, system, t0: float, y0: dict, t1: float) -> float:
-        """A first trial step ``0.01‖y₀‖/‖ẏ₀‖`` (the controller corrects it at once)."""
-        f = system.vector_field(t0, y0)
-        d0 = math.sqrt(sum(float(np.sum(v * v)) for v in y0.values()))
-        d1 = math.sqrt(sum(float(np.sum(v * v)) for v in f.values()))
-        h = 0.01 * d0 / d1 if d1 > 0 and d0 > 0 else 1e-6 * max(1.0, abs(t1 - t0))
-        return min(h, t1 - t0) if math.isfinite(h) else 1e-6 * max(1.0, abs(t1 - t0))
+    def error_norm(self, y0: dict, y1: dict, error) -> float:
+        """RMS over every state component of ``|e| / (atol + rtol·max(|y₀|, |y₁|))``; for a pair
+        ``(e₅, e₃)`` (DOP853) ``‖e₅‖² / √(‖e₅‖² + 0.01‖e₃‖²)`` in that norm."""
+        if isinstance(error, tuple):
+            s5, n = self._scaled(y0, y1, error[0])
+            s3, _ = self._scaled(y0, y1, error[1])
+            if s5 == 0.0 and s3 == 0.0:
+                return 0.0
+            # scipy: |h|·‖E5 K/sc‖² / √((‖E5 K/sc‖² + 0.01‖E3 K/sc‖²)·N), with e = h·E K
+            return float(s5 / math.sqrt((s5 + 0.01 * s3) * n))
+        total, count = self._scaled(y0, y1, error)
+        return float(np.sqrt(total / count))
 
-    def factor(self, err: float, error_order: int) -> float:
-        """The step factor after a step with error norm ``err``."""
+    def initial_step(self, system, t0: float, y0: dict, t1: float, error_order: int) -> float:
+        """scipy's first trial step (Hairer, Nørsett & Wanner, *Solving ODEs I*, §II.4).
+
+        With ``sc = atol + rtol·|y₀|`` and RMS norms ``d₀ = ‖y₀/sc‖``, ``d₁ = ‖f₀/sc‖``
+        (f the vector field of the state): ``h₀ = 0.01 d₀/d₁`` (1e-6 when either is below 1e-5),
+        one explicit Euler step gives ``d₂ = ‖(f(y₀ + h₀f₀) − f₀)/sc‖/h₀``, and the step is
+        ``min(100 h₀, (0.01/max(d₁, d₂))^{1/(q+1)}, t₁ − t₀)``.
+        """
+        span = t1 - t0
+        f0 = system.vector_field(t0, y0)
+
+        def rms(values: dict) -> float:
+            total = sum(float(np.sum((v / (self.atol + self.rtol * np.abs(y0[k]))) ** 2)) for k, v in values.items())
+            return math.sqrt(total / max(sum(np.size(v) for v in values.values()), 1))
+
+        d0, d1 = rms(y0), rms(f0)
+        h0 = 1e-6 if d0 < 1e-5 or d1 < 1e-5 else 0.01 * d0 / d1
+        h0 = min(h0, span)
+        with np.errstate(over="ignore", invalid="ignore"):
+            f1 = system.vector_field(t0 + h0, {k: y0[k] + h0 * f0[k] for k in y0})
+            d2 = rms({k: f1[k] - f0[k] for k in f0}) / h0
+        if not math.isfinite(d2):
+            return h0
+        if d1 <= 1e-15 and d2 <= 1e-15:
+            h1 = max(1e-6, h0 * 1e-3)
+        else:
+            h1 = (0.01 / max(d1, d2)) ** (1.0 / (error_order + 1))
+        return min(100 * h0, h1, span)
+
+    def factor(self, err: float, error_order: int, after_rejection: bool = False) -> float:
+        """The step factor after a step with error norm ``err`` (rejected when ``err ≥ 1``;
+        an accepted step right after a rejection does not grow)."""
         if not math.isfinite(err):
             return self.factor_min
-        if err == 0.0:
-            return self.factor_max
-        return min(self.factor_max, max(self.factor_min, self.safety * err ** (-1.0 / (error_order + 1))))
+        if err >= 1.0:
+            return max(self.factor_min, self.safety * err ** (-1.0 / (error_order + 1)))
+        grow = self.factor_max if err == 0.0 else min(self.factor_max, self.safety * err ** (-1.0 / (error_order + 1)))
+        return min(1.0, grow) if after_rejection else grow

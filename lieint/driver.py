@@ -457,7 +457,7 @@ class _AdaptiveLoop:
 
     def start(self, y0: dict) -> Carry:
         d = self.d
-        h = d.h if d.h is not None else d.controller.initial_step(d.system, d.t0, y0, d.t1)
+        h = d.h if d.h is not None else d.controller.initial_step(d.system, d.t0, y0, d.t1, d.method.error_order)
         return Carry(0, d.t0, dict(y0), min(h, d.t1 - d.t0), d.method.init(d.system, d.t0, y0, h))
 
     def first_row(self, carry: Carry) -> Segment:
@@ -473,6 +473,7 @@ class _AdaptiveLoop:
         t, y, h, mstate = carry.t, carry.state, carry.h, carry.method_state
         times, rows = [], []
         taken, failure = 0, None
+        rejected = False  # the current step was rejected at least once (scipy: no growth then)
         while t < d.t1 and (max_steps is None or taken < max_steps):
             h = min(h, d.t1 - t)
             try:
@@ -482,8 +483,9 @@ class _AdaptiveLoop:
                 err = ctrl.error_norm(y, result.y, result.error)
             except DexpinvRangeError:
                 err = math.inf
-            if not math.isfinite(err) or err > 1.0:
+            if not math.isfinite(err) or err >= 1.0:
                 carry.nrejected += 1
+                rejected = True
                 h *= ctrl.factor(err, q)
                 if h < self.h_min:
                     failure = (
@@ -503,7 +505,8 @@ class _AdaptiveLoop:
             if carry.k % d.save_every == 0 or t == d.t1:
                 times.append(t)
                 rows.append(y)
-            h *= ctrl.factor(err, q)
+            h *= ctrl.factor(err, q, after_rejection=rejected)
+            rejected = False
         carry.t, carry.state, carry.h, carry.method_state = t, y, h, mstate
         return _stopped(d, carry, Segment(np.array(times), _stack(rows, y), failure))
 

@@ -27,7 +27,7 @@ def flips_scene(tmp_path, method, t_end, save_every=20):
     text = FLIPS.replace('method = "rkmk853"', f'method = "{method}"').replace("t_end = 60.0", f"t_end = {t_end}")
     text = text.replace("step = 0.01", "step = 0.02").replace("save_every = 20", f"save_every = {save_every}")
     if not method_specs()[method].adaptive:
-        text = text.replace("rtol = 1e-12\natol = 1e-15\n", "")
+        text = text.replace("rtol = 1e-13\natol = 1e-16\n", "")
     path = tmp_path / f"flips-{method.replace(':', '_')}.toml"
     path.write_text(text)
     return path

@@ -40,8 +40,9 @@ class StepResult:
     ----------
     y : dict
         The state after the step (before any projection by the driver).
-    error : dict or None
-        Local error estimate per field (``y₁ − ŷ₁`` of an embedded pair), or None.
+    error : dict, tuple of two dicts, or None
+        Local error estimate per field (``y₁ − ŷ₁`` of an embedded pair), or None; a pair
+        ``(y₁ − ŷ₅, y₁ − ŷ₃)`` for DOP853's combined estimate (:mod:`lieint.control`).
     nfev : int
         Generator / vector-field evaluations spent (one evaluation moves a whole batch).
     state : Any
@@ -54,7 +55,7 @@ class StepResult:
     """
 
     y: dict
-    error: dict | None
+    error: dict | tuple[dict, dict] | None
     nfev: int
     state: Any = None
     h: float | None = None

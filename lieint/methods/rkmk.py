@@ -14,9 +14,12 @@ or exact) or ``φ = cay`` (``dcay⁻¹`` is exact). Because the new state is the
 a group element, every invariant of the action (spectrum of A, |Γ|, …) is kept to round-off.
 
 With an embedded pair (weights b̂ of order q < p) the step also returns the error estimate
-``y₁ − ŷ₁``, ``ŷ₁ = ρ(φ(h Σ_j b̂_j k_j), y₀)``, measured **on the state**; a step-size controller
-(:mod:`lieint.control`) turns it into accepted and rejected steps. The order-p solution is
-propagated, so dexp⁻¹ is truncated at degree p − 2.
+``y₁ − ŷ₁``, ``ŷ₁ = ρ(φ(h Σ_j b̂_j k_j), y₀)``, measured **on the state** (every field, A and R
+alike, as scipy measures its pairs on the vector it integrates); the 8(5,3) pair returns its two
+estimates (b̂₅ and b̂₃) for DOP853's combination. A step-size controller
+(:mod:`lieint.control`) turns them into accepted and rejected steps. The order-p solution is
+propagated (local extrapolation, as in Dormand–Prince and scipy), so dexp⁻¹ is truncated at
+degree p − 2.
 """
 
 from __future__ import annotations
@@ -107,7 +110,8 @@ class RKMK(Method):
 
     @property
     def error_order(self) -> int | None:
-        return self.tableau.embedded_order if isinstance(self.tableau, EmbeddedPair) else None
+        """q of the controller's exponent ``1/(q + 1)`` (:attr:`EmbeddedPair.error_order`)."""
+        return self.tableau.error_order if isinstance(self.tableau, EmbeddedPair) else None
 
     @property
     def stages(self) -> int:
@@ -125,11 +129,19 @@ class RKMK(Method):
         y1 = system.act(g, y)
         error = None
         if isinstance(self.tableau, EmbeddedPair):
-            y_hat = system.act(coordinate_map(group, self.coordinates, _combine(group, self.tableau.b_hat, ks, h)), y)
-            error = {name: y1[name] - y_hat[name] for name in y1}
+            error = self._difference(system, y, y1, self.tableau.b_hat, ks, h)
+            if self.tableau.b_hat_low is not None:
+                # DOP853's second estimate; the controller combines the two (lieint.control)
+                error = (error, self._difference(system, y, y1, self.tableau.b_hat_low, ks, h))
         # dense output interpolates in exponential coordinates (a Cayley step's element is logged)
         increment = Increment(u=u, data=(ks, h)) if self.coordinates == "exp" else Increment(g=g, data=(ks, h))
         return StepResult(y1, error, self.stages, None, dense=increment)
+
+    def _difference(self, system, y: dict, y1: dict, weights, ks: list, h: float) -> dict:
+        """``y₁ − ŷ`` per field, ``ŷ = ρ(φ(h Σ_j b̂_j k_j), y₀)``: an embedded solution's error
+        estimate, measured on the state (the quantity the user's tolerances are about)."""
+        y_hat = system.act(coordinate_map(system.group, self.coordinates, _combine(system.group, weights, ks, h)), y)
+        return {name: y1[name] - y_hat[name] for name in y1}
 
     def compiled(self):
         """RKMK in exponential coordinates with a truncated dexp⁻¹ has compiled kernels."""

@@ -92,11 +92,21 @@ class EmbeddedPair:
         Embedded weights.
     embedded_order : int
         q, the order of ``b_hat``.
+    b_hat_low : array_like, shape (s,), optional
+        A second, lower-order embedded solution (DOP853's order-3 weights ``b̂₃``). With it the
+        two estimates ``e = y₁ − ŷ₁`` and ``e₃ = y₁ − ŷ₃`` are combined as in DOP853 (Hairer,
+        Nørsett & Wanner, *Solving ODEs I*, §II.10, and scipy's ``DOP853``):
+        ``err = ‖e‖² / √(‖e‖² + 0.01‖e₃‖²)``, which behaves like ``O(h^p)`` for small h, so the
+        controller's exponent is ``1/p`` (:attr:`error_order` = p − 1).
+    low_order : int, optional
+        The order of ``b_hat_low`` (required with it).
     """
 
     tableau: ButcherTableau
     b_hat: np.ndarray
     embedded_order: int
+    b_hat_low: np.ndarray | None = None
+    low_order: int | None = None
 
     def __post_init__(self):
         b_hat = np.asarray(self.b_hat, dtype=float)
@@ -114,6 +124,23 @@ class EmbeddedPair:
                 )
         b_hat.setflags(write=False)
         object.__setattr__(self, "b_hat", b_hat)
+        if (self.b_hat_low is None) != (self.low_order is None):
+            raise ValueError("`b_hat_low` and `low_order` go together.")
+        if self.b_hat_low is not None:
+            low = np.asarray(self.b_hat_low, dtype=float)
+            if low.shape != b_hat.shape or not 1 <= self.low_order < self.embedded_order:
+                raise ValueError(
+                    f"`b_hat_low` must have {self.tableau.stages} weights of an order between 1 and "
+                    f"{self.embedded_order - 1}; got shape {low.shape}, order {self.low_order!r}."
+                )
+            for tree, residual in order_residuals(self.tableau.A, low, self.low_order):
+                if abs(residual) > 1e-12:
+                    raise ValueError(
+                        f"low-order weights of {self.tableau.name!r} fail the order-{self.low_order} "
+                        f"condition for the tree {tree_string(tree)} by {residual:.3g}"
+                    )
+            low.setflags(write=False)
+            object.__setattr__(self, "b_hat_low", low)
 
     @property
     def order(self) -> int:
@@ -122,6 +149,13 @@ class EmbeddedPair:
     @property
     def stages(self) -> int:
         return self.tableau.stages
+
+    @property
+    def error_order(self) -> int:
+        """The order q of the error estimate in the controller's exponent ``1/(q + 1)``: the
+        embedded order, or p − 1 when DOP853's combined estimate is used (scipy's
+        ``error_estimator_order`` of ``DOP853`` is 7)."""
+        return self.embedded_order if self.b_hat_low is None else self.order - 1
 
     def __repr__(self) -> str:
         return f"EmbeddedPair({self.tableau.name!r}, order={self.order}({self.embedded_order}))"

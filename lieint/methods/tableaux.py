@@ -78,13 +78,16 @@ BUTCHER6 = ButcherTableau(
 TABLEAUX = {t.name: t for t in (EULER, HEUN, KUTTA3, RK4, BUTCHER6)}
 
 
-def _fsal_pair(name: str, A, b, c, b_hat, order: int, embedded_order: int) -> EmbeddedPair:
-    """Append the FSAL stage (row = b, node 1) to an s-stage tableau and pair it with b̂."""
+def _fsal_pair(
+    name: str, A, b, c, b_hat, order: int, embedded_order: int, b_hat_low=None, low_order=None
+) -> EmbeddedPair:
+    """Append the FSAL stage (row = b, node 1) to an s-stage tableau and pair it with b̂ (and b̂₃)."""
     A = [list(map(float, row)) for row in A]
     s = len(b)
     rows = [row + [0.0] * (s + 1 - len(row)) for row in A] + [list(map(float, b)) + [0.0]]
     tab = ButcherTableau(name, A=rows, b=[*map(float, b), 0.0], c=[*map(float, c), 1.0], order=order)
-    return EmbeddedPair(tab, [*map(float, b_hat)], embedded_order)
+    low = None if b_hat_low is None else [*map(float, b_hat_low)]
+    return EmbeddedPair(tab, [*map(float, b_hat)], embedded_order, low, low_order)
 
 
 #: Bogacki & Shampine's 3(2) pair (Appl. Math. Lett. 2 (1989) 321–325): 3 stages + FSAL.
@@ -122,11 +125,12 @@ def _dop853() -> EmbeddedPair:
     A = [[dop853.A_ROWS.get(i, {}).get(j, 0.0) for j in range(s)] for i in range(s)]
     b = [dop853.A_ROWS[s].get(j, 0.0) for j in range(s)]
     b_hat = [b[j] + dop853.E5.get(j, 0.0) for j in range(s)] + [0.0]
-    return _fsal_pair("Dormand-Prince 8(5)", A, b, dop853.C[:s], b_hat, order=8, embedded_order=5)
+    b3 = [dop853.B3_HAT.get(j, 0.0) for j in range(s)] + [0.0]
+    return _fsal_pair("Dormand-Prince 8(5)", A, b, dop853.C[:s], b_hat, 8, 5, b_hat_low=b3, low_order=3)
 
 
-#: Dormand & Prince's 8(5) pair of DOP853 (Hairer, Nørsett & Wanner, *Solving ODEs I*, §II.10):
-#: 12 stages + FSAL, with the 5th-order estimator (the 3rd-order one is ``dop853.B3_HAT``).
+#: Dormand & Prince's 8(5,3) pair of DOP853 (Hairer, Nørsett & Wanner, *Solving ODEs I*, §II.10):
+#: 12 stages + FSAL, with the 5th- and 3rd-order estimators combined as DOP853 does.
 DORMAND_PRINCE853 = _dop853()
 
 #: name → embedded pair, for tests that run over every pair.
