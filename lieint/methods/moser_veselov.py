@@ -208,11 +208,11 @@ class MoserVeselov(Method):
 
     Examples
     --------
-    >>> import lieint
+    >>> import numpy as np, lieint
     >>> top = lieint.EulerTop.from_principal_moments([1.0, 2.0, 3.0])
     >>> y0 = top.initial_state(angular_velocity=[0.3, 1.0, 0.4])
     >>> sol = lieint.integrate(top, y0, (0.0, 10.0), h=0.1, method="moser_veselov")
-    >>> bool(sol.drift("energy").max() < 1e-13)
+    >>> bool(np.max(sol.drift("energy")) < 1e-13)
     True
     """
 
