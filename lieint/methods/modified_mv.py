@@ -28,7 +28,7 @@ import numpy as np
 
 from ..groups.bivectors import vee
 from .base import Method, MethodSpec, StepResult
-from .moser_veselov import moser_veselov_increment, require_free_top
+from .moser_veselov import act_near_identity, moser_veselov_generator, require_free_top
 from .registry import register
 
 __all__ = ["ModifiedMoserVeselov", "modified_coefficients", "modified_moments"]
@@ -137,15 +137,16 @@ class ModifiedMoserVeselov(Method):
         P, moments = inertia.P, inertia.principal_moments
         A = y["A"]
         flat = A.reshape(-1, 3, 3)
-        omegas, nfev = [], 0
+        generators, nfev = [], 0
         for Ai in flat:
             Pi = -vee(P.T @ Ai @ P)  # A = −Π̂ in the principal frame
             Im = modified_moments(moments, Pi, h, (self.order - 2) // 2)
             b = (Im.sum() - 2.0 * Im) / 2.0
-            omega, iterations = moser_veselov_increment(InertiaOperator(P @ np.diag(b) @ P.T), Ai, h)
-            omegas.append(omega)
+            # the step from K = ω − I, as moser_veselov: keeps the energy error a random walk
+            K, iterations = moser_veselov_generator(InertiaOperator(P @ np.diag(b) @ P.T), Ai, h)
+            generators.append(K)
             nfev += iterations
-        return StepResult(system.act(np.stack(omegas).reshape(A.shape), y), None, nfev, None)
+        return StepResult(act_near_identity(system, np.stack(generators).reshape(A.shape), y), None, nfev, None)
 
 
 def _build(order: int, coordinates: str | None = None) -> ModifiedMoserVeselov:

@@ -18,6 +18,19 @@ bivector coordinates (a ``d × d`` system, ``d = n(n − 1)/2``), from the first
 (``‖δX‖ ≤ 4ε‖X‖``) or stops decreasing once below ``1e-10‖X‖``; it converges quadratically
 (3 iterations for ``h‖Ω‖ ≈ 0.05``) and raises ``RuntimeError`` when the residual is not at
 round-off after 40.
+
+Round-off. The step is computed from ``K = ω − I = cay(X) − I = (I − X/2)⁻¹ X`` and never
+forms ``ω`` itself: the equation is ``h A_k = B Kᵀ − K B`` and the update
+``A_{k+1} = A_k + (P − Pᵀ + Kᵀ P)``, ``P = A_k K``, ``R_{k+1} = R_k + R_k K``
+(:meth:`lieint.EulerTop.act_near_identity`). Rounding ``ω``'s diagonal ``1 − O(h²)`` to
+doubles costs an error of ε/2 in it, and the step keeps some combinations of that diagonal
+exactly (``tr(Bω)``; for a flat body, ``b₃ = 0``, the entry ``ω₃₃`` itself): their rounding
+error is then the same at every step, a non-orthogonality of ω of fixed sign over hundreds
+of steps that moves the energy by up to 1e-16 a step in one direction. ``K`` carries its
+small diagonal to relative precision, so its defect ``K + Kᵀ + KᵀK`` is of order ε‖K‖
+and the energy error is a random walk (3D top with moments 1, 2, 3, h = 0.05: the energy
+error from the defect falls from 2e-16 to 3e-18 a step, its persistent part from 3e-17 to
+1e-19).
 """
 
 from __future__ import annotations
@@ -30,7 +43,14 @@ import numpy as np
 from .base import Method, MethodSpec, StepResult
 from .registry import AUTO, register
 
-__all__ = ["MoserVeselov", "MoserVeselovComposition", "moser_veselov_increment", "require_free_top"]
+__all__ = [
+    "MoserVeselov",
+    "MoserVeselovComposition",
+    "act_near_identity",
+    "moser_veselov_generator",
+    "moser_veselov_increment",
+    "require_free_top",
+]
 
 _EPS = np.finfo(float).eps
 _MAX_NEWTON = 40
@@ -46,11 +66,14 @@ def require_free_top(method_name: str, system) -> None:
         )
 
 
-def _cay(X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``cay(X) = (I − X/2)⁻¹(I + X/2)`` and ``W = (I − X/2)⁻¹``."""
-    eye = np.eye(X.shape[-1])
-    W = np.linalg.inv(eye - 0.5 * X)
-    return W @ (eye + 0.5 * X), W
+def _cay_minus_identity(X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``K = cay(X) − I = (I − X/2)⁻¹ X`` and ``W = (I − X/2)⁻¹``.
+
+    ``cay(X) − I = W(I + X/2) − W(I − X/2) = W X``: computed so, K's small entries keep their
+    relative precision (``cay(X)`` itself would round its diagonal ``1 − O(‖X‖²)`` to ε/2).
+    """
+    W = np.linalg.inv(np.eye(X.shape[-1]) - 0.5 * X)
+    return W @ X, W
 
 
 @cache
@@ -93,7 +116,36 @@ def moser_veselov_increment(inertia, A: np.ndarray, h: float) -> tuple[np.ndarra
     Returns
     -------
     omega : ndarray, shape (..., n, n)
-        The body increment, orthogonal to round-off (a Cayley transform).
+        The body increment ``I + K`` (:func:`moser_veselov_generator`), orthogonal to round-off.
+    iterations : int
+        Newton iterations spent.
+    """
+    K, iterations = moser_veselov_generator(inertia, A, h)
+    return np.eye(A.shape[-1]) + K, iterations
+
+
+def moser_veselov_generator(inertia, A: np.ndarray, h: float) -> tuple[np.ndarray, int]:
+    """``K = ω − I`` for the increment ω of :func:`moser_veselov_increment`, without forming ω.
+
+    Solves ``h A = B Kᵀ − K B`` (the Moser–Veselov equation, since ``B Iᵀ − I B = 0``) for
+    ``K = cay(X) − I = (I − X/2)⁻¹ X``. Applying the step from K
+    (:meth:`lieint.EulerTop.act_near_identity`) keeps K's diagonal, of order ``h²‖Ω‖²``, to
+    relative precision; rounding ``I + K`` would make an error of ε/2 in ω's diagonal that
+    repeats from step to step (see the module docstring) and biases the energy.
+
+    Parameters
+    ----------
+    inertia : InertiaOperator
+        The body's mass tensor B and inertia operator.
+    A : ndarray, shape (..., n, n)
+        Body angular momentum bivectors.
+    h : float
+        The step.
+
+    Returns
+    -------
+    K : ndarray, shape (..., n, n)
+        ``ω − I``; ``K + Kᵀ + KᵀK = 0`` to round-off of ‖K‖.
     iterations : int
         Newton iterations spent.
     """
@@ -111,10 +163,10 @@ def moser_veselov_increment(inertia, A: np.ndarray, h: float) -> tuple[np.ndarra
         try:
             while it < _MAX_NEWTON:
                 it += 1
-                omega, W = _cay(X)
-                F = B @ np.swapaxes(omega, -1, -2) - omega @ B - rhs
-                # d cay_X(E_k) = ½ W E_k (I + cay X); dF = B dωᵀ − dω B
-                domega = 0.5 * W[..., None, :, :] @ E @ (eye + omega)[..., None, :, :]
+                K, W = _cay_minus_identity(X)
+                F = B @ np.swapaxes(K, -1, -2) - K @ B - rhs
+                # d cay_X(E_k) = ½ W E_k (I + cay X) = ½ W E_k (2I + K); dF = B dωᵀ − dω B
+                domega = 0.5 * W[..., None, :, :] @ E @ (2.0 * eye + K)[..., None, :, :]
                 dF = B @ np.swapaxes(domega, -1, -2) - domega @ B  # (..., d, n, n)
                 J = np.swapaxes(_coords(dF), -1, -2)  # (..., d, d): column k = dF(E_k)
                 delta = np.linalg.solve(J, -_coords(F)[..., None])[..., 0]
@@ -127,8 +179,8 @@ def moser_veselov_increment(inertia, A: np.ndarray, h: float) -> tuple[np.ndarra
                 if size <= 4.0 * _EPS * xsize or (size >= last and size <= 1e-10 * xsize):
                     break
                 last = size
-            omega, _ = _cay(X)
-            residual = float(np.max(np.abs(B @ np.swapaxes(omega, -1, -2) - omega @ B - rhs)))
+            K, _ = _cay_minus_identity(X)
+            residual = float(np.max(np.abs(B @ np.swapaxes(K, -1, -2) - K @ B - rhs)))
         except np.linalg.LinAlgError:
             pass
     if not residual <= 1e3 * _EPS * max(scale, float(np.max(np.abs(B)))):
@@ -136,7 +188,15 @@ def moser_veselov_increment(inertia, A: np.ndarray, h: float) -> tuple[np.ndarra
             f"Moser–Veselov step h = {h:g}: Newton did not reach round-off after {it} iterations "
             f"(residual {residual:.3g}); take a smaller `h`."
         )
-    return omega, it
+    return K, it
+
+
+def act_near_identity(system, K: np.ndarray, y: dict) -> dict:
+    """The state moved by the increment ``I + K``: ``system.act_near_identity`` when it has one."""
+    move = getattr(system, "act_near_identity", None)
+    if move is not None:
+        return move(K, y)
+    return system.act(np.eye(K.shape[-1]) + K, y)
 
 
 @dataclass(frozen=True)
@@ -148,11 +208,11 @@ class MoserVeselov(Method):
 
     Examples
     --------
-    >>> import lieint
+    >>> import numpy as np, lieint
     >>> top = lieint.EulerTop.from_principal_moments([1.0, 2.0, 3.0])
     >>> y0 = top.initial_state(angular_velocity=[0.3, 1.0, 0.4])
     >>> sol = lieint.integrate(top, y0, (0.0, 10.0), h=0.1, method="moser_veselov")
-    >>> bool(sol.drift("energy").max() < 1e-13)
+    >>> bool(np.max(sol.drift("energy")) < 1e-13)
     True
     """
 
@@ -165,8 +225,8 @@ class MoserVeselov(Method):
         require_free_top(self.name, system)
 
     def step(self, system, t: float, y: dict, h: float, state=None) -> StepResult:
-        omega, iterations = moser_veselov_increment(system.inertia, y["A"], h)
-        return StepResult(system.act(omega, y), None, iterations, None)
+        K, iterations = moser_veselov_generator(system.inertia, y["A"], h)
+        return StepResult(act_near_identity(system, K, y), None, iterations, None)
 
 
 @dataclass(frozen=True)
@@ -210,8 +270,8 @@ class MoserVeselovComposition(Method):
     def step(self, system, t: float, y: dict, h: float, state=None) -> StepResult:
         nfev = 0
         for c in self.coefficients:
-            omega, iterations = moser_veselov_increment(system.inertia, y["A"], c * h)
-            y, nfev = system.act(omega, y), nfev + iterations
+            K, iterations = moser_veselov_generator(system.inertia, y["A"], c * h)
+            y, nfev = act_near_identity(system, K, y), nfev + iterations
         return StepResult(y, None, nfev, None)
 
 
