@@ -84,6 +84,8 @@ def rotor_exp_of_skew(X: np.ndarray, scale: float = 1.0) -> np.ndarray:
         out[..., 0] = np.cos(theta)
         return out
     if n == 4:
+        if X.ndim == 2:  # one body: straight from the matrix entries, in floats
+            return _exp4_single(ga, X, scale)
         return _exp4(ga, scale * ga.bivector(X))
     theta, u, v = simple_planes(X)
     theta = scale * theta
@@ -106,8 +108,6 @@ def _exp4(ga: GA, B: np.ndarray) -> np.ndarray:
     cosines and sincs depend smoothly on φ±², which carry only round-off relative to |B|².
     """
     bi = B[..., ga.bivector_index]
-    if bi.ndim == 1:  # one body: a dozen scalar operations cost less than numpy's per-call overhead
-        return _exp4_single(ga, bi)
     dual = bi @ ga.dual4  # bivector coefficients of B I
     # |B|² and ⟨B²⟩₄ (B ∧ B on I) in one bilinear form: columns (1, ±1) give φ±² = |B|² ∓ β
     phi2 = (bi * bi) @ ga.ones6_pm
@@ -121,30 +121,40 @@ def _exp4(ga: GA, B: np.ndarray) -> np.ndarray:
     return out
 
 
-def _exp4_single(ga: GA, bi: np.ndarray) -> np.ndarray:
-    """:func:`_exp4` of one bivector (coefficients e12, e13, e14, e23, e24, e34) in scalars."""
-    b12, b13, b14, b23, b24, b34 = (float(x) for x in bi)
-    norm2 = b12 * b12 + b13 * b13 + b14 * b14 + b23 * b23 + b24 * b24 + b34 * b34
-    beta = float(bi @ ga.wedge4 @ bi)
-    out = np.zeros(16)
+def _exp4_single(ga: GA, X: np.ndarray, scale: float) -> np.ndarray:
+    """:func:`_exp4` of the bivector ``scale · ω`` of one skew matrix X, in Python floats.
+
+    For one body numpy's per-call overhead exceeds the few dozen multiplications; the formula
+    is :func:`_exp4`'s, with ``B ∧ B`` and ``B I`` as the term lists of :class:`GA`.
+    """
+    rows = X.tolist()
+    b = [scale * rows[i][j] for i, j in ga.bivector_pair_list]  # e12, e13, e14, e23, e24, e34
+    norm2 = b[0] * b[0] + b[1] * b[1] + b[2] * b[2] + b[3] * b[3] + b[4] * b[4] + b[5] * b[5]
+    beta = 0.0
+    for p, q, coef in ga.wedge4_terms:
+        beta += coef * b[p] * b[q]
     cs = []
     for phi2 in (norm2 - beta, norm2 + beta):
         phi = math.sqrt(phi2) if phi2 > 0.0 else 0.0
         cs.append((math.cos(phi), 0.5 * (math.sin(phi) / phi if phi > 0.0 else 1.0)))
     (cp, sp), (cm, sm) = cs
-    dual = bi @ ga.dual4
+    out = [0.0] * ga.size
     out[0] = 0.5 * (cp + cm)
-    out[15] = 0.5 * (cp - cm)
-    out[ga.bivector_index] = (sp + sm) * bi + (sp - sm) * dual
-    return out
+    out[-1] = 0.5 * (cp - cm)
+    plus, minus = sp + sm, sp - sm
+    for (k, p, sign), index in zip(ga.dual4_terms, ga.bivector_index_list, strict=True):
+        out[index] = plus * b[k] + minus * (sign * b[p])  # (B I)_k = sign · b_p
+    return np.array(out)
 
 
 def so_exp_with_rotor(X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``(exp X, e^{ω/2})``: the rotation and its rotor from one invariant decomposition.
 
     n ≤ 3: with ``s = cos(θ/2)`` and ``K = sin(θ/2) X/θ`` (the rotor is ``s + K``),
-    ``exp X = I + 2sK + 2K²``. n ≥ 4: ``exp X = I + Σ_k sin θ_k (v_k u_kᵀ − u_k v_kᵀ) +
-    (cos θ_k − 1)(u_k u_kᵀ + v_k v_kᵀ)`` over the planes of X.
+    ``exp X = I + 2sK + 2K²``. n = 4: the rotor S in closed form (:func:`_exp4`) and exp X the
+    matrix of ``x ↦ S x S̃``, a quadratic form in S (:meth:`GA.even_rotor_matrix`). n ≥ 5:
+    ``exp X = I + Σ_k sin θ_k (v_k u_kᵀ − u_k v_kᵀ) + (cos θ_k − 1)(u_k u_kᵀ + v_k v_kᵀ)`` over
+    the planes of X.
     """
     X = np.asarray(X, dtype=float)
     n = X.shape[-1]
@@ -154,6 +164,9 @@ def so_exp_with_rotor(X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         S = rotor_exp_of_skew(X, 0.5)
         K = ga.skew(S)
         return eye + 2.0 * S[..., 0, None, None] * K + 2.0 * (K @ K), S
+    if n == 4:  # the rotor in closed form, the rotation its quadratic form (no eigenproblem)
+        S = rotor_exp_of_skew(X, 0.5)
+        return ga.even_rotor_matrix(S), S
     theta, u, v = simple_planes(X)
     s, c1 = np.sin(theta)[..., None, :], (np.cos(theta) - 1.0)[..., None, :]
     Ut, Vt = np.swapaxes(u, -1, -2), np.swapaxes(v, -1, -2)

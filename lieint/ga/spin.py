@@ -125,9 +125,10 @@ class SpinCover(LieGroup):
     # coordinate maps: the base's, with the rotor of the rotation part
     def exp(self, X):
         base = self.base
-        if self.n > 3:  # scipy's expm of a small matrix is cheaper than building Q from the planes
+        if self.n > 4:  # scipy's expm of a small matrix is cheaper than building Q from the planes
             return (base.exp(X), rotor_exp_of_skew(self.rotation_part(X), 0.5))
-        if isinstance(base, SO):  # rotation and rotor from one closed form
+        # n ≤ 4: the rotor in closed form, and the rotation read off it (so_exp_with_rotor)
+        if isinstance(base, SO):
             return so_exp_with_rotor(X)
         if isinstance(base, ProductGroup) and self._so_factor is not None:
             i = self._so_factor
@@ -164,11 +165,13 @@ class SpinCover(LieGroup):
 
 def rotor_matrix(ga: GA, S: np.ndarray) -> np.ndarray:
     """R of rotors, with the closed form ``I + 2sK + 2K²`` (s scalar part, K the skew matrix of
-    the bivector part) for n ≤ 3, where a rotor is ``s + bivector``."""
+    the bivector part) for n ≤ 3, where a rotor is ``s + bivector``; for n ≥ 4 the quadratic
+    form in the even part (:meth:`GA.even_rotor_matrix`). Either way only the grades a rotor
+    has are read."""
     if ga.n <= 3:
         K = ga.skew(S)
         return np.eye(ga.n) + 2.0 * S[..., 0, None, None] * K + 2.0 * (K @ K)
-    return ga.rotor_matrix(S)
+    return ga.even_rotor_matrix(S)
 
 
 class _WithR(dict):
