@@ -101,6 +101,8 @@ class GA:
         """Geometric product of coefficient arrays (broadcast over leading dimensions)."""
         # a row vector times the 2ⁿ × 2ⁿ matrix b_J S per member; matmul carries less per-call
         # overhead than einsum, which matters for one body
+        if a.ndim == 1 and b.ndim == 1:
+            return a @ (b[self._J] * self._S)
         return np.matmul(a[..., None, :], b[..., self._J] * self._S)[..., 0, :]
 
     def reverse(self, a: np.ndarray) -> np.ndarray:

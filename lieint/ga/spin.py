@@ -33,7 +33,7 @@ from ..groups.so import SO
 from ..groups.vector import ProductGroup
 from ..systems.base import Invariant, LieGroupSystem, Output, State
 from .algebra import GA, algebra, matrix_to_rotor, resolve
-from .exponential import rotor_exp_of_skew, simple_planes, so_exp_with_rotor
+from .exponential import _rotation_of_rotor3, rotor_exp_of_skew, simple_planes, so_exp_with_rotor
 
 __all__ = ["RotorForm", "SpinCover", "rotor_cay_of_skew", "rotor_form"]
 
@@ -125,10 +125,9 @@ class SpinCover(LieGroup):
     # coordinate maps: the base's, with the rotor of the rotation part
     def exp(self, X):
         base = self.base
-        if self.n > 4:  # scipy's expm of a small matrix is cheaper than building Q from the planes
+        if self.n > 3:  # scipy's expm of a small matrix is cheaper than building Q from the planes
             return (base.exp(X), rotor_exp_of_skew(self.rotation_part(X), 0.5))
-        # n ≤ 4: the rotor in closed form, and the rotation read off it (so_exp_with_rotor)
-        if isinstance(base, SO):
+        if isinstance(base, SO):  # rotation and rotor from one closed form
             return so_exp_with_rotor(X)
         if isinstance(base, ProductGroup) and self._so_factor is not None:
             i = self._so_factor
@@ -168,6 +167,9 @@ def rotor_matrix(ga: GA, S: np.ndarray) -> np.ndarray:
     the bivector part) for n ≤ 3, where a rotor is ``s + bivector``; for n ≥ 4 the quadratic
     form in the even part (:meth:`GA.even_rotor_matrix`). Either way only the grades a rotor
     has are read."""
+    if ga.n == 3 and S.ndim == 1:  # one body: the same closed form in floats
+        s, _, _, _, k12, k13, k23, _ = S.tolist()
+        return _rotation_of_rotor3(s, k12, k13, k23)
     if ga.n <= 3:
         K = ga.skew(S)
         return np.eye(ga.n) + 2.0 * S[..., 0, None, None] * K + 2.0 * (K @ K)
