@@ -76,6 +76,8 @@ def rotor_exp_of_skew(X: np.ndarray, scale: float = 1.0) -> np.ndarray:
     """
     X = np.asarray(X, dtype=float)
     n = X.shape[-1]
+    if n == 3 and X.ndim == 2:  # one body: the same formula in floats
+        return _so3_rotor_single(X, scale)
     ga = algebra(n)
     if n <= 3:  # every bivector is simple: ω² = −θ² is a scalar
         b = scale * ga.bivector(X)
@@ -84,6 +86,8 @@ def rotor_exp_of_skew(X: np.ndarray, scale: float = 1.0) -> np.ndarray:
         out[..., 0] = np.cos(theta)
         return out
     if n == 4:
+        if X.ndim == 2:  # one body: straight from the matrix entries, in floats
+            return _exp4_single(ga, X, scale)
         return _exp4(ga, scale * ga.bivector(X))
     theta, u, v = simple_planes(X)
     theta = scale * theta
@@ -106,8 +110,6 @@ def _exp4(ga: GA, B: np.ndarray) -> np.ndarray:
     cosines and sincs depend smoothly on φ±², which carry only round-off relative to |B|².
     """
     bi = B[..., ga.bivector_index]
-    if bi.ndim == 1:  # one body: a dozen scalar operations cost less than numpy's per-call overhead
-        return _exp4_single(ga, bi)
     dual = bi @ ga.dual4  # bivector coefficients of B I
     # |B|² and ⟨B²⟩₄ (B ∧ B on I) in one bilinear form: columns (1, ±1) give φ±² = |B|² ∓ β
     phi2 = (bi * bi) @ ga.ones6_pm
@@ -121,21 +123,29 @@ def _exp4(ga: GA, B: np.ndarray) -> np.ndarray:
     return out
 
 
-def _exp4_single(ga: GA, bi: np.ndarray) -> np.ndarray:
-    """:func:`_exp4` of one bivector (coefficients e12, e13, e14, e23, e24, e34) in scalars."""
-    b12, b13, b14, b23, b24, b34 = (float(x) for x in bi)
-    norm2 = b12 * b12 + b13 * b13 + b14 * b14 + b23 * b23 + b24 * b24 + b34 * b34
-    beta = float(bi @ ga.wedge4 @ bi)
-    out = np.zeros(16)
+def _exp4_single(ga: GA, X: np.ndarray, scale: float) -> np.ndarray:
+    """:func:`_exp4` of the bivector ``scale · ω`` of one skew matrix X, in Python floats.
+
+    For one body numpy's per-call overhead exceeds the few dozen multiplications; the formula
+    is :func:`_exp4`'s, with ``B ∧ B`` and ``B I`` as the term lists of :class:`GA`.
+    """
+    rows = X.tolist()
+    b = [scale * rows[i][j] for i, j in ga.bivector_pair_list]  # e12, e13, e14, e23, e24, e34
+    norm2 = b[0] * b[0] + b[1] * b[1] + b[2] * b[2] + b[3] * b[3] + b[4] * b[4] + b[5] * b[5]
+    beta = 0.0
+    for p, q, coef in ga.wedge4_terms:
+        beta += coef * b[p] * b[q]
     cs = []
     for phi2 in (norm2 - beta, norm2 + beta):
         phi = math.sqrt(phi2) if phi2 > 0.0 else 0.0
         cs.append((math.cos(phi), 0.5 * (math.sin(phi) / phi if phi > 0.0 else 1.0)))
     (cp, sp), (cm, sm) = cs
-    dual = bi @ ga.dual4
+    out = np.zeros(ga.size)  # filled item by item: cheaper than np.array of a list here
     out[0] = 0.5 * (cp + cm)
-    out[15] = 0.5 * (cp - cm)
-    out[ga.bivector_index] = (sp + sm) * bi + (sp - sm) * dual
+    out[-1] = 0.5 * (cp - cm)
+    plus, minus = sp + sm, sp - sm
+    for (k, p, sign), index in zip(ga.dual4_terms, ga.bivector_index_list, strict=True):
+        out[index] = plus * b[k] + minus * (sign * b[p])  # (B I)_k = sign · b_p
     return out
 
 
@@ -150,6 +160,8 @@ def so_exp_with_rotor(X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     n = X.shape[-1]
     ga = algebra(n)
     eye = ga.identity_matrix
+    if n == 3 and X.ndim == 2:
+        return _so3_exp_with_rotor_single(X)
     if n <= 3:
         S = rotor_exp_of_skew(X, 0.5)
         K = ga.skew(S)
@@ -165,6 +177,41 @@ def so_exp_with_rotor(X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     for k in range(1, factors.shape[-2]):
         S = ga.product(S, factors[..., k, :])
     return Q, S
+
+
+def _so3_exp_with_rotor_single(X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`so_exp_with_rotor` of one 3 × 3 skew matrix, the same closed form in Python floats.
+
+    The rotor ``s + K`` (``s = cos(θ/2)``, ``K = sinc(θ/2) ω/2`` on e12, e13, e23, clifford's
+    order) and ``exp X = I + 2sK + 2K²`` with K as a skew matrix: some thirty multiplications,
+    fewer than the numpy calls that would carry them for one body.
+    """
+    S = _so3_rotor_single(X, 0.5)
+    s, _, _, _, k12, k13, k23, _ = S.tolist()
+    return _rotation_of_rotor3(s, k12, k13, k23), S
+
+
+def _so3_rotor_single(X: np.ndarray, scale: float) -> np.ndarray:
+    """:func:`rotor_exp_of_skew` of one 3 × 3 skew matrix in floats: ``e^b = cos θ + sinc θ b``
+    for ``b = scale · ω`` (e12, e13, e23), ``θ = |b|``."""
+    (_, x01, x02), (_, _, x12) = X.tolist()[:2]
+    b12, b13, b23 = scale * x01, scale * x02, scale * x12
+    theta = math.sqrt(b12 * b12 + b13 * b13 + b23 * b23)
+    k = math.sin(theta) / theta if theta != 0.0 else 1.0
+    return np.array([math.cos(theta), 0.0, 0.0, 0.0, k * b12, k * b13, k * b23, 0.0])
+
+
+def _rotation_of_rotor3(s: float, k12: float, k13: float, k23: float) -> np.ndarray:
+    """``I + 2sK + 2K²`` for ``K = [[0, k12, k13], [−k12, 0, k23], [−k13, −k23, 0]]`` in floats."""
+    s2, a, b, c = 2.0 * s, 2.0 * k12, 2.0 * k13, 2.0 * k23
+    # 2K² = [[−a k12 − b k13, −b k23, a k23], [−c k13, −a k12 − c k23, −a k13], [c k12, −b k12, −b k13 − c k23]]
+    return np.array(
+        [
+            [1.0 - (a * k12 + b * k13), s2 * k12 - b * k23, s2 * k13 + a * k23],
+            [-s2 * k12 - c * k13, 1.0 - (a * k12 + c * k23), s2 * k23 - a * k13],
+            [-s2 * k13 + c * k12, -s2 * k23 - b * k12, 1.0 - (b * k13 + c * k23)],
+        ]
+    )
 
 
 def exp(B, n: int | None = None):

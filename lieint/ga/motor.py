@@ -50,13 +50,6 @@ from .spin import rotor_matrix
 __all__ = ["MotorGroup", "MotorRigidBody", "springs_array"]
 
 
-def _rotor_only(M: np.ndarray) -> np.ndarray:
-    """The rotation S of motors ``M = T_c S`` (their Euclidean even part)."""
-    S = np.zeros(M.shape)
-    S[..., PGA.ROTOR] = M[..., PGA.ROTOR]
-    return S
-
-
 def _momentum_about_origin(y) -> np.ndarray:
     """The momentum line moved back from the reference point c to the origin: ``T_c P T̃_c``."""
     T = PGA.translator(PGA.translation(y["motor"]))
@@ -75,9 +68,19 @@ class MotorGroup(LieGroup):
         self.dim = 6
         self.name = "motors"
 
-    def bivector(self, X: np.ndarray) -> np.ndarray:
-        """The twist bivector ``B = ω − Σ v_i e0i`` of se(3) matrices."""
-        return PGA.twist_bivector(X[..., :3, :3], X[..., :3, 3])
+    # the entries (0,1), (0,2), (1,2), (0,3), (1,3), (2,3) of a flattened 4 × 4 twist matrix, the
+    # blades e12, e13, e23, e01, e02, e03 they go to, and the signs of B = ω − Σ v_i e0i
+    _TWIST_ENTRIES = np.array([1, 2, 6, 3, 7, 11])
+    _TWIST_BLADES = np.array([PGA.E12, PGA.E13, PGA.E23, PGA.E01, PGA.E02, PGA.E03])
+    _TWIST_SIGNS = np.array([1.0, 1.0, 1.0, -1.0, -1.0, -1.0])
+
+    def bivector(self, X: np.ndarray, scale: float = 1.0) -> np.ndarray:
+        """``scale ·`` the twist bivector ``B = ω − Σ v_i e0i`` of se(3) matrices
+        (:meth:`PGA.twist_bivector <lieint.ga.pga._PGA.twist_bivector>`, in one gather)."""
+        flat = X.reshape(X.shape[:-2] + (16,))
+        out = np.zeros(flat.shape)
+        out[..., self._TWIST_BLADES] = flat[..., self._TWIST_ENTRIES] * (scale * self._TWIST_SIGNS)
+        return out
 
     def identity(self, batch_shape=()):
         M = np.zeros((*batch_shape, 16))
@@ -91,10 +94,10 @@ class MotorGroup(LieGroup):
         return PGA.reverse(g)
 
     def exp(self, X):
-        return PGA.exp(0.5 * self.bivector(X))
+        return PGA.exp(self.bivector(X, 0.5))
 
     def cay(self, X):
-        b = 0.5 * self.bivector(X)
+        b = self.bivector(X, 0.5)
         out = b.copy()
         out[..., 0] = 1.0
         out[..., PGA.E0123] = 0.5 * PGA.product(b, b)[..., PGA.E0123]  # ½ b ∧ b
@@ -246,14 +249,18 @@ class MotorRigidBody(LieGroupSystem):
 
     def body_points(self, M: np.ndarray, x: np.ndarray) -> np.ndarray:
         """Space positions ``M X M̃`` of body points x ``(k, 3)``: shape ``(..., k, 3)``."""
-        X = PGA.point(x)
-        return PGA.point_coordinates(PGA.sandwich(M[..., None, :], X))
+        X = PGA.point(x)[..., PGA.POINT]  # (k, 4)
+        return PGA.point_coordinates_of_trivector(PGA.even_sandwich(M[..., None, PGA.EVEN], X, 3))
+
+    # S̃ on the even blades of a motor M = T_c S: its rotor part, reversed (1, −e12, −e13, −e23)
+    _ROTOR_REVERSED = np.array([1.0, 0.0, 0.0, 0.0, -1.0, -1.0, -1.0, 0.0])
 
     def body_momentum(self, y: State) -> tuple[np.ndarray, np.ndarray]:
         """``(A, p)``: the body angular momentum bivector about the reference point and the body
         linear momentum, from ``S̃ P_c S``."""
-        S = _rotor_only(y["motor"])
-        L, p = PGA.line_parts(PGA.sandwich(PGA.reverse(S), y["momentum"]))
+        S_reversed = y["motor"][..., PGA.EVEN] * self._ROTOR_REVERSED
+        lines = PGA.even_sandwich(S_reversed, y["momentum"][..., PGA.BIVECTOR], 2)
+        L, p = PGA.line_parts_of_bivector(lines)
         return -hat(L), p
 
     def twist(self, y: State) -> tuple[np.ndarray, np.ndarray]:

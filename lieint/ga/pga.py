@@ -26,6 +26,7 @@ The exact projection onto unit motors divides by the dual-number square root of 
 
 from __future__ import annotations
 
+import math
 from functools import cached_property
 
 import numpy as np
@@ -57,6 +58,8 @@ class _PGA:
     EUCLID_BIVECTOR = np.array([8, 9, 10])  # e12, e13, e23: Cl(3)'s blade order
     ROTOR = np.array([0, 8, 9, 10])
     BIVECTOR = np.array([5, 6, 7, 8, 9, 10])
+    POINT = np.array([11, 12, 13, 14])  # e012, e013, e023, e123: the trivectors (points)
+    EVEN = np.array([0, 5, 6, 7, 8, 9, 10, 15])  # the blades a motor lives on
 
     @cached_property
     def layout(self):
@@ -79,9 +82,11 @@ class _PGA:
         return J, S, reverse
 
     def product(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-        """Geometric product of coefficient arrays."""
+        """Geometric product of coefficient arrays (broadcast over leading dimensions)."""
         J, S, _ = self._table
-        return np.einsum("...i,...ik->...k", a, b[..., J] * S)
+        # (ab)_k = Σ_i a_i (b_J S)_ik: a row vector times a 16 × 16 matrix per member; matmul
+        # carries less per-call overhead than einsum, which matters for one body
+        return np.matmul(a[..., None, :], b[..., J] * S)[..., 0, :]
 
     def reverse(self, a: np.ndarray) -> np.ndarray:
         return a * self._table[2]
@@ -89,6 +94,63 @@ class _PGA:
     def sandwich(self, M: np.ndarray, x: np.ndarray) -> np.ndarray:
         """``M x M̃``."""
         return self.product(self.product(M, x), self.reverse(M))
+
+    def even_sandwich(self, m: np.ndarray, x: np.ndarray, grade: int) -> np.ndarray:
+        """The grade-``grade`` part of ``M x M̃`` for even M and x of that grade.
+
+        Parameters
+        ----------
+        m : ndarray, shape (..., 8)
+            The coefficients of M on :attr:`EVEN` (a motor, a rotor, a translator).
+        x : ndarray, shape (..., g)
+            The coefficients of x on the g blades of the grade, in clifford's order (grade 2:
+            :attr:`BIVECTOR`, lines; grade 3: :attr:`POINT`, points).
+        grade : {1, 2, 3}
+
+        Returns
+        -------
+        ndarray, shape (..., g)
+
+        Notes
+        -----
+        ``(M x M̃)_k = Σ_{a,b,c} m_a m_b x_c ⟨e_a e_c ẽ_b⟩_k`` is quadratic in m and linear in x;
+        its table (``8·8·g·g`` numbers) is read off clifford's product once. A motor moves points
+        to points and lines to lines, so only this grade of ``M x M̃`` is formed. Per member this
+        is the ``g × g`` matrix of the sandwich (``m ⊗ m`` times the table) applied to x: a few
+        hundred multiply-adds in three numpy calls, instead of two full products.
+        """
+        blades, table = self._sandwich_table(grade)
+        g = len(blades)
+        mm = (m[..., :, None] * m[..., None, :]).reshape(m.shape[:-1] + (64,))
+        matrix = (mm @ table).reshape(mm.shape[:-1] + (g, g))
+        return np.matmul(x[..., None, :], matrix)[..., 0, :]
+
+    def _sandwich_table(self, grade: int) -> tuple[np.ndarray, np.ndarray]:
+        """The blades of ``grade`` and ``⟨e_a e_c ẽ_b⟩_k`` (a, b in :attr:`EVEN`; c, k those
+        blades), shape ``(64, g·g)``; built once per grade."""
+        cached = self._sandwich_tables.get(grade)
+        if cached is not None:
+            return cached
+        blades = np.flatnonzero(self._grades == grade)
+        g = len(blades)
+        ea = np.zeros((8, 1, 1, 16))
+        ea[np.arange(8), 0, 0, self.EVEN] = 1.0
+        eb = np.zeros((1, 8, 1, 16))
+        eb[0, np.arange(8), 0, self.EVEN] = 1.0
+        ec = np.zeros((1, 1, g, 16))
+        ec[0, 0, np.arange(g), blades] = 1.0
+        full = self.product(self.product(ea, ec), self.reverse(eb))  # (8, 8, g, 16)
+        table = np.ascontiguousarray(full[..., blades].reshape(64, g * g))
+        self._sandwich_tables[grade] = (blades, table)
+        return blades, table
+
+    @cached_property
+    def _sandwich_tables(self) -> dict:
+        return {}
+
+    @cached_property
+    def _grades(self) -> np.ndarray:
+        return np.array([len(t) for t in self.layout.bladeTupList])
 
     def multivectors(self, values: np.ndarray):
         """clifford MultiVector (one) or MVArray (a batch) of coefficient arrays."""
@@ -113,8 +175,14 @@ class _PGA:
 
     def point_coordinates(self, X: np.ndarray) -> np.ndarray:
         """x of point trivectors (divided by their weight)."""
-        w = X[..., self.E123, None]
-        return np.stack([-X[..., self.E023], X[..., self.E013], -X[..., self.E012]], axis=-1) / w
+        return self.point_coordinates_of_trivector(X[..., self.POINT])
+
+    def point_coordinates_of_trivector(self, p: np.ndarray) -> np.ndarray:
+        """x of points given by their coefficients ``(..., 4)`` on :attr:`POINT` (e012, e013,
+        e023, e123): ``x = (−p_e023, p_e013, −p_e012)/p_e123``."""
+        return p[..., 2::-1] * self._POINT_SIGNS / p[..., 3:]
+
+    _POINT_SIGNS = np.array([-1.0, 1.0, -1.0])
 
     @cached_property
     def _line_maps(self):
@@ -155,8 +223,12 @@ class _PGA:
 
     def line_parts(self, P: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``(L, d)`` of lines: moment about the origin and direction."""
+        return self.line_parts_of_bivector(P[..., self.BIVECTOR])
+
+    def line_parts_of_bivector(self, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`line_parts` of the coefficients ``(..., 6)`` of lines on :attr:`BIVECTOR`."""
         _, Kinv = self._line_maps
-        md = P[..., self.BIVECTOR] @ Kinv.T
+        md = b @ Kinv.T
         return md[..., :3], md[..., 3:]
 
     # -- motors -------------------------------------------------------------------------------
@@ -171,6 +243,8 @@ class _PGA:
 
     def exp(self, B: np.ndarray) -> np.ndarray:
         """``e^B`` of bivectors, exact (module docstring)."""
+        if B.ndim == 1:
+            return self._exp_single(B)
         w = B[..., self.EUCLID_BIVECTOR]
         a2 = np.einsum("...i,...i->...", w, w)
         b = B[..., self.BIVECTOR]
@@ -187,6 +261,50 @@ class _PGA:
         out[..., self.SCALAR] = np.cos(a)
         out[..., self.E0123] = m * sinc
         return out
+
+    def _exp_single(self, B: np.ndarray) -> np.ndarray:
+        """:meth:`exp` of one bivector, the same formula in Python floats: for one body numpy's
+        per-call overhead is larger than the two dozen multiplications themselves."""
+        c = B.tolist()
+        w = [c[i] for i in self.EUCLID_BIVECTOR]
+        a2 = w[0] * w[0] + w[1] * w[1] + w[2] * w[2]
+        m = 0.0  # ½⟨B²⟩₄: the few nonzero terms of the bilinear form
+        for i, j, coef in self._half_wedge_terms:
+            m += coef * c[i] * c[j]
+        a = math.sqrt(a2)
+        sinc = math.sin(a) / a if a != 0.0 else 1.0
+        if a < 1e-2:  # (cos a − sinc a)/a², as a series (see exp)
+            k = -1.0 / 3.0 + a2 / 30.0 - a2 * a2 / 840.0 + a2**3 / 45360.0
+        else:
+            k = (math.cos(a) - math.sin(a) / a) / (a * a)
+        mk = m * k
+        out = [sinc * x for x in c]
+        for src, dst, coef in self._dual_euclid_terms:  # − m k · I ω, one term per ideal blade
+            out[dst] -= mk * (coef * w[src])
+        out[self.SCALAR] = math.cos(a)
+        out[self.E0123] = m * sinc
+        return np.array(out)
+
+    @cached_property
+    def _half_wedge_terms(self) -> list[tuple[int, int, float]]:
+        """``(i, j, c)`` with ``½⟨B²⟩₄ = Σ c B_i B_j`` (blade indices, i ≤ j, nonzero c only)."""
+        H = self._half_wedge
+        return [
+            (int(self.BIVECTOR[p]), int(self.BIVECTOR[q]), float(H[p, q] if p == q else 2.0 * H[p, q]))
+            for p in range(6)
+            for q in range(p, 6)
+            if H[p, q] != 0.0
+        ]
+
+    @cached_property
+    def _dual_euclid_terms(self) -> list[tuple[int, int, float]]:
+        """``(src, dst, c)``: ``(I ω)_dst = c ω_src`` (src indexing e12, e13, e23); I ω is a signed
+        permutation of ω onto the ideal blades, one term per blade (checked)."""
+        unit = self._I_times_euclid
+        terms = [(int(src), int(dst), float(unit[src, dst])) for src, dst in zip(*np.nonzero(unit), strict=True)]
+        if sorted(dst for _, dst, _ in terms) != sorted(set(dst for _, dst, _ in terms)):
+            raise RuntimeError("I ω is not a signed permutation in clifford's pga layout.")
+        return terms
 
     def _dual_euclid(self, w: np.ndarray) -> np.ndarray:
         """``I ω`` for Euclidean bivectors ω (coefficients e12, e13, e23): an ideal bivector."""

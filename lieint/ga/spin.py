@@ -33,7 +33,7 @@ from ..groups.so import SO
 from ..groups.vector import ProductGroup
 from ..systems.base import Invariant, LieGroupSystem, Output, State
 from .algebra import GA, algebra, matrix_to_rotor, resolve
-from .exponential import rotor_exp_of_skew, simple_planes, so_exp_with_rotor
+from .exponential import _rotation_of_rotor3, rotor_exp_of_skew, simple_planes, so_exp_with_rotor
 
 __all__ = ["RotorForm", "SpinCover", "rotor_cay_of_skew", "rotor_form"]
 
@@ -164,11 +164,16 @@ class SpinCover(LieGroup):
 
 def rotor_matrix(ga: GA, S: np.ndarray) -> np.ndarray:
     """R of rotors, with the closed form ``I + 2sK + 2K²`` (s scalar part, K the skew matrix of
-    the bivector part) for n ≤ 3, where a rotor is ``s + bivector``."""
+    the bivector part) for n ≤ 3, where a rotor is ``s + bivector``; for n ≥ 4 the quadratic
+    form in the even part (:meth:`GA.even_rotor_matrix`). Either way only the grades a rotor
+    has are read."""
+    if ga.n == 3 and S.ndim == 1:  # one body: the same closed form in floats
+        s, _, _, _, k12, k13, k23, _ = S.tolist()
+        return _rotation_of_rotor3(s, k12, k13, k23)
     if ga.n <= 3:
         K = ga.skew(S)
         return np.eye(ga.n) + 2.0 * S[..., 0, None, None] * K + 2.0 * (K @ K)
-    return ga.rotor_matrix(S)
+    return ga.even_rotor_matrix(S)
 
 
 class _WithR(dict):
