@@ -417,3 +417,10 @@ def test_a_method_that_does_not_apply_to_the_scene_is_refused(name, tmp_path, ca
         assert err.startswith("lieint run: ") and re.search(rf"`?method`? {re.escape(repr(name))}", err), err
         assert "Traceback" not in err
     assert not out.exists()  # nothing is written for a run that cannot start
+
+
+@pytest.mark.parametrize("name", [n for n in METHODS if first_refusing_system(n) is not None])
+def test_integrate_names_the_method_argument_when_it_does_not_apply(name):
+    system, y0 = build(first_refusing_system(name))[:2]
+    with pytest.raises(ValueError, match=rf"^`method` {re.escape(repr(name))}"):
+        lieint.integrate(system, y0, (0.0, 0.1), h=0.01, method=name)

@@ -44,7 +44,7 @@ def _require(system, tag: str, method: str, needs: str) -> None:
     structure = getattr(system, "structure", frozenset())
     if tag not in structure:
         raise ValueError(
-            f"method {method!r} steps {needs} (systems whose structure includes {tag!r}); "
+            f"`method` {method!r} steps {needs} (systems whose structure includes {tag!r}); "
             f"{type(system).__name__} declares {sorted(structure)}."
         )
 
