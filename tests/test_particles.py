@@ -222,14 +222,14 @@ def test_initial_state_off_the_surface_is_refused():
 def test_symplectic_methods_refuse_systems_they_cannot_step():
     top = lieint.EulerTop.from_principal_moments([1.0, 2.0, 3.0])
     y0 = top.initial_state(angular_velocity=[0.1, 1.0, 0.2])
-    with pytest.raises(ValueError, match="method 'verlet' steps Newton's equations"):
+    with pytest.raises(ValueError, match="`method` 'verlet' steps Newton's equations"):
         lieint.integrate(top, y0, (0.0, 1.0), h=0.1, method="verlet")
     p, yp = egg_particle(3)
-    with pytest.raises(ValueError, match=r"method 'verlet'.*SurfaceParticle declares"):
+    with pytest.raises(ValueError, match=r"`method` 'verlet'.*SurfaceParticle declares"):
         lieint.integrate(p, yp, (0.0, 1.0), h=0.1, method="verlet")
     kepler = lieint.CentralForceParticle(1.0, [0, 0, 0])
     yk = kepler.initial_state(position=[1.0, 0.0, 0.0], velocity=[0.0, 1.0, 0.0])
-    with pytest.raises(ValueError, match="method 'rattle' steps a particle constrained"):
+    with pytest.raises(ValueError, match="`method` 'rattle' steps a particle constrained"):
         lieint.integrate(kepler, yk, (0.0, 1.0), h=0.1, method="rattle")
 
 
