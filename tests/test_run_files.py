@@ -510,3 +510,21 @@ def test_mass_tensors_beyond_the_finite_range_are_refused():
             lieint.EulerTop(B)
     top = lieint.EulerTop(np.diag([1e90, 2e90, 3e90]))  # large but finite everywhere
     assert np.all(np.isfinite(top.b)) and np.all(np.isfinite(top.inertia.minus_inv_pair))
+
+
+def test_a_reader_holding_the_file_does_not_stop_the_writer_from_reopening_it(tmp_path):
+    """The writer reopens the run file after creating it (and on resume); a reader in another
+    process that has it open at that instant (`lieint info`, a user's h5py.File, holding HDF5's
+    shared file lock) must not make the run fail."""
+    from lieint.runs.store import OutputFile
+
+    out = tmp_path / "run.h5"
+    lieint.run(scene_file(tmp_path, t_end=0.5), out, progress=False)
+    holder = "import h5py, sys, time; f = h5py.File(sys.argv[1], 'r'); print('open', flush=True); time.sleep(60)"
+    reader = subprocess.Popen([sys.executable, "-c", holder, str(out)], stdout=subprocess.PIPE, text=True)
+    try:
+        assert reader.stdout.readline().strip() == "open"
+        OutputFile._open_for_append(out, None).close()
+    finally:
+        reader.kill()
+        reader.wait()

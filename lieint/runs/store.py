@@ -257,7 +257,10 @@ class OutputFile:
     def _open_for_append(cls, path, rows: int | None) -> OutputFile:
         h5py = _h5py()
         try:
-            f = h5py.File(path, "r+", libver="latest")
+            # Without HDF5's own file lock: one writer is guaranteed by the run's lock
+            # (lieint.runs.lock), and a reader that opens the file at this instant (`lieint
+            # info`, a user's h5py.File) holds HDF5's shared lock, which made this reopen fail.
+            f = h5py.File(path, "r+", libver="latest", locking=False)
         except OSError as exc:
             raise StoreError(
                 f"cannot reopen the output file {str(path)!r} to resume (corrupt or unreadable): {exc}"
