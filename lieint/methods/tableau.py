@@ -76,6 +76,16 @@ class ButcherTableau:
         return f"ButcherTableau({self.name!r}, stages={self.stages}, order={self.order})"
 
 
+def _check_weights(tableau: ButcherTableau, weights: np.ndarray, order: int, label: str) -> None:
+    """Raise ``ValueError`` unless ``weights`` meet, with ``tableau.A``, every condition up to ``order``."""
+    for tree, residual in order_residuals(tableau.A, weights, order):
+        if abs(residual) > 1e-12:
+            raise ValueError(
+                f"{label} weights of {tableau.name!r} fail the order-{order} "
+                f"condition for the tree {tree_string(tree)} by {residual:.3g}"
+            )
+
+
 @dataclass(frozen=True, eq=False)
 class EmbeddedPair:
     """A tableau of order p with a second weight vector ``b_hat`` of order q < p.
@@ -116,12 +126,7 @@ class EmbeddedPair:
             raise ValueError(
                 f"`embedded_order` must be between 1 and {self.tableau.order - 1}; got {self.embedded_order!r}."
             )
-        for tree, residual in order_residuals(self.tableau.A, b_hat, self.embedded_order):
-            if abs(residual) > 1e-12:
-                raise ValueError(
-                    f"embedded weights of {self.tableau.name!r} fail the order-{self.embedded_order} "
-                    f"condition for the tree {tree_string(tree)} by {residual:.3g}"
-                )
+        _check_weights(self.tableau, b_hat, self.embedded_order, "embedded")
         b_hat.setflags(write=False)
         object.__setattr__(self, "b_hat", b_hat)
         if (self.b_hat_low is None) != (self.low_order is None):
@@ -133,12 +138,7 @@ class EmbeddedPair:
                     f"`b_hat_low` must have {self.tableau.stages} weights of an order between 1 and "
                     f"{self.embedded_order - 1}; got shape {low.shape}, order {self.low_order!r}."
                 )
-            for tree, residual in order_residuals(self.tableau.A, low, self.low_order):
-                if abs(residual) > 1e-12:
-                    raise ValueError(
-                        f"low-order weights of {self.tableau.name!r} fail the order-{self.low_order} "
-                        f"condition for the tree {tree_string(tree)} by {residual:.3g}"
-                    )
+            _check_weights(self.tableau, low, self.low_order, "low-order")
             low.setflags(write=False)
             object.__setattr__(self, "b_hat_low", low)
 
