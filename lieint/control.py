@@ -35,8 +35,11 @@ class Plan:
         when it has more steps than ``LIEINT_MAX_STEPS``, before anything is allocated."""
         from .limits import check
 
-        with np.errstate(over="ignore"):
-            ratio = (t1 - t0) / h
+        if type(t0) is float and type(t1) is float and type(h) is float:
+            ratio = (t1 - t0) / h  # Python floats overflow to inf without a warning
+        else:
+            with np.errstate(over="ignore"):
+                ratio = (t1 - t0) / h
         check("LIEINT_MAX_STEPS", float(ratio), f"the number of steps (t1 - t0)/`h` = ({t1:g} - {t0:g})/{h:g}")
         nearest = round(ratio)
         # a ratio within round-off of an integer is that integer (no sliver of a last step)

@@ -130,16 +130,19 @@ def integrate(
         raise TypeError(f"`dense_output` must be True or False; got {dense_output!r}.")
     if t_eval is not None:
         t_eval = _check_t_eval(t_eval, t0, t1)
-    observer = StepObserver(
-        system,
-        t0,
-        t_eval=None if stepper.self_controlled else t_eval,
-        dense_output=bool(dense_output),
-        events=events,
-        project=bool(project),
-        order=stepper.order,
-        group_action=group_action_of(stepper),
-    )
+    observed_t_eval = None if stepper.self_controlled else t_eval
+    observer = None  # nothing watches the steps: the driver would drop an inactive observer
+    if dense_output or events is not None or observed_t_eval is not None:
+        observer = StepObserver(
+            system,
+            t0,
+            t_eval=observed_t_eval,
+            dense_output=bool(dense_output),
+            events=events,
+            project=bool(project),
+            order=stepper.order,
+            group_action=group_action_of(stepper),
+        )
     driver = Driver(
         system,
         stepper,
@@ -198,7 +201,7 @@ def _warn_if_unresolved(system, sol: Solution, h: float) -> None:
             # ξ does not depend on t: one batched evaluation over the sampled states
             scaled = system.group.lincomb([h], [system.generator(float(sol.t[0]), sampled)])
             rho = system.group.ad_radius_upper_bound(scaled)
-            if np.any(rho >= np.pi):
+            if np.logical_or.reduce(rho >= np.pi, axis=None):
                 rho = system.group.ad_spectral_radius(scaled)
         else:
             # generators take one time (scalar logic such as `if t > …` is allowed)
@@ -207,11 +210,12 @@ def _warn_if_unresolved(system, sol: Solution, h: float) -> None:
                 y = {k: v[i] for k, v in sol.states.items()}
                 scaled = system.group.lincomb([h], [system.generator(float(sol.t[i]), y)])
                 r = system.group.ad_radius_upper_bound(scaled)
-                if np.any(r >= np.pi):
+                if np.logical_or.reduce(r >= np.pi, axis=None):
                     r = system.group.ad_spectral_radius(scaled)
                 worst_rho.append(np.max(np.where(np.isfinite(r), r, 0.0), initial=0.0))
             rho = np.array(worst_rho)
-    worst = float(np.max(np.where(np.isfinite(rho), rho, 0.0), initial=0.0))
+    # the largest finite radius (np.maximum.reduce: np.max without its Python wrapper)
+    worst = float(np.maximum.reduce(np.where(np.isfinite(rho), rho, 0.0), axis=None, initial=0.0))
     if worst >= np.pi:
         warnings.warn(
             LieStepWarning(
