@@ -70,7 +70,8 @@ class Plan:
     def times(self, steps: np.ndarray) -> np.ndarray:
         """``t_k`` of an array of steps (:meth:`time` elementwise, the same floating-point result)."""
         steps = np.asarray(steps, dtype=np.int64)
-        return np.where(steps == self.nsteps, self.t1, self.t0 + steps.astype(np.float64) * self.h)
+        # int64 · float converts the steps to float64 first: the products of astype(float64) · h
+        return np.where(steps == self.nsteps, self.t1, self.t0 + steps * self.h)
 
     def save_steps(self, save_every: int) -> np.ndarray:
         """Every ``save_every``-th step and the last one, step 0 included (refused beyond

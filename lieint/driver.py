@@ -611,7 +611,7 @@ def _stack(rows: list[dict], like: dict) -> dict:
 
 
 def _finite(arr: np.ndarray) -> bool:
-    return bool(np.isfinite(arr).all())
+    return bool(np.logical_and.reduce(np.isfinite(arr), axis=None))
 
 
 def _all_finite(y: dict) -> bool:

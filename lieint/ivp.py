@@ -201,7 +201,7 @@ def _warn_if_unresolved(system, sol: Solution, h: float) -> None:
             # ξ does not depend on t: one batched evaluation over the sampled states
             scaled = system.group.lincomb([h], [system.generator(float(sol.t[0]), sampled)])
             rho = system.group.ad_radius_upper_bound(scaled)
-            if np.logical_or.reduce(rho >= np.pi, axis=None):
+            if _reaches_pi(rho):
                 rho = system.group.ad_spectral_radius(scaled)
         else:
             # generators take one time (scalar logic such as `if t > …` is allowed)
@@ -210,12 +210,11 @@ def _warn_if_unresolved(system, sol: Solution, h: float) -> None:
                 y = {k: v[i] for k, v in sol.states.items()}
                 scaled = system.group.lincomb([h], [system.generator(float(sol.t[i]), y)])
                 r = system.group.ad_radius_upper_bound(scaled)
-                if np.logical_or.reduce(r >= np.pi, axis=None):
+                if _reaches_pi(r):
                     r = system.group.ad_spectral_radius(scaled)
-                worst_rho.append(np.max(np.where(np.isfinite(r), r, 0.0), initial=0.0))
+                worst_rho.append(_finite_max(r))
             rho = np.array(worst_rho)
-    # the largest finite radius (np.maximum.reduce: np.max without its Python wrapper)
-    worst = float(np.maximum.reduce(np.where(np.isfinite(rho), rho, 0.0), axis=None, initial=0.0))
+    worst = _finite_max(rho)
     if worst >= np.pi:
         warnings.warn(
             LieStepWarning(
@@ -225,6 +224,22 @@ def _warn_if_unresolved(system, sol: Solution, h: float) -> None:
             ),
             stacklevel=3,
         )
+
+
+def _reaches_pi(rho) -> bool:
+    """Whether any radius is ``>= pi`` (one reduction when the largest is finite)."""
+    top = np.maximum.reduce(rho, axis=None, initial=0.0)
+    if math.isfinite(top):
+        return bool(top >= np.pi)
+    return bool(np.logical_or.reduce(rho >= np.pi, axis=None))  # NaN hides an element >= pi
+
+
+def _finite_max(rho) -> float:
+    """The largest finite radius (0 when none is), in one reduction when all are finite."""
+    top = float(np.maximum.reduce(rho, axis=None, initial=0.0))
+    if math.isfinite(top):
+        return top
+    return float(np.maximum.reduce(np.where(np.isfinite(rho), rho, 0.0), axis=None, initial=0.0))
 
 
 def _check_t_span(t_span) -> tuple[float, float]:

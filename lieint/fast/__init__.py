@@ -100,12 +100,14 @@ class Top3Kernel:
         return f"compiled 3D-top kernel, {'RKMK' if self.lie else 'classical RK'}, {layout}, {threads}"
 
     def start(self, y: dict) -> dict:
+        from .top3 import minus_vee
+
         A = y["A"].reshape(-1, 3, 3)
         R = y["R"].reshape(-1, 3, 3) if "R" in y else np.broadcast_to(np.eye(3), A.shape)
         if self.identity_frame:
-            pi, R = _minus_vee(A), np.array(R)  # a copy: the run never holds the caller's arrays
+            pi, R = minus_vee(A), np.array(R)  # a copy: the run never holds the caller's arrays
         else:
-            pi, R = _minus_vee(self.P.T @ A @ self.P), R @ self.P
+            pi, R = minus_vee(self.P.T @ A @ self.P), R @ self.P
         if self.lanes:
             from .lanes import matrix_to_quaternion
 
@@ -171,13 +173,15 @@ class Top3Kernel:
         return {"pi": pi, "q": q}, self._user(np.swapaxes(out_pi, -1, -2), R)
 
     def _user(self, pi, R) -> dict:
+        from .top3 import minus_hat
+
         shape = pi.shape[:-2] + self.batch + (3, 3)
         if self.identity_frame:  # the products with I would only turn -0.0 into 0.0
-            states = {"A": _minus_hat(pi).reshape(shape)}
+            states = {"A": minus_hat(pi).reshape(shape)}
             if self.orientation:
                 states["R"] = R.reshape(shape)
             return states
-        states = {"A": (self.P @ _minus_hat(pi) @ self.P.T).reshape(shape)}
+        states = {"A": (self.P @ minus_hat(pi) @ self.P.T).reshape(shape)}
         if self.orientation:
             states["R"] = (R @ self.P.T).reshape(shape)
         return states
@@ -215,26 +219,3 @@ def _dexpinv_coefficients(degree: int) -> np.ndarray:
     coeffs = np.array(bernoulli_dexpinv_coefficients(degree), dtype=float)
     coeffs.flags.writeable = False
     return coeffs
-
-
-#: ``-hat(w)`` as a gather from ``(w₀, w₁, w₂, 0)``: entry (i, j) is ``_HAT_SIGN[i, j] · w[_HAT_INDEX[i, j]]``
-_HAT_INDEX = np.array([[3, 2, 1], [2, 3, 0], [1, 0, 3]])
-_HAT_SIGN = np.array([[1.0, 1.0, -1.0], [-1.0, 1.0, 1.0], [1.0, -1.0, 1.0]])
-
-
-def _minus_hat(w: np.ndarray) -> np.ndarray:
-    """``−hat(w)``, ``(..., 3) → (..., 3, 3)``: the same values as ``-hat(w)`` (products with ±1
-    are exact) in three numpy calls instead of eight, with ``+0.0`` on the diagonal."""
-    padded = np.zeros(w.shape[:-1] + (4,))
-    padded[..., :3] = w
-    return padded[..., _HAT_INDEX] * _HAT_SIGN
-
-
-def _minus_vee(X: np.ndarray) -> np.ndarray:
-    """``−vee(X)`` of ``(..., 3, 3)`` matrices, ``−0.5 (X₂₁ − X₁₂, X₀₂ − X₂₀, X₁₀ − X₀₁)``: the
-    values of ``-vee(X)`` (signed zeros included) in three numpy calls instead of seven."""
-    return -0.5 * (X[..., _VEE_ROW, _VEE_COL] - X[..., _VEE_COL, _VEE_ROW])
-
-
-_VEE_ROW = np.array([2, 0, 1])
-_VEE_COL = np.array([1, 2, 0])
