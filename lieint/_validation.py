@@ -7,6 +7,7 @@ expected and shows what was received -- never a deep numpy traceback or a silent
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from functools import lru_cache
 
@@ -88,8 +89,8 @@ def _is_real(dtype: np.dtype) -> bool:
 
 
 def all_finite(arr: np.ndarray) -> bool:
-    """True when every entry of ``arr`` is finite (the method call: ``np.all`` adds its Python wrapper)."""
-    return bool(np.isfinite(arr).all())
+    """True when every entry of ``arr`` is finite (one reduction: ``np.all`` adds a Python wrapper)."""
+    return bool(np.logical_and.reduce(np.isfinite(arr), axis=None))
 
 
 def check_square_trailing(arr: np.ndarray, name: str, n: int | None = None) -> int:
@@ -108,9 +109,11 @@ def check_skew(arr: np.ndarray, name: str, rtol: float = 1e-10) -> np.ndarray:
     """Check that ``arr`` is skew-symmetric (a bivector) to ``rtol``; return its skew part."""
     arr_t = arr.swapaxes(-1, -2)
     # np.maximum.reduce: np.max's result without its Python wrapper (a few microseconds a call)
-    scale = np.maximum.reduce(np.abs(arr), axis=None, initial=0.0)
     err = np.maximum.reduce(np.abs(arr + arr_t), axis=None, initial=0.0)
-    if err > rtol * max(scale, 1e-300) and err > 0:
+    if not err > 0:  # exactly skew (or empty): no scale to compare with
+        return 0.5 * (arr - arr_t)
+    scale = np.maximum.reduce(np.abs(arr), axis=None, initial=0.0)
+    if err > rtol * max(scale, 1e-300):
         raise ValueError(
             f"`{name}` must be skew-symmetric (a bivector, X^T = -X); "
             f"got max |X + X^T| = {err:.3g} for max |X| = {scale:.3g}."
@@ -124,7 +127,7 @@ def check_rotation(arr: np.ndarray, name: str, atol: float = 1e-10) -> None:
     # the largest ‖RᵀR − I‖_F: the Frobenius norm as np.linalg.norm computes it, without its
     # Python wrapper (sqrt is monotone: the root of the largest sum is the largest norm)
     D = arr.swapaxes(-1, -2) @ arr - _eye(n)
-    worst = float(np.sqrt(np.maximum.reduce(np.add.reduce(D * D, axis=(-2, -1)), axis=None, initial=0.0)))
+    worst = math.sqrt(np.maximum.reduce(np.add.reduce(D * D, axis=(-2, -1)), axis=None, initial=0.0))
     if worst > atol:
         raise ValueError(
             f"`{name}` must be a rotation in SO({n}) (R^T R = I, det R = +1); got ||R^T R - I|| = {worst:.3g}."

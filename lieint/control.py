@@ -17,6 +17,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .limits import check
+
 __all__ = ["Plan", "StepSizeController"]
 
 
@@ -33,14 +35,12 @@ class Plan:
     def make(cls, t0: float, t1: float, h: float) -> Plan:
         """The grid of step ``h`` over ``[t0, t1]``; refused (:class:`lieint.limits.LimitError`)
         when it has more steps than ``LIEINT_MAX_STEPS``, before anything is allocated."""
-        from .limits import check
-
         if type(t0) is float and type(t1) is float and type(h) is float:
             ratio = (t1 - t0) / h  # Python floats overflow to inf without a warning
         else:
             with np.errstate(over="ignore"):
                 ratio = (t1 - t0) / h
-        check("LIEINT_MAX_STEPS", float(ratio), f"the number of steps (t1 - t0)/`h` = ({t1:g} - {t0:g})/{h:g}")
+        check("LIEINT_MAX_STEPS", float(ratio), lambda: f"the number of steps (t1 - t0)/`h` = ({t1:g} - {t0:g})/{h:g}")
         nearest = round(ratio)
         # a ratio within round-off of an integer is that integer (no sliver of a last step)
         n = int(nearest) if abs(ratio - nearest) <= 1e-9 * max(1.0, ratio) else math.ceil(ratio)
@@ -76,8 +76,6 @@ class Plan:
     def save_steps(self, save_every: int) -> np.ndarray:
         """Every ``save_every``-th step and the last one, step 0 included (refused beyond
         ``LIEINT_MAX_MEMORY``: streamed runs use :meth:`saves_between` instead)."""
-        from .limits import check
-
         check(
             "LIEINT_MAX_MEMORY",
             float(8 * (self.nsteps // save_every + 2)),

@@ -285,8 +285,10 @@ class Driver:
             check_limit(
                 "LIEINT_MAX_MEMORY",
                 float(size),
-                f"the memory for the {rows} rows saved with `h` = {self.plan.h:g}, `save_every` = {self.save_every} "
-                "(bytes)",
+                lambda: (
+                    f"the memory for the {rows} rows saved with `h` = {self.plan.h:g}, "
+                    f"`save_every` = {self.save_every} (bytes)"
+                ),
                 "raise save_every, or stream the run to a file (lieint run --out, lieint.runs.run)",
             )
         cpu0, wall0 = time.process_time(), time.perf_counter()

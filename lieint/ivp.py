@@ -130,19 +130,7 @@ def integrate(
         raise TypeError(f"`dense_output` must be True or False; got {dense_output!r}.")
     if t_eval is not None:
         t_eval = _check_t_eval(t_eval, t0, t1)
-    observed_t_eval = None if stepper.self_controlled else t_eval
-    observer = None  # nothing watches the steps: the driver would drop an inactive observer
-    if dense_output or events is not None or observed_t_eval is not None:
-        observer = StepObserver(
-            system,
-            t0,
-            t_eval=observed_t_eval,
-            dense_output=bool(dense_output),
-            events=events,
-            project=bool(project),
-            order=stepper.order,
-            group_action=group_action_of(stepper),
-        )
+    observer = _observer(system, stepper, t0, t_eval, dense_output, events, project)
     driver = Driver(
         system,
         stepper,
@@ -160,6 +148,25 @@ def integrate(
     if driver.kind == "fixed" and not getattr(stepper, "any_step", False):  # exact flows take any step
         _warn_if_unresolved(system, sol, h)
     return sol
+
+
+def _observer(system, stepper, t0: float, t_eval, dense_output, events, project) -> StepObserver | None:
+    """The step observer of dense output, events and ``t_eval`` rows; None when nothing watches
+    the steps (the driver would drop an inactive observer: building one costs microseconds)."""
+    if stepper.self_controlled:
+        t_eval = None  # scipy's solvers save t_eval through their own dense output
+    if not dense_output and events is None and t_eval is None:
+        return None
+    return StepObserver(
+        system,
+        t0,
+        t_eval=t_eval,
+        dense_output=bool(dense_output),
+        events=events,
+        project=bool(project),
+        order=stepper.order,
+        group_action=group_action_of(stepper),
+    )
 
 
 def _options(method, dexpinv_degree) -> dict:

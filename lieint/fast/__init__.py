@@ -81,7 +81,7 @@ class Top3Kernel:
         self.orientation = bool(sys_decl["orientation"])
         self.method = meth_decl
         self.lie = meth_decl["kind"] == "rkmk"
-        self.stages = int(np.size(meth_decl["b"]))
+        self.stages = len(meth_decl["b"])
         self.batch = batch
         bodies = math.prod(self.batch)
         # the layout is fixed per run (and so per resume): Π as (N, 3) per body, or (3, N) in lanes
@@ -100,8 +100,7 @@ class Top3Kernel:
         return f"compiled 3D-top kernel, {'RKMK' if self.lie else 'classical RK'}, {layout}, {threads}"
 
     def start(self, y: dict) -> dict:
-        from .top3 import minus_vee
-
+        minus_vee = _top3().minus_vee
         A = y["A"].reshape(-1, 3, 3)
         R = y["R"].reshape(-1, 3, 3) if "R" in y else np.broadcast_to(np.eye(3), A.shape)
         if self.identity_frame:
@@ -117,10 +116,8 @@ class Top3Kernel:
     def advance(self, internal: dict, k_from: int, k_to: int, plan, save_steps, project: bool):
         if self.lanes:
             return self._advance_lanes(internal, k_from, k_to, plan, save_steps, project)
-        from .top3 import integrate_top3
-
         tab = self.method
-        out_pi, out_R, fin_pi, fin_R, bad = integrate_top3(
+        out_pi, out_R, fin_pi, fin_R, bad = _top3().integrate_top3(
             internal["pi"],
             internal["R"],
             self.moments,
@@ -173,8 +170,7 @@ class Top3Kernel:
         return {"pi": pi, "q": q}, self._user(np.swapaxes(out_pi, -1, -2), R)
 
     def _user(self, pi, R) -> dict:
-        from .top3 import minus_hat
-
+        minus_hat = _top3().minus_hat
         shape = pi.shape[:-2] + self.batch + (3, 3)
         if self.identity_frame:  # the products with I would only turn -0.0 into 0.0
             states = {"A": minus_hat(pi).reshape(shape)}
@@ -194,6 +190,20 @@ class Top3Kernel:
         else:
             pi, R = internal["pi"], internal["R"]
         return {k: v[0] for k, v in self._user(pi[None], R[None]).items()}
+
+
+def _top3():
+    """:mod:`lieint.fast.top3`, imported on first use (it loads numba): a module lookup per call
+    instead of an import statement's."""
+    global _TOP3
+    if _TOP3 is None:
+        from . import top3
+
+        _TOP3 = top3
+    return _TOP3
+
+
+_TOP3 = None
 
 
 @lru_cache(maxsize=32)
