@@ -132,12 +132,26 @@ def check_rotation(arr: np.ndarray, name: str, atol: float = 1e-10) -> None:
         raise ValueError(
             f"`{name}` must be a rotation in SO({n}) (R^T R = I, det R = +1); got ||R^T R - I|| = {worst:.3g}."
         )
-    det = np.linalg.det(arr)
+    det = _det(arr)
     if np.minimum.reduce(det, axis=None, initial=np.inf) < 0:
         raise ValueError(
             f"`{name}` must be a rotation in SO({n}) with det R = +1; got det R = "
             f"{float(np.min(det)):.6g} (a reflection)."
         )
+
+
+def _det(arr: np.ndarray) -> np.ndarray:
+    """``np.linalg.det`` of float64 ``(..., n, n)`` matrices checked already: its LAPACK gufunc
+    called directly (the wrapper's own checks cost more than the 3 × 3 determinant)."""
+    if _DET_GUFUNC is not None and arr.dtype == np.float64:
+        return _DET_GUFUNC(arr)
+    return np.linalg.det(arr)
+
+
+try:  # numpy's gufunc behind np.linalg.det (numpy 1.x and 2.x); the public function otherwise
+    from numpy.linalg._umath_linalg import det as _DET_GUFUNC
+except ImportError:  # pragma: no cover
+    _DET_GUFUNC = None
 
 
 @lru_cache(maxsize=16)
