@@ -71,7 +71,11 @@ class Plan:
         """``t_k`` of an array of steps (:meth:`time` elementwise, the same floating-point result)."""
         steps = np.asarray(steps, dtype=np.int64)
         # int64 · float converts the steps to float64 first: the products of astype(float64) · h
-        return np.where(steps == self.nsteps, self.t1, self.t0 + steps * self.h)
+        t = self.t0 + steps * self.h
+        if t.ndim == 0:
+            return np.where(steps == self.nsteps, self.t1, t)
+        t[steps == self.nsteps] = self.t1  # np.where costs more than a masked assignment
+        return t
 
     def save_steps(self, save_every: int) -> np.ndarray:
         """Every ``save_every``-th step and the last one, step 0 included (refused beyond

@@ -309,7 +309,7 @@ def integrate_top3(
         fin_pi,
         fin_R,
     )
-    if status.max(initial=-1) < 0:
+    if np.maximum.reduce(status, initial=-1) < 0:
         return out_pi, out_R, fin_pi, fin_R, -1
     return out_pi, out_R, fin_pi, fin_R, int(status[status >= 0].min())
 
