@@ -162,3 +162,13 @@ def test_compiled_adaptive_rejects_steps_beyond_the_dexpinv_radius():
     b = lieint.integrate(top, fast, backend="numpy", **kw)
     assert a.success and a.stats.nrejected >= 1
     assert (a.nsteps, a.stats.nrejected, a.nfev) == (b.nsteps, b.stats.nrejected, b.nfev)
+
+
+def test_a_step_size_below_h_min_fails_as_on_the_generic_path():
+    top = lieint.EulerTop.from_principal_moments([1.0, 2.0, 3.0])
+    y0 = top.initial_state(angular_velocity=[0.3, 1.0, 0.4])
+    kw = dict(t_span=(0, 1), method="rkmk45", rtol=1e-30, atol=1e-40)
+    a = lieint.integrate(top, y0, backend="numba", **kw)
+    b = lieint.integrate(top, y0, backend="numpy", **kw)
+    assert not a.success and a.message == b.message and "the step size fell below" in a.message
+    assert (a.nsteps, a.stats.nrejected, a.nfev, a.t[-1]) == (b.nsteps, b.stats.nrejected, b.nfev, b.t[-1])
