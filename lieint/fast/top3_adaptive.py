@@ -128,10 +128,44 @@ def adaptive_top3(
     out_pi,
     out_R,
 ):
-    """Adaptive steps from ``t`` (step k, trial step h) in place on ``pi`` (N, 3), ``R`` (N, 3, 3).
+    """Adaptive RKMK steps from ``t`` in place on ``pi`` (N, 3) and ``R`` (N, 3, 3).
 
-    Returns ``(status, t, h, k, accepted, rejected, nfev, rows)``: status 0, or 1 when the step
-    size fell below ``h_min`` (the state stays at ``t``); the saved rows are ``out_*[:rows]``.
+    Parameters
+    ----------
+    pi, R : ndarray
+        The state ``(Π, R P)`` of the N bodies in the principal frame (moved in place).
+    Iinv : ndarray, shape (3,)
+        Inverse principal moments (``w = I⁻¹Π``).
+    A, b, b_hat, b_low : ndarray
+        The order-p tableau and the embedded weights; ``b_low`` (with ``has_low``) is DOP853's
+        third-order estimate, combined as ``s₅/√((s₅ + 0.01 s₃)·N)``.
+    coeffs : ndarray
+        Bernoulli coefficients of dexp⁻¹ up to the method's degree.
+    P : ndarray, shape (3, 3)
+        The proper principal frame: the user's ``A = P(−Π̂)Pᵀ``, ``R_user = R Pᵀ``.
+    orientation : bool
+        Whether R is one of the user's fields (it then enters the error norm).
+    rtol, atol, q, safety, fmin, fmax : float
+        The controller (:class:`lieint.control.StepSizeController`); q the error order.
+    h_min : float
+        A rejected step smaller than this ends the run (status 1).
+    t, t1, h, k : float, float, float, int
+        Current time, end, next trial step and accepted steps so far.
+    max_accept, save_every : int
+        Stop after this many accepted steps; save every ``save_every``-th step and the last.
+    project : bool
+        One Newton–Schulz step toward the polar factor of R after every accepted step.
+    out_t, out_pi, out_R : ndarray
+        Row buffers (capacity ``out_t.size``; the loop stops when they are full).
+
+    Returns
+    -------
+    status, t, h, k, accepted, rejected, nfev, rows
+        ``status`` 0, or 1 when the step size fell below ``h_min`` (the state stays at ``t``);
+        the controller's state ``(t, h)`` and the step count k after the call; the accepted and
+        rejected trial steps and the generator evaluations of this call (a trial stopped at the
+        dexp⁻¹ radius counts as a rejection without evaluations, as on the generic path); the
+        saved rows are ``out_*[:rows]``.
     """
     N = pi.shape[0]
     s = b.shape[0]
