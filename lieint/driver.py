@@ -203,7 +203,7 @@ class Driver:
         if self.kind == "fixed":
             self.loop = _fixed_loop(self, y0)
         elif self.kind == "adaptive":
-            self.loop = _AdaptiveLoop(self)
+            self.loop = _adaptive_loop(self, y0)
         else:
             self.loop = _ScipyLoop(self)
         carry = self.loop.start(y0)
@@ -449,10 +449,9 @@ class _AdaptiveLoop:
     """Accepted and rejected steps under the step-size controller (generic numpy path)."""
 
     name = "numpy"
-    reason = "adaptive steps run on the generic path"
 
-    def __init__(self, driver: Driver):
-        self.d = driver
+    def __init__(self, driver: Driver, reason: str = "adaptive steps run on the generic path"):
+        self.d, self.reason = driver, reason
         self.h_min = 1e-14 * max(1.0, abs(driver.t0), abs(driver.t1))
 
     def start(self, y0: dict) -> Carry:
@@ -488,10 +487,7 @@ class _AdaptiveLoop:
                 rejected = True
                 h *= ctrl.factor(err, q)
                 if h < self.h_min:
-                    failure = (
-                        f"the step size fell below {self.h_min:.3g} at t = {t:.6g} without meeting rtol = "
-                        f"{d.rtol:g}, atol = {d.atol:g}; loosen the tolerances or check the model"
-                    )
+                    failure = self._too_small(t)
                     break
                 continue
             t_prev, y_prev = t, y
@@ -509,6 +505,76 @@ class _AdaptiveLoop:
             rejected = False
         carry.t, carry.state, carry.h, carry.method_state = t, y, h, mstate
         return _stopped(d, carry, Segment(np.array(times), _stack(rows, y), failure))
+
+    def _too_small(self, t: float) -> str:
+        d = self.d
+        return (
+            f"the step size fell below {self.h_min:.3g} at t = {t:.6g} without meeting rtol = "
+            f"{d.rtol:g}, atol = {d.atol:g}; loosen the tolerances or check the model"
+        )
+
+
+def _adaptive_loop(driver: Driver, y0: dict):
+    """The compiled adaptive kernel where one covers system and method, else the generic loop."""
+    if driver.backend_request == "numpy":
+        return _AdaptiveLoop(driver, "backend='numpy' asked for the generic path")
+    if driver.observer is not None:
+        if driver.backend_request == "numba":
+            raise ValueError("`backend='numba'`: dense output, events and `t_eval` need the generic path; use 'auto'.")
+        return _AdaptiveLoop(driver, "dense output, events or t_eval watch every step")
+    from .fast.adaptive import adaptive_kernel_for
+
+    kernel, reason = adaptive_kernel_for(driver.system, driver.method, y0)
+    if kernel is not None:
+        return _AdaptiveKernelLoop(driver, kernel)
+    if driver.backend_request == "numba":
+        raise ValueError(f"`backend='numba'`: no compiled kernel covers this run: {reason}. Use 'auto' or 'numpy'.")
+    return _AdaptiveLoop(driver, reason)
+
+
+class _AdaptiveKernelLoop(_AdaptiveLoop):
+    """The compiled adaptive kernel (:mod:`lieint.fast.adaptive`): the whole controller loop in
+    machine code; the carry holds the kernel's state, ``t`` and the next trial step ``h``."""
+
+    name = "numba"
+
+    def __init__(self, driver: Driver, kernel):
+        super().__init__(driver, kernel.describe())
+        self.kernel, self.threads = kernel, kernel.threads
+
+    def start(self, y0: dict) -> Carry:
+        carry = super().start(y0)
+        carry.state, carry.method_state = self.kernel.start(y0), None
+        return carry
+
+    def first_row(self, carry: Carry) -> Segment:
+        y = self.kernel.user_state(carry.state)
+        return Segment(np.array([self.d.t0]), {k: v[None] for k, v in y.items()})
+
+    def user_state(self, carry: Carry) -> dict:
+        return self.kernel.user_state(carry.state)
+
+    def advance(self, carry: Carry, max_steps: int | None) -> Segment:
+        d = self.d
+        left = np.iinfo(np.int64).max if max_steps is None else max_steps
+        times, parts, failure = [], [], None
+        while carry.t < d.t1 and left > 0:
+            state, (t, h, k), (acc, rej, nfev), t_saved, saved, small = self.kernel.advance_adaptive(
+                carry.state, carry.t, d.t1, carry.h, carry.k, left, d.save_every, d.project, d.controller, self.h_min
+            )
+            carry.state, carry.t, carry.h, carry.k = state, t, h, k
+            carry.nrejected += rej
+            carry.nfev += nfev
+            left -= acc
+            times.append(t_saved)
+            parts.append(saved)
+            if small:
+                failure = self._too_small(t)
+                break
+        states = {name: np.concatenate([p[name] for p in parts]) for name in parts[0]} if parts else {}
+        if not parts:
+            states = {name: np.empty((0, *np.shape(v))) for name, v in self.user_state(carry).items()}
+        return Segment(np.concatenate(times) if times else np.empty(0), states, failure)
 
 
 class _ScipyLoop:

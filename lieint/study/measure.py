@@ -11,10 +11,11 @@ quick one) stops repeating early (its ``repeats`` says how many calls were timed
 
 Back end: the driver reports which loop ran (``Solution.stats.backend``: "numba", "numpy",
 "scipy") and why. A run on the generic numpy path although both the system and the method
-declare a compiled form is a *fallback* of a fixed-step run (for example a step too large for the kernel's a-priori
-dexp⁻¹ bound): the row says so (``fallback`` and ``backend_reason``) and the figures draw it as a
-series of its own, so that a curve never mixes two code paths silently. (Adaptive steps always
-run on the generic path — the driver has no compiled adaptive loop — and say so in their reason.)
+declare a compiled form is a *fallback* (for example a fixed step too large for the kernel's a-priori
+dexp⁻¹ bound, or an adaptive pair on a system whose compiled form has no adaptive kernel): the row
+says so (``fallback`` and ``backend_reason``) and the figures draw it as a series of its own, so
+that a curve never mixes two code paths silently. (Adaptive RKMK pairs on the 3D top run the
+compiled controller loop, :mod:`lieint.fast.adaptive`.)
 """
 
 from __future__ import annotations
@@ -238,10 +239,7 @@ def measure_point(
         nfev=int(stats.nfev),
         backend=stats.backend,
         backend_reason=stats.backend_reason,
-        fallback=entry.kind == "fixed"
-        and stats.backend == "numpy"
-        and backend == "auto"
-        and _compiled_declared(system, method),
+        fallback=stats.backend == "numpy" and backend == "auto" and _compiled_declared(system, method),
         threads=_threads(stats.backend),
         cpu_min=timing.cpu_min,
         cpu_median=timing.cpu_median,

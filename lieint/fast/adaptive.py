@@ -1,0 +1,110 @@
+"""The compiled adaptive path: which runs it covers and the kernel object the driver steps.
+
+Chosen, like the fixed-step kernels, by declaration: the system declares the 3D top
+(``system.compiled()["kind"] == "top3"``) and the method an RKMK embedded pair in exponential
+coordinates with truncated dexp⁻¹ (``method.compiled()`` with ``"b_hat"``, ``"error_order"``
+and, for DOP853's combined estimate, ``"b_hat_low"``). The numba code is
+:mod:`lieint.fast.top3_adaptive`, imported on the first step.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from . import Top3Kernel
+
+__all__ = ["Top3AdaptiveKernel", "adaptive_kernel_for"]
+
+
+def adaptive_kernel_for(system, method, y0) -> tuple[Top3AdaptiveKernel | None, str]:
+    """The compiled adaptive kernel for this run, or None with the reason none applies."""
+    sys_decl = system.compiled()
+    if sys_decl is None:
+        label = type(system).__name__
+        if isinstance(getattr(system, "n", None), int):
+            label += f" (n = {system.n})"
+        return None, f"{label} declares no compiled form"
+    if sys_decl.get("kind") != "top3":
+        return None, f"no adaptive kernel for the compiled form {sys_decl.get('kind')!r}"
+    meth_decl = method.compiled()
+    if meth_decl is None or meth_decl.get("kind") != "rkmk" or "b_hat" not in meth_decl:
+        return None, (
+            f"{method.name!r} has no compiled adaptive form (compiled: RKMK embedded pairs in exp "
+            "coordinates with truncated dexp⁻¹)"
+        )
+    return Top3AdaptiveKernel(sys_decl, meth_decl, system.batch_shape(y0)), ""
+
+
+class Top3AdaptiveKernel(Top3Kernel):
+    """Adaptive RKMK on the 3D top in machine code, state ``(Π, R P)`` per body (as
+    :class:`~lieint.fast.Top3Kernel`'s per-body layout; a batch shares one step size).
+
+    :meth:`advance` takes accepted steps from ``(t, h)``, the controller's state between
+    accepted steps, and returns where it stopped; every field of the user's state enters the
+    error norm as on the generic path (:mod:`lieint.fast.top3_adaptive`).
+    """
+
+    #: rows the kernel writes per call before handing them back (memory stays bounded) ...
+    ROWS_PER_CALL = 4096
+    #: ... and the bytes those rows may take (fewer rows per call for a large batch)
+    BYTES_PER_CALL = 32_000_000
+
+    def __init__(self, sys_decl: dict, meth_decl: dict, batch: tuple[int, ...]):
+        super().__init__(sys_decl, meth_decl, None, batch)
+        self.lanes, self.parallel, self.threads = False, False, 1
+        self.b_hat = np.ascontiguousarray(meth_decl["b_hat"], dtype=float)
+        low = meth_decl.get("b_hat_low")
+        self.has_low = low is not None
+        self.b_low = np.ascontiguousarray(low if low is not None else np.zeros_like(self.b_hat), dtype=float)
+        self.error_order = int(meth_decl["error_order"])
+
+    def describe(self) -> str:
+        return "compiled 3D-top kernel, adaptive RKMK (whole controller loop), per body, serial"
+
+    def advance_adaptive(self, internal: dict, t, t1, h, k, max_accept, save_every, project, controller, h_min):
+        """Accepted steps from ``(t, h)`` at step ``k`` until ``t1``, ``max_accept`` accepted
+        steps or :attr:`ROWS_PER_CALL` saved rows.
+
+        Returns the new internal state, ``(t, h, k)``, the accepted, rejected and evaluation
+        counts, the saved times and user states, and whether the step size fell below ``h_min``.
+        """
+        from .top3_adaptive import adaptive_top3
+
+        pi, R = internal["pi"].copy(), internal["R"].copy()
+        N = pi.shape[0]
+        rows_fit = self.BYTES_PER_CALL // (8 * 12 * N)
+        cap = max(1, min(self.ROWS_PER_CALL, rows_fit, max_accept // save_every + 1))
+        out_t, out_pi, out_R = np.empty(cap), np.empty((cap, N, 3)), np.empty((cap, N, 3, 3))
+        tab = self.method
+        status, t, h, k, accepted, rejected, nfev, rows = adaptive_top3(
+            pi,
+            R,
+            1.0 / self.moments,
+            np.ascontiguousarray(tab["A"], dtype=float),
+            np.ascontiguousarray(tab["b"], dtype=float),
+            self.b_hat,
+            self.b_low,
+            self.has_low,
+            np.asarray(self.coeffs, dtype=float),
+            self.P,
+            self.orientation,
+            float(controller.rtol),
+            float(controller.atol),
+            self.error_order,
+            float(controller.safety),
+            float(controller.factor_min),
+            float(controller.factor_max),
+            float(h_min),
+            float(t),
+            float(t1),
+            float(h),
+            int(k),
+            int(max_accept),
+            int(save_every),
+            bool(project),
+            out_t,
+            out_pi,
+            out_R,
+        )
+        saved = self._user(out_pi[:rows], out_R[:rows])
+        return {"pi": pi, "R": R}, (t, h, k), (accepted, rejected, nfev), out_t[:rows].copy(), saved, status == 1
