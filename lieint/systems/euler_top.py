@@ -202,10 +202,14 @@ class EulerTop(LieGroupSystem):
         return out
 
     def compiled(self):
-        """The 3D top has compiled kernels (:mod:`lieint.fast`): its principal moments and frame."""
-        if self.n != 3:
+        """What the compiled kernels (:mod:`lieint.fast`) need: for n = 3 the principal moments
+        and frame (``"top3"``), for n ≥ 4 the eigenvalues b and eigenbasis P of B (``"topn"``,
+        :mod:`lieint.fast.topn`); None for n = 2 (so(2) is abelian: nothing to compile)."""
+        if self.n == 3:
+            return {"kind": "top3", "moments": self.principal_moments, "P": self.P, "orientation": self.orientation}
+        if self.n < 3:
             return None
-        return {"kind": "top3", "moments": self.principal_moments, "P": self.P, "orientation": self.orientation}
+        return {"kind": "topn", "b": self.b, "P": self.P, "orientation": self.orientation}
 
     @property
     def manakov_labels(self) -> list[tuple[int, int]]:
