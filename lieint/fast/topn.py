@@ -527,22 +527,25 @@ class TopNKernel:
     def start(self, y: dict) -> dict:
         n = self.n
         A = y["A"].reshape(-1, n, n)
-        if self.orientation:
-            R = y["R"].reshape(-1, n, n)
-        else:
-            R = np.empty((A.shape[0], 0, 0))
+        R = y["R"].reshape(-1, n, n) if self.orientation else None
         if not self.identity_frame:
             A = self.P.T @ A @ self.P
             if self.orientation:
                 R = R @ self.P
         A = 0.5 * (A - np.swapaxes(A, -1, -2))  # exactly skew (the identity on a skew A)
-        return {"A": np.ascontiguousarray(A, dtype=float), "R": np.ascontiguousarray(R, dtype=float)}
+        internal = {"A": np.ascontiguousarray(A, dtype=float)}
+        if self.orientation:
+            internal["R"] = np.ascontiguousarray(R, dtype=float)
+        return internal
 
     def advance(self, internal: dict, k_from: int, k_to: int, plan, save_steps, project: bool):
         tab = self.method
+        A = internal["A"]
+        # without orientation the kernel steps an empty R (one type signature for both cases)
+        R = internal["R"] if self.orientation else np.empty((A.shape[0], 0, 0))
         out_A, out_R, fin_A, fin_R, bad = integrate_topn(
-            internal["A"],
-            internal["R"],
+            A,
+            R,
             self.b,
             tab["A"],
             tab["b"],
@@ -559,7 +562,8 @@ class TopNKernel:
         )
         if bad >= 0:
             raise range_error(bad, plan, f"so({self.n})")
-        return {"A": fin_A, "R": fin_R}, self._user(out_A, out_R)
+        new = {"A": fin_A, "R": fin_R} if self.orientation else {"A": fin_A}
+        return new, self._user(out_A, out_R)
 
     def _user(self, A, R) -> dict:
         lead, n = A.shape[:-3], self.n
@@ -574,4 +578,5 @@ class TopNKernel:
         return states
 
     def user_state(self, internal: dict) -> dict:
-        return {k: v[0] for k, v in self._user(internal["A"][None], internal["R"][None]).items()}
+        R = internal["R"][None] if self.orientation else None
+        return {k: v[0] for k, v in self._user(internal["A"][None], R).items()}
