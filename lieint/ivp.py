@@ -85,8 +85,9 @@ def integrate(
         from the dense output on the group, :mod:`lieint.dense`). Default: the grid of ``h``
         and ``save_every``, else every ``save_every``-th accepted step.
     backend : {"auto", "numpy", "numba"}
-        "auto" runs a compiled kernel where one covers the system and method (the 3D Euler
-        top with RKMK in exponential coordinates or classical RK), else the generic numpy path;
+        "auto" runs a compiled kernel where one covers the system and method (the Euler top
+        of any dimension n ≥ 3 with fixed-step RKMK in exponential coordinates and truncated
+        dexp⁻¹, or classical RK), else the generic numpy path;
         "numpy" forces the generic path (the reference); "numba" requires the kernel.
     dense_output : bool, default False
         Keep a continuous solution ``sol.sol(t)`` (:class:`lieint.dense.DenseOutput`): for
