@@ -174,36 +174,31 @@ def so_ad_radius_exceeds(u):
 
 @njit(cache=True)
 def _bracket(X, Y):
-    """``[X, Y] = XY − YX = W − Wᵀ`` with ``W = XY``, for skew X, Y: one product, exactly skew."""
+    """``[X, Y] = XY − YX = W − Wᵀ`` with ``W = XY``, for skew X, Y: one product, exactly skew
+    (``W_ac − W_ca = −(W_ca − W_ac)`` in floating point)."""
     W = X @ Y
     n = W.shape[0]
     out = np.empty((n, n))
-    for a in range(n):
-        out[a, a] = 0.0
-        for c in range(a + 1, n):
-            d = W[a, c] - W[c, a]
-            out[a, c] = d
-            out[c, a] = -d
+    for a in range(n):  # rows written in order; the transposed read is the strided one
+        for c in range(n):
+            out[a, c] = W[a, c] - W[c, a]
     return out
 
 
 @njit(cache=True)
 def _act(Q, A, M):
     """``(Ã', Ω̃') = (skew(QᵀAQ), Ã' ∘ M)``: the action on the momentum, made exactly skew as
-    the generic action does (``skew_part``), and the inertia operator ``Ω̃_ij = M_ij Ã'_ij``."""
+    the generic action does (``skew_part``), and the inertia operator ``Ω̃_ij = M_ij Ã'_ij``
+    (M symmetric, so Ω̃' is exactly skew too)."""
     C = Q.T @ (A @ Q)
     n = C.shape[0]
     A1 = np.empty((n, n))
     Om = np.empty((n, n))
     for a in range(n):
-        A1[a, a] = 0.0
-        Om[a, a] = 0.0
-        for c in range(a + 1, n):
+        for c in range(n):
             d = 0.5 * (C[a, c] - C[c, a])
             A1[a, c] = d
-            A1[c, a] = -d
             Om[a, c] = d * M[a, c]
-            Om[c, a] = -d * M[c, a]
     return A1, Om
 
 
