@@ -7,7 +7,9 @@ expected and shows what was received -- never a deep numpy traceback or a silent
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
+from functools import lru_cache
 
 import numpy as np
 
@@ -69,17 +71,26 @@ def as_float_array(value, name: str, *, allow_nonfinite: bool = False) -> np.nda
         arr = np.asarray(value)
     except Exception as exc:  # ragged sequences and the like
         raise TypeError(f"`{name}` must be an array of real numbers; got {type(value).__name__}.") from exc
-    if arr.dtype == object or not (
-        np.issubdtype(arr.dtype, np.floating)
-        or np.issubdtype(arr.dtype, np.integer)
-        or np.issubdtype(arr.dtype, np.bool_)
-    ):
+    if not _is_real(arr.dtype):
         raise TypeError(f"`{name}` must be an array of real numbers; got dtype {arr.dtype}.")
     arr = arr.astype(np.float64, copy=False)
-    if not allow_nonfinite and not np.all(np.isfinite(arr)):
+    if not allow_nonfinite and not all_finite(arr):
         bad = np.argwhere(~np.isfinite(arr))[0]
         raise ValueError(f"`{name}` must be finite; got {arr[tuple(bad)]} at index {tuple(int(i) for i in bad)}.")
     return arr
+
+
+@lru_cache(maxsize=64)
+def _is_real(dtype: np.dtype) -> bool:
+    """Floating, integer or boolean (once per dtype: ``issubdtype`` costs a microsecond a call)."""
+    return dtype.kind != "O" and (
+        np.issubdtype(dtype, np.floating) or np.issubdtype(dtype, np.integer) or np.issubdtype(dtype, np.bool_)
+    )
+
+
+def all_finite(arr: np.ndarray) -> bool:
+    """True when every entry of ``arr`` is finite (one reduction: ``np.all`` adds a Python wrapper)."""
+    return bool(np.logical_and.reduce(np.isfinite(arr), axis=None))
 
 
 def check_square_trailing(arr: np.ndarray, name: str, n: int | None = None) -> int:
@@ -96,32 +107,59 @@ def check_square_trailing(arr: np.ndarray, name: str, n: int | None = None) -> i
 
 def check_skew(arr: np.ndarray, name: str, rtol: float = 1e-10) -> np.ndarray:
     """Check that ``arr`` is skew-symmetric (a bivector) to ``rtol``; return its skew part."""
-    sym = arr + np.swapaxes(arr, -1, -2)
-    scale = np.max(np.abs(arr), initial=0.0)
-    err = np.max(np.abs(sym), initial=0.0)
-    if err > rtol * max(scale, 1e-300) and err > 0:
+    arr_t = arr.swapaxes(-1, -2)
+    # np.maximum.reduce: np.max's result without its Python wrapper (a few microseconds a call)
+    err = np.maximum.reduce(np.abs(arr + arr_t), axis=None, initial=0.0)
+    if not err > 0:  # exactly skew (or empty): no scale to compare with
+        return 0.5 * (arr - arr_t)
+    scale = np.maximum.reduce(np.abs(arr), axis=None, initial=0.0)
+    if err > rtol * max(scale, 1e-300):
         raise ValueError(
             f"`{name}` must be skew-symmetric (a bivector, X^T = -X); "
             f"got max |X + X^T| = {err:.3g} for max |X| = {scale:.3g}."
         )
-    return 0.5 * (arr - np.swapaxes(arr, -1, -2))
+    return 0.5 * (arr - arr_t)
 
 
 def check_rotation(arr: np.ndarray, name: str, atol: float = 1e-10) -> None:
     """Check that every matrix of ``arr`` lies in SO(n) (orthogonal, det = +1)."""
     n = arr.shape[-1]
-    defect = np.linalg.norm(np.swapaxes(arr, -1, -2) @ arr - np.eye(n), axis=(-2, -1))
-    worst = float(np.max(defect, initial=0.0))
+    # the largest ‖RᵀR − I‖_F: the Frobenius norm as np.linalg.norm computes it, without its
+    # Python wrapper (sqrt is monotone: the root of the largest sum is the largest norm)
+    D = arr.swapaxes(-1, -2) @ arr - _eye(n)
+    worst = math.sqrt(np.maximum.reduce(np.add.reduce(D * D, axis=(-2, -1)), axis=None, initial=0.0))
     if worst > atol:
         raise ValueError(
             f"`{name}` must be a rotation in SO({n}) (R^T R = I, det R = +1); got ||R^T R - I|| = {worst:.3g}."
         )
-    det = np.linalg.det(arr)
-    if np.any(det < 0):
+    det = _det(arr)
+    if np.minimum.reduce(det, axis=None, initial=np.inf) < 0:
         raise ValueError(
             f"`{name}` must be a rotation in SO({n}) with det R = +1; got det R = "
             f"{float(np.min(det)):.6g} (a reflection)."
         )
+
+
+def _det(arr: np.ndarray) -> np.ndarray:
+    """``np.linalg.det`` of float64 ``(..., n, n)`` matrices checked already: its LAPACK gufunc
+    called directly (the wrapper's own checks cost more than the 3 × 3 determinant)."""
+    if _DET_GUFUNC is not None and arr.dtype == np.float64:
+        return _DET_GUFUNC(arr)
+    return np.linalg.det(arr)
+
+
+try:  # numpy's gufunc behind np.linalg.det (numpy 1.x and 2.x); the public function otherwise
+    from numpy.linalg._umath_linalg import det as _DET_GUFUNC
+except ImportError:  # pragma: no cover
+    _DET_GUFUNC = None
+
+
+@lru_cache(maxsize=16)
+def _eye(n: int) -> np.ndarray:
+    """The identity of size n (read-only: shared between calls)."""
+    eye = np.eye(n)
+    eye.flags.writeable = False
+    return eye
 
 
 def check_finite_positive(value, name: str) -> float:

@@ -17,6 +17,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .limits import check
+
 __all__ = ["Plan", "StepSizeController"]
 
 
@@ -33,11 +35,12 @@ class Plan:
     def make(cls, t0: float, t1: float, h: float) -> Plan:
         """The grid of step ``h`` over ``[t0, t1]``; refused (:class:`lieint.limits.LimitError`)
         when it has more steps than ``LIEINT_MAX_STEPS``, before anything is allocated."""
-        from .limits import check
-
-        with np.errstate(over="ignore"):
-            ratio = (t1 - t0) / h
-        check("LIEINT_MAX_STEPS", float(ratio), f"the number of steps (t1 - t0)/`h` = ({t1:g} - {t0:g})/{h:g}")
+        if type(t0) is float and type(t1) is float and type(h) is float:
+            ratio = (t1 - t0) / h  # Python floats overflow to inf without a warning
+        else:
+            with np.errstate(over="ignore"):
+                ratio = (t1 - t0) / h
+        check("LIEINT_MAX_STEPS", float(ratio), lambda: f"the number of steps (t1 - t0)/`h` = ({t1:g} - {t0:g})/{h:g}")
         nearest = round(ratio)
         # a ratio within round-off of an integer is that integer (no sliver of a last step)
         n = int(nearest) if abs(ratio - nearest) <= 1e-9 * max(1.0, ratio) else math.ceil(ratio)
@@ -67,13 +70,16 @@ class Plan:
     def times(self, steps: np.ndarray) -> np.ndarray:
         """``t_k`` of an array of steps (:meth:`time` elementwise, the same floating-point result)."""
         steps = np.asarray(steps, dtype=np.int64)
-        return np.where(steps == self.nsteps, self.t1, self.t0 + steps.astype(np.float64) * self.h)
+        # int64 · float converts the steps to float64 first: the products of astype(float64) · h
+        t = self.t0 + steps * self.h
+        if t.ndim == 0:
+            return np.where(steps == self.nsteps, self.t1, t)
+        t[steps == self.nsteps] = self.t1  # np.where costs more than a masked assignment
+        return t
 
     def save_steps(self, save_every: int) -> np.ndarray:
         """Every ``save_every``-th step and the last one, step 0 included (refused beyond
         ``LIEINT_MAX_MEMORY``: streamed runs use :meth:`saves_between` instead)."""
-        from .limits import check
-
         check(
             "LIEINT_MAX_MEMORY",
             float(8 * (self.nsteps // save_every + 2)),

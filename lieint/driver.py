@@ -32,6 +32,8 @@ import numpy as np
 
 from .control import Plan, StepSizeController
 from .groups.base import DexpinvRangeError
+from .limits import check as check_limit
+from .solution import Solution
 
 __all__ = ["Carry", "Driver", "Segment", "Stats"]
 
@@ -278,15 +280,15 @@ class Driver:
     def run(self, y0: dict):
         """Integrate over the whole span; returns the :class:`~lieint.Solution`."""
         if self.kind == "fixed":  # every saved row is held in memory: refuse what cannot fit
-            from .limits import check
-
             rows = self.plan.nsteps // self.save_every + 2
             size = rows * sum(np.asarray(v).nbytes for v in y0.values())
-            check(
+            check_limit(
                 "LIEINT_MAX_MEMORY",
                 float(size),
-                f"the memory for the {rows} rows saved with `h` = {self.plan.h:g}, `save_every` = {self.save_every} "
-                "(bytes)",
+                lambda: (
+                    f"the memory for the {rows} rows saved with `h` = {self.plan.h:g}, "
+                    f"`save_every` = {self.save_every} (bytes)"
+                ),
                 "raise save_every, or stream the run to a file (lieint run --out, lieint.runs.run)",
             )
         cpu0, wall0 = time.process_time(), time.perf_counter()
@@ -298,8 +300,6 @@ class Driver:
 
     def solution(self, first: Segment, segments: list[Segment], carry: Carry, cpu: float, wall: float):
         """The :class:`~lieint.Solution` of the rows ``first`` and ``segments`` saved."""
-        from .solution import Solution
-
         parts = [first, *segments]
         t = np.concatenate([p.t for p in parts])
         states = {name: np.concatenate([p.states[name] for p in parts]) for name in first.states}
@@ -427,13 +427,13 @@ class _KernelLoop:
         saves = plan.saves_between(d.save_every, carry.k, k_to)
         new, states = self.kernel.advance(carry.state, carry.k, k_to, plan, saves, d.project)
         m = saves.size
-        finite = np.ones(m, dtype=bool)
-        for v in states.values():
-            finite &= np.isfinite(v).all(axis=tuple(range(1, v.ndim)))  # also for m = 0 saved rows
         failure = None
-        if finite.all() and all(np.isfinite(v).all() for v in new.values()):
+        if all(_finite(v) for v in states.values()) and all(_finite(v) for v in new.values()):
             carry.state, done = new, k_to
         else:
+            finite = np.ones(m, dtype=bool)
+            for v in states.values():
+                finite &= np.isfinite(v).all(axis=tuple(range(1, v.ndim)))  # also for m = 0 saved rows
             bad = int(np.argmin(finite)) if not finite.all() else m
             states = {k: v[:bad] for k, v in states.items()}
             saves = saves[:bad]
@@ -612,8 +612,12 @@ def _stack(rows: list[dict], like: dict) -> dict:
     return {name: np.empty((0, *np.shape(v))) for name, v in like.items()}
 
 
+def _finite(arr: np.ndarray) -> bool:
+    return bool(np.logical_and.reduce(np.isfinite(arr), axis=None))
+
+
 def _all_finite(y: dict) -> bool:
-    return all(bool(np.isfinite(arr).all()) for arr in y.values())
+    return all(_finite(arr) for arr in y.values())
 
 
 def _nonfinite(k: int, t: float, advice: str, after: bool = False) -> str:

@@ -131,16 +131,7 @@ def integrate(
         raise TypeError(f"`dense_output` must be True or False; got {dense_output!r}.")
     if t_eval is not None:
         t_eval = _check_t_eval(t_eval, t0, t1)
-    observer = StepObserver(
-        system,
-        t0,
-        t_eval=None if stepper.self_controlled else t_eval,
-        dense_output=bool(dense_output),
-        events=events,
-        project=bool(project),
-        order=stepper.order,
-        group_action=group_action_of(stepper),
-    )
+    observer = _observer(system, stepper, t0, t_eval, dense_output, events, project)
     driver = Driver(
         system,
         stepper,
@@ -158,6 +149,25 @@ def integrate(
     if driver.kind == "fixed" and not getattr(stepper, "any_step", False):  # exact flows take any step
         _warn_if_unresolved(system, sol, h)
     return sol
+
+
+def _observer(system, stepper, t0: float, t_eval, dense_output, events, project) -> StepObserver | None:
+    """The step observer of dense output, events and ``t_eval`` rows; None when nothing watches
+    the steps (the driver would drop an inactive observer: building one costs microseconds)."""
+    if stepper.self_controlled:
+        t_eval = None  # scipy's solvers save t_eval through their own dense output
+    if not dense_output and events is None and t_eval is None:
+        return None
+    return StepObserver(
+        system,
+        t0,
+        t_eval=t_eval,
+        dense_output=bool(dense_output),
+        events=events,
+        project=bool(project),
+        order=stepper.order,
+        group_action=group_action_of(stepper),
+    )
 
 
 def _options(method, dexpinv_degree) -> dict:
@@ -199,7 +209,7 @@ def _warn_if_unresolved(system, sol: Solution, h: float) -> None:
             # ξ does not depend on t: one batched evaluation over the sampled states
             scaled = system.group.lincomb([h], [system.generator(float(sol.t[0]), sampled)])
             rho = system.group.ad_radius_upper_bound(scaled)
-            if np.any(rho >= np.pi):
+            if _reaches_pi(rho):
                 rho = system.group.ad_spectral_radius(scaled)
         else:
             # generators take one time (scalar logic such as `if t > …` is allowed)
@@ -208,11 +218,11 @@ def _warn_if_unresolved(system, sol: Solution, h: float) -> None:
                 y = {k: v[i] for k, v in sol.states.items()}
                 scaled = system.group.lincomb([h], [system.generator(float(sol.t[i]), y)])
                 r = system.group.ad_radius_upper_bound(scaled)
-                if np.any(r >= np.pi):
+                if _reaches_pi(r):
                     r = system.group.ad_spectral_radius(scaled)
-                worst_rho.append(np.max(np.where(np.isfinite(r), r, 0.0), initial=0.0))
+                worst_rho.append(_finite_max(r))
             rho = np.array(worst_rho)
-    worst = float(np.max(np.where(np.isfinite(rho), rho, 0.0), initial=0.0))
+    worst = _finite_max(rho)
     if worst >= np.pi:
         warnings.warn(
             LieStepWarning(
@@ -222,6 +232,22 @@ def _warn_if_unresolved(system, sol: Solution, h: float) -> None:
             ),
             stacklevel=3,
         )
+
+
+def _reaches_pi(rho) -> bool:
+    """Whether any radius is ``>= pi`` (one reduction when the largest is finite)."""
+    top = np.maximum.reduce(rho, axis=None, initial=0.0)
+    if math.isfinite(top):
+        return bool(top >= np.pi)
+    return bool(np.logical_or.reduce(rho >= np.pi, axis=None))  # NaN hides an element >= pi
+
+
+def _finite_max(rho) -> float:
+    """The largest finite radius (0 when none is), in one reduction when all are finite."""
+    top = float(np.maximum.reduce(rho, axis=None, initial=0.0))
+    if math.isfinite(top):
+        return top
+    return float(np.maximum.reduce(np.where(np.isfinite(rho), rho, 0.0), axis=None, initial=0.0))
 
 
 def _check_t_span(t_span) -> tuple[float, float]:

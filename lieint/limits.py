@@ -56,15 +56,18 @@ def limit(name: str) -> int:
     return int(value)
 
 
-def check(name: str, value: float, what: str, advice: str = "") -> None:
+def check(name: str, value: float, what, advice: str = "") -> None:
     """Refuse ``value`` above the limit ``name``; ``what`` says what was asked for.
 
     The message reads ``"<what> is <value>, more than the limit <limit> (raise it with the
     environment variable NAME=...)"``, then ``advice`` (another way out). NaN and infinity are
-    always refused.
+    always refused. ``what`` may be a callable returning the text, formatted only for the
+    message (hot paths check on every call).
     """
     bound = limit(name)
     if not value <= bound:  # also true for NaN
+        if callable(what):
+            what = what()
         shown = f"{value:.4g}" if isinstance(value, float) else f"{value}"
         raise LimitError(
             f"{what} is {shown}, more than the limit {bound} (to allow it, set the environment variable "

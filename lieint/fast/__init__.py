@@ -11,10 +11,12 @@ call in a fresh environment and caches the machine code on disk for later proces
 
 from __future__ import annotations
 
+import math
+from functools import lru_cache
+
 import numpy as np
 
 from ..groups.base import DexpinvRangeError, bernoulli_dexpinv_coefficients
-from ..groups.bivectors import hat, vee
 
 __all__ = ["Top3Kernel", "kernel_for", "range_error", "use_threads"]
 
@@ -57,6 +59,8 @@ def use_threads(bodies: int) -> tuple[bool, int]:
     single trajectory above all) the kernel runs serially in the calling thread, which on a
     busy machine saves the milliseconds a parallel region costs to start and join.
     """
+    if bodies < 2:  # serial whatever the thread count (numba is not asked: a microsecond a call)
+        return False, 1
     import numba
 
     threads = int(numba.get_num_threads())
@@ -87,16 +91,14 @@ class Top3Kernel:
         self.orientation = bool(sys_decl["orientation"])
         self.method = meth_decl
         self.lie = meth_decl["kind"] == "rkmk"
-        self.stages = int(np.asarray(meth_decl["b"]).size)
+        self.stages = len(meth_decl["b"])
         self.batch = batch
-        bodies = int(np.prod(self.batch)) if self.batch else 1
+        bodies = math.prod(self.batch)
         # the layout is fixed per run (and so per resume): Π as (N, 3) per body, or (3, N) in lanes
         self.lanes = self.lie and bodies >= self.LANES_FROM
-        P = np.array(sys_decl["P"], dtype=float)
-        if np.linalg.det(P) < 0:  # a proper rotation keeps Π a vector (not a pseudo-vector)
-            P[:, -1] *= -1.0
-        self.P = P
-        self.coeffs = bernoulli_dexpinv_coefficients(meth_decl["dexpinv_degree"]) if self.lie else (1.0,)
+        # a proper rotation keeps Π a vector (not a pseudo-vector); the identity skips the products
+        self.P, self.identity_frame = _proper_frame(sys_decl["P"])
+        self.coeffs = _dexpinv_coefficients(meth_decl["dexpinv_degree"] if self.lie else 0)
         # lanes run blocks of _BLOCK bodies: threads pay off from one block per thread
         units = -(-bodies // 64) if self.lanes else bodies
         self.parallel, self.threads = use_threads(units)
@@ -108,9 +110,13 @@ class Top3Kernel:
         return f"compiled 3D-top kernel, {'RKMK' if self.lie else 'classical RK'}, {layout}, {threads}"
 
     def start(self, y: dict) -> dict:
+        minus_vee = _top3().minus_vee
         A = y["A"].reshape(-1, 3, 3)
         R = y["R"].reshape(-1, 3, 3) if "R" in y else np.broadcast_to(np.eye(3), A.shape)
-        pi, R = -vee(self.P.T @ A @ self.P), R @ self.P
+        if self.identity_frame:
+            pi, R = minus_vee(A), np.array(R)  # a copy: the run never holds the caller's arrays
+        else:
+            pi, R = minus_vee(self.P.T @ A @ self.P), R @ self.P
         if self.lanes:
             from .lanes import matrix_to_quaternion
 
@@ -120,10 +126,8 @@ class Top3Kernel:
     def advance(self, internal: dict, k_from: int, k_to: int, plan, save_steps, project: bool):
         if self.lanes:
             return self._advance_lanes(internal, k_from, k_to, plan, save_steps, project)
-        from .top3 import integrate_top3
-
         tab = self.method
-        out_pi, out_R, fin_pi, fin_R, bad = integrate_top3(
+        out_pi, out_R, fin_pi, fin_R, bad = _top3().integrate_top3(
             internal["pi"],
             internal["R"],
             self.moments,
@@ -158,7 +162,7 @@ class Top3Kernel:
             tab["A"],
             tab["b"],
             tab["c"],
-            np.asarray(self.coeffs),
+            self.coeffs,
             plan.h,
             plan.last_step,
             k_from,
@@ -176,10 +180,16 @@ class Top3Kernel:
         return {"pi": pi, "q": q}, self._user(np.swapaxes(out_pi, -1, -2), R)
 
     def _user(self, pi, R) -> dict:
-        lead = pi.shape[:-2]
-        states = {"A": (self.P @ (-hat(pi)) @ self.P.T).reshape(lead + self.batch + (3, 3))}
+        minus_hat = _top3().minus_hat
+        shape = pi.shape[:-2] + self.batch + (3, 3)
+        if self.identity_frame:  # the products with I would only turn -0.0 into 0.0
+            states = {"A": minus_hat(pi).reshape(shape)}
+            if self.orientation:
+                states["R"] = R.reshape(shape)
+            return states
+        states = {"A": (self.P @ minus_hat(pi) @ self.P.T).reshape(shape)}
         if self.orientation:
-            states["R"] = (R @ self.P.T).reshape(lead + self.batch + (3, 3))
+            states["R"] = (R @ self.P.T).reshape(shape)
         return states
 
     def user_state(self, internal: dict) -> dict:
@@ -190,3 +200,42 @@ class Top3Kernel:
         else:
             pi, R = internal["pi"], internal["R"]
         return {k: v[0] for k, v in self._user(pi[None], R[None]).items()}
+
+
+def _top3():
+    """:mod:`lieint.fast.top3`, imported on first use (it loads numba): a module lookup per call
+    instead of an import statement's."""
+    global _TOP3
+    if _TOP3 is None:
+        from . import top3
+
+        _TOP3 = top3
+    return _TOP3
+
+
+_TOP3 = None
+
+
+@lru_cache(maxsize=32)
+def _proper_frame_of(data: bytes, n: int) -> tuple[np.ndarray, bool]:
+    P = np.frombuffer(data).reshape(n, n).copy()
+    if np.linalg.det(P) < 0:
+        P[:, -1] *= -1.0
+    P.flags.writeable = False
+    return P, bool(np.array_equal(P, np.eye(n)))
+
+
+def _proper_frame(P) -> tuple[np.ndarray, bool]:
+    """The principal frame P with det P = +1 (its last axis turned when det P = −1), read-only,
+    and whether it is the identity (a diagonal B); worked out once per frame (keyed on its bytes)."""
+    P = np.asarray(P, dtype=float)
+    return _proper_frame_of(P.tobytes(), P.shape[-1])
+
+
+@lru_cache(maxsize=32)
+def _dexpinv_coefficients(degree: int) -> np.ndarray:
+    """The truncated dexp⁻¹ series as the kernels take it (a read-only float array; degree 0:
+    ``(1.0,)``, what classical RK passes)."""
+    coeffs = np.array(bernoulli_dexpinv_coefficients(degree), dtype=float)
+    coeffs.flags.writeable = False
+    return coeffs

@@ -21,7 +21,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-__all__ = ["integrate_top3"]
+__all__ = ["integrate_top3", "minus_hat", "minus_vee"]
 
 # (2π)²: the dexp⁻¹ series of so(3) converges for |u| < 2π (the spectral radius of ad_u is |u|)
 _RADIUS2 = (2.0 * np.pi) ** 2
@@ -309,5 +309,46 @@ def integrate_top3(
         fin_pi,
         fin_R,
     )
-    bad = status[status >= 0]
-    return out_pi, out_R, fin_pi, fin_R, int(bad.min()) if bad.size else -1
+    if np.maximum.reduce(status, initial=-1) < 0:
+        return out_pi, out_R, fin_pi, fin_R, -1
+    return out_pi, out_R, fin_pi, fin_R, int(status[status >= 0].min())
+
+
+@njit(cache=True)
+def _minus_hat_rows(w, out):
+    for r in range(w.shape[0]):
+        x, y, z = w[r, 0], w[r, 1], w[r, 2]
+        out[r, 0, 0] = 0.0
+        out[r, 0, 1] = z
+        out[r, 0, 2] = -y
+        out[r, 1, 0] = -z
+        out[r, 1, 1] = 0.0
+        out[r, 1, 2] = x
+        out[r, 2, 0] = y
+        out[r, 2, 1] = -x
+        out[r, 2, 2] = 0.0
+
+
+@njit(cache=True)
+def _minus_vee_rows(X, out):
+    for r in range(X.shape[0]):
+        out[r, 0] = -0.5 * (X[r, 2, 1] - X[r, 1, 2])
+        out[r, 1] = -0.5 * (X[r, 0, 2] - X[r, 2, 0])
+        out[r, 2] = -0.5 * (X[r, 1, 0] - X[r, 0, 1])
+
+
+def minus_vee(X: np.ndarray) -> np.ndarray:
+    """``−vee(X)`` of ``(..., 3, 3)`` matrices as ``(..., 3)`` vectors in one compiled pass, the
+    values of ``-vee(X)`` (signed zeros included): ``−0.5 (X₂₁ − X₁₂, X₀₂ − X₂₀, X₁₀ − X₀₁)``."""
+    out = np.empty(X.shape[:-2] + (3,))
+    _minus_vee_rows(np.ascontiguousarray(X, dtype=np.float64).reshape(-1, 3, 3), out.reshape(-1, 3))
+    return out
+
+
+def minus_hat(w: np.ndarray) -> np.ndarray:
+    """``−ŵ`` of vectors ``(..., 3)`` as ``(..., 3, 3)`` matrices, in one compiled pass: the values
+    of ``-hat(w)`` (negation is exact) with ``+0.0`` on the diagonal."""
+    lead = w.shape[:-1]
+    out = np.empty(lead + (3, 3))
+    _minus_hat_rows(np.ascontiguousarray(w, dtype=np.float64).reshape(-1, 3), out.reshape(-1, 3, 3))
+    return out

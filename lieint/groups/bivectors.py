@@ -54,7 +54,8 @@ def inner(X: np.ndarray, Y: np.ndarray) -> np.ndarray:
 
 def skew_part(X: np.ndarray) -> np.ndarray:
     """``(X − Xᵀ) / 2``."""
-    return 0.5 * (X - np.swapaxes(X, -1, -2))
+    X = np.asarray(X)
+    return 0.5 * (X - X.swapaxes(-1, -2))  # the method: np.swapaxes adds a Python wrapper
 
 
 def hat(w: np.ndarray) -> np.ndarray:

@@ -32,7 +32,8 @@ _SMALL_ANGLE = 1e-3
 
 def so3_angle_squared(X: np.ndarray) -> np.ndarray:
     """``θ² = |vee X|²`` of skew 3×3 matrices, read off the lower triangle (cheap, no copy)."""
-    return X[..., 2, 1] ** 2 + X[..., 0, 2] ** 2 + X[..., 1, 0] ** 2
+    a, b, c = X[..., 2, 1], X[..., 0, 2], X[..., 1, 0]
+    return a * a + b * b + c * c  # x * x is x ** 2 to the bit, without the power's scalar dispatch
 
 
 def so_norm(X: np.ndarray) -> np.ndarray:

@@ -134,4 +134,20 @@ def get_method(method="rkmk4", coordinates: str | None = None, **options) -> Met
     if unknown:
         allowed = f"its options are {list(spec.options)}" if spec.options else "it takes no options"
         raise ValueError(f"`{unknown[0]}` does not apply to {method!r}: {allowed}.")
-    return spec.build(coordinates=coordinates, **options)
+    try:  # methods are frozen (stateless): one object per spec and build arguments
+        key = (method, coordinates, tuple(sorted((k, type(v), v) for k, v in options.items())))
+        cached = _BUILT.get(key)
+    except TypeError:  # an unhashable option value: build it every time
+        return spec.build(coordinates=coordinates, **options)
+    if cached is not None and cached[0] is spec:
+        return cached[1]
+    built = spec.build(coordinates=coordinates, **options)
+    if len(_BUILT) >= 256:
+        _BUILT.clear()
+    _BUILT[key] = (spec, built)
+    return built
+
+
+#: built methods by ``(name, coordinates, options)``, with the spec that built them (a spec
+#: registered again under the name builds afresh)
+_BUILT: dict[tuple, tuple[MethodSpec, Method]] = {}
