@@ -1,6 +1,7 @@
 """Speed of lieint against scipy, measured side by side in one run.
 
-Run: ``python benchmarks/speed.py`` (about two minutes; ``--quick`` for a smoke run).
+Run: ``python benchmarks/speed.py`` (about three minutes; ``--quick`` for a smoke run,
+``--items 3`` for item 3 alone).
 
 1. Work–precision on the default scene (3D top near its unstable axis, with orientation,
    T = 100): for each target error 1e-4 … 1e-10 (max over 201 saved times of
@@ -10,13 +11,15 @@ Run: ``python benchmarks/speed.py`` (about two minutes; ``--quick`` for a smoke 
 2. Ensemble: 10,000 tops × 1,000 RKMK4 steps in one batched call, against looping
    single-trajectory calls (lieint's own, generic and compiled) and looping scipy, as
    throughput (body-steps per second); the loops are timed on a sample of bodies.
-3. n = 64: one RKMK4 step against one ``scipy.linalg.expm`` of a 64 × 64 matrix.
+3. The n-dimensional top, n = 8, 16, 32, 64: one RKMK4 step, compiled (``lieint.fast.topn``) and
+   generic (numpy), against one ``scipy.linalg.expm`` of an n × n matrix, as ratios.
 4. ``import lieint`` and the first compiled call, each in a fresh process.
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import statistics
 import subprocess
 import sys
@@ -222,20 +225,62 @@ def ensemble(quick: bool):
     )
 
 
-def large_n():
+def _block_time(fn, calls: int) -> float:
+    """Wall time of one call of ``fn``, from one block of ``calls`` calls."""
+    t0 = time.perf_counter()
+    for _ in range(calls):
+        fn()
+    return (time.perf_counter() - t0) / calls
+
+
+def large_n(quick: bool):
+    """One RKMK4 step of the n-dimensional top against one ``scipy.linalg.expm`` (n = 8 … 64).
+
+    The compiled step is the marginal cost of a step inside one ``integrate`` call (a run of N
+    steps minus a run of N/10, over 0.9 N: the per-call overhead of about 0.1 ms is left out),
+    the generic step one ``method.step`` call on the numpy path. Each contender is timed in
+    blocks of about the same length (30 ms: a long block and a short one would not
+    be preempted alike on a busy machine), in interleaved rounds, and each figure is the median
+    over the rounds.
+    """
+    block = 0.03
     rng = np.random.default_rng(2)
-    n = 64
-    top = lieint.EulerTop(np.diag(rng.uniform(0.5, 2.0, n)))
-    X = rng.normal(size=(n, n))
-    X = 0.05 * (X - X.T)
-    y = top.initial_state(Omega=X, R=expm(X))
     method = lieint.get_method("rkmk4")
-    t_exp = median_time(lambda: expm(X), 21)
-    t_step = median_time(lambda: method.step(top, 0.0, y, 0.01, None), 21)
+    rounds = 5 if quick else 11
+    load = ", ".join(f"{x:.1f}" for x in os.getloadavg())
     print(
-        f"\n3. n = 64: one RKMK4 step {t_step * 1e6:.0f} us, one expm {t_exp * 1e6:.0f} us, "
-        f"ratio {t_step / t_exp:.2f} (target <= 8)"
+        "\n3. n-dimensional top: one RKMK4 step (h = 0.01) against one expm of an n x n matrix (target <= 6; "
+        f"load average {load})"
     )
+    print("      n    expm [us]   compiled [us]   ratio   generic [us]   ratio")
+    for n in (8, 16, 32, 64):
+        top = lieint.EulerTop(np.diag(rng.uniform(0.5, 2.0, n)))
+        X = rng.normal(size=(n, n))
+        X = 0.05 * (X - X.T)
+        y = top.initial_state(Omega=X, R=expm(X))
+
+        def run(steps, top=top, y=y):
+            lieint.integrate(top, y, (0.0, steps * 0.01), h=0.01, method="rkmk4", backend="numba", save_every=steps)
+
+        def expm_call(X=X):
+            expm(X)
+
+        def generic_step(top=top, y=y):
+            method.step(top, 0.0, y, 0.01, None)
+
+        run(10)  # load the compiled kernel, then size the blocks from one timing of each
+        N = max(int(block / max(_block_time(lambda run=run: run(1000), 1) / 1000, 1e-7)), 20)
+        M = N // 10
+        k_exp = max(int(block / _block_time(expm_call, 20)), 1)
+        k_gen = max(int(block / _block_time(generic_step, 3)), 1)
+        t_exp, t_fast, t_gen = [], [], []
+        for _ in range(rounds):
+            t_exp.append(_block_time(expm_call, k_exp))
+            long, short = _block_time(lambda N=N, run=run: run(N), 1), _block_time(lambda M=M, run=run: run(M), 1)
+            t_fast.append((long - short) / (N - M))
+            t_gen.append(_block_time(generic_step, k_gen))
+        e, f, g = (statistics.median(t) for t in (t_exp, t_fast, t_gen))
+        print(f"   {n:4d}   {e * 1e6:10.1f}   {f * 1e6:13.1f}   {f / e:5.2f}   {g * 1e6:12.1f}   {g / e:5.1f}")
 
 
 def startup():
@@ -257,11 +302,16 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="smaller sweeps and ensembles")
     parser.add_argument("--repeats", type=int, default=5)
+    parser.add_argument("--items", default="1234", help="which items to run, e.g. 3 (default: 1234)")
     args = parser.parse_args()
-    work_precision(args.repeats if not args.quick else 1, args.quick)
-    ensemble(args.quick)
-    large_n()
-    startup()
+    if "1" in args.items:
+        work_precision(args.repeats if not args.quick else 1, args.quick)
+    if "2" in args.items:
+        ensemble(args.quick)
+    if "3" in args.items:
+        large_n(args.quick)
+    if "4" in args.items:
+        startup()
 
 
 if __name__ == "__main__":

@@ -85,11 +85,12 @@ def integrate(
         from the dense output on the group, :mod:`lieint.dense`). Default: the grid of ``h``
         and ``save_every``, else every ``save_every``-th accepted step.
     backend : {"auto", "numpy", "numba"}
-        "auto" runs a compiled kernel where one covers the system and method (the 3D Euler
-        top with RKMK in exponential coordinates or classical RK at fixed steps, and the RKMK
-        embedded pairs with their whole step-size control loop), else the generic numpy path;
-        "numpy" forces the generic path (the reference); "numba" requires the kernel. Dense
-        output, events and ``t_eval`` watch every step and keep the generic path.
+        "auto" runs a compiled kernel where one covers the system and method (the Euler top
+        of any dimension n ≥ 3 with fixed-step RKMK in exponential coordinates and truncated
+        dexp⁻¹, or classical RK; on the 3D top also the RKMK embedded pairs with their whole
+        step-size control loop), else the generic numpy path; "numpy" forces the generic path
+        (the reference); "numba" requires the kernel. Dense output, events and ``t_eval``
+        watch every step and keep the generic path.
     dense_output : bool, default False
         Keep a continuous solution ``sol.sol(t)`` (:class:`lieint.dense.DenseOutput`): for
         Lie-group methods interpolated in the Lie algebra of each step, so its states lie on

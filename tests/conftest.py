@@ -17,6 +17,19 @@ def random_rotation(rng, n, batch=()):
     return Q
 
 
+def compiled_methods() -> list[str]:
+    """The registry's fixed-step methods whose ``compiled()`` declares a form the compiled
+    kernels take ("rkmk": exponential coordinates with a truncated dexp⁻¹; "rk": classical RK)."""
+    import lieint
+
+    names = []
+    for name in lieint.method_names():
+        method = lieint.get_method(name)
+        if not method.adaptive and (method.compiled() or {}).get("kind") in ("rkmk", "rk"):
+            names.append(name)
+    return names
+
+
 def fitted_slope(hs, errors):
     """Least-squares slope of log(error) against log(h)."""
     return float(np.polyfit(np.log(hs), np.log(errors), 1)[0])

@@ -2,9 +2,11 @@
 
 import numpy as np
 import pytest
-from conftest import random_rotation
+from conftest import compiled_methods, random_rotation
 
 import lieint
+
+COMPILED = compiled_methods()
 
 
 def well_conditioned_top(rng, diagonal=True):
@@ -17,7 +19,7 @@ def well_conditioned_top(rng, diagonal=True):
     return lieint.EulerTop(Q @ np.diag(b) @ Q.T)
 
 
-@pytest.mark.parametrize("method", ["lie_euler", "rkmk2", "rkmk3", "rkmk4", "rkmk6", "rk4"])
+@pytest.mark.parametrize("method", COMPILED)
 @pytest.mark.parametrize("project", [False, True])
 @pytest.mark.parametrize("diagonal", [True, False])
 def test_fast_path_matches_the_generic_path(rng, method, project, diagonal):
@@ -40,12 +42,14 @@ def test_auto_uses_the_kernel_only_where_it_applies(rng):
     assert lieint.integrate(top, y0, (0, 1), h=0.1).stats["backend"] == "numba"
     assert lieint.integrate(top, y0, (0, 1), h=0.1, coordinates="cayley").stats["backend"] == "numpy"
     assert lieint.integrate(top, y0, (0, 1), h=0.1, dexpinv_degree=None).stats["backend"] == "numpy"
-    four = lieint.EulerTop(np.eye(4))
+    four = lieint.EulerTop(np.eye(4))  # the n-dimensional kernel (lieint.fast.topn)
+    assert lieint.integrate(four, four.initial_state(Omega=np.zeros((4, 4))), (0, 1), h=0.1).stats.backend == "numba"
+    two = lieint.EulerTop(np.eye(2))
     with pytest.raises(
         ValueError,
-        match=r"`backend='numba'`: no compiled kernel covers this run: EulerTop \(n = 4\) declares no compiled form",
+        match=r"`backend='numba'`: no compiled kernel covers this run: EulerTop \(n = 2\) declares no compiled form",
     ):
-        lieint.integrate(four, four.initial_state(Omega=np.zeros((4, 4))), (0, 1), h=0.1, backend="numba")
+        lieint.integrate(two, two.initial_state(Omega=np.zeros((2, 2))), (0, 1), h=0.1, backend="numba")
     with pytest.raises(ValueError, match=r"`backend` must be one of"):
         lieint.integrate(top, y0, (0, 1), h=0.1, backend="gpu")
 

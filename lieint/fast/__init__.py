@@ -1,5 +1,10 @@
 """Compiled fast paths (numba), chosen by :func:`lieint.integrate` when they apply.
 
+Two kernels: the 3D Euler top (:class:`Top3Kernel`, :mod:`lieint.fast.top3` and the SIMD lanes
+of :mod:`lieint.fast.lanes`) and the Euler top of any dimension n ≥ 4
+(:class:`lieint.fast.topn.TopNKernel`), each for fixed-step RKMK in exponential coordinates with
+a truncated dexp⁻¹ and for classical RK.
+
 Only imported when first used, so ``import lieint`` stays light; numba compiles on the first
 call in a fresh environment and caches the machine code on disk for later processes.
 """
@@ -35,10 +40,15 @@ def kernel_for(system, method, y0, plan) -> tuple[object | None, str]:
             None,
             f"{method.name!r} has no compiled form (compiled: RKMK in exp coordinates with truncated dexp⁻¹, RK)",
         )
-    if sys_decl.get("kind") != "top3":
-        return None, f"no kernel for the compiled form {sys_decl.get('kind')!r}"
+    kind = sys_decl.get("kind")
+    if kind not in ("top3", "topn"):
+        return None, f"no kernel for the compiled form {kind!r}"
     if meth_decl["kind"] not in ("rkmk", "rk"):
-        return None, f"no 3D-top kernel for {meth_decl['kind']!r} methods"
+        return None, f"no {'3D' if kind == 'top3' else 'n-dimensional'}-top kernel for {meth_decl['kind']!r} methods"
+    if kind == "topn":
+        from .topn import TopNKernel
+
+        return TopNKernel(sys_decl, meth_decl, y0, system.batch_shape(y0)), ""
     return Top3Kernel(sys_decl, meth_decl, y0, system.batch_shape(y0)), ""
 
 

@@ -23,6 +23,18 @@ from .rigid import (
 
 __all__ = ["EulerTop", "check_mass_tensor"]
 
+#: what the compiled declaration of :class:`EulerTop` stands for (a subclass overriding any of
+#: these has other dynamics)
+_DYNAMICS = (
+    "generator",
+    "act",
+    "act_near_identity",
+    "infinitesimal_action",
+    "vector_field",
+    "project",
+    "angular_velocity",
+)
+
 
 class EulerTop(LieGroupSystem):
     """The free rigid body with a fixed point in any dimension n ≥ 2.
@@ -202,10 +214,22 @@ class EulerTop(LieGroupSystem):
         return out
 
     def compiled(self):
-        """The 3D top has compiled kernels (:mod:`lieint.fast`): its principal moments and frame."""
-        if self.n != 3:
+        """What the compiled kernels (:mod:`lieint.fast`) need: for n = 3 the principal moments
+        and frame (``"top3"``), for n ≥ 4 the eigenvalues b and eigenbasis P of B (``"topn"``,
+        :mod:`lieint.fast.topn`); None for n = 2 (so(2) is abelian: nothing to compile).
+
+        The declaration stands for the Euler top's equations: a subclass that overrides the
+        generator, the action or the projection integrates other dynamics and declares None
+        (the generic path then runs what it defines).
+        """
+        cls = type(self)
+        if any(getattr(cls, name) is not getattr(EulerTop, name) for name in _DYNAMICS):
             return None
-        return {"kind": "top3", "moments": self.principal_moments, "P": self.P, "orientation": self.orientation}
+        if self.n == 3:
+            return {"kind": "top3", "moments": self.principal_moments, "P": self.P, "orientation": self.orientation}
+        if self.n < 3:
+            return None
+        return {"kind": "topn", "b": self.b, "P": self.P, "orientation": self.orientation}
 
     @property
     def manakov_labels(self) -> list[tuple[int, int]]:

@@ -1,0 +1,577 @@
+"""The compiled kernel for the Euler top of any dimension n ≥ 4 (numba, cached on disk).
+
+The generic path moves dicts of batched matrices through Python for every stage, and for the
+n-dimensional top (MATH.md §2) each stage is a handful of n×n products: for small n the step
+is Python overhead, not arithmetic. This module runs the whole fixed-step loop in machine code
+(the 3D top keeps its own kernel, :mod:`lieint.fast.top3`):
+
+* the state is ``(Ã, R̃) = (PᵀAP, RP)`` in the principal frame of ``B = P diag(b) Pᵀ`` (P a
+  proper eigenbasis), where the inertia operator is the entrywise product
+  ``Ω̃_ij = −Ã_ij / (b_i + b_j)`` and the equations keep their form, ``Ã' = [Ã, Ω̃]``,
+  ``R̃' = R̃ Ω̃`` (conjugation by P is an automorphism of so(n));
+* RKMK from any explicit tableau of the right action ``Q · (Ã, R̃) = (QᵀÃQ, R̃Q)``, with
+  exponential coordinates and dexp⁻¹ truncated at the method's degree::
+
+      u_i = h Σ_j a_ij k_j,   k_i = Σ_{d ≤ degree} (B_d / d!) ad_{−u_i}^d Ω̃(exp(u_i)ᵀ Ã exp(u_i)),
+      (Ã, R̃) ← (QᵀÃQ, R̃Q),  Q = exp(h Σ_j b_j k_j),
+
+  or classical RK on the embedded equations ``Ã' = [Ã, Ω̃]``, ``R̃' = R̃Ω̃``;
+* ``exp`` of a skew matrix by scaling and squaring with a Taylor polynomial of degree
+  4, 6, 9, 12 or 16 chosen so that the truncation error is below the unit round-off
+  (:func:`expm_skew`): only matrix products (BLAS), no linear solve — numba's
+  ``np.linalg.solve`` alone would add about 5 s to the one-time compilation;
+* brackets of skew matrices cost one product, ``[X, Y] = XY − (XY)ᵀ``;
+* the dexp⁻¹ series converges only while the spectral radius of ``ad_u`` on so(n),
+  ``θ₁ + θ₂`` (the two largest rotation angles of u), is below 2π; the Frobenius norm settles
+  the usual case (``‖u‖_F² = 2 Σ θ_k² ≥ (θ₁ + θ₂)²``), then ``(2‖u²‖_F)^{1/2}``, and only when
+  both fail are the angles computed exactly, from the eigenvalues ``θ_k²`` (each twice) of the
+  symmetric ``−u² = uᵀu`` (:func:`so_ad_radius_exceeds`) — the steps accepted are exactly
+  those of the generic path;
+* the projection (``project=True``) is Newton–Schulz ``R̃ ← R̃(3I − R̃ᵀR̃)/2`` toward the polar
+  factor, repeated while ``‖R̃ᵀR̃ − I‖_max`` exceeds 1e-8 (at most 8 times); Ã stays exactly skew;
+* bodies of an ensemble run in parallel Python threads, each over a contiguous range of
+  bodies (the compiled loop releases the GIL: no ``prange`` region to compile a second time);
+  a single body, or fewer bodies than threads, runs serially in the calling thread
+  (:func:`lieint.fast.use_threads`).
+
+The compiled entry point :func:`_run_bodies` has one type signature (float64 arrays, int64,
+bool) whatever the method, n, orientation and options, so numba compiles it once per
+installation (cached on disk).
+"""
+
+from __future__ import annotations
+
+import math
+from concurrent.futures import ThreadPoolExecutor
+
+import numpy as np
+from numba import njit
+
+from ..groups.base import bernoulli_dexpinv_coefficients
+from . import range_error, use_threads
+
+__all__ = ["TopNKernel", "expm_skew", "integrate_topn", "so_ad_radius_exceeds"]
+
+_TWO_PI = 2.0 * np.pi
+
+#: ``1/k!`` for the Taylor polynomial of exp
+_INV_FACTORIAL = np.array([1.0 / math.factorial(k) for k in range(17)])
+#: Paterson–Stockmeyer shapes ``(p, q)`` of the Taylor degrees ``m = pq`` used, and for each
+#: the largest norm θ_m with ``θ_m^{m+1}/(m+1)! ≤ 2⁻⁵³`` (the truncation error on a skew
+#: matrix of spectral norm θ ≤ θ_m, whose eigenvalues are ``±iθ_k``, stays below the unit
+#: round-off): m = 4, 6, 9, 12, 16 cost 2, 3, 4, 5, 6 products.
+_SHAPES = np.array([[2, 2], [3, 2], [3, 3], [4, 3], [4, 4]], dtype=np.int64)
+_THETAS = np.array([(math.factorial(p * q + 1) * 2.0**-53) ** (1.0 / (p * q + 1)) for p, q in _SHAPES])
+
+
+@njit(cache=True)
+def _onenorm(X):
+    """``‖X‖₁``, the largest absolute column sum (for skew X it bounds ``‖X‖₂ = θ₁``)."""
+    n = X.shape[0]
+    best = 0.0
+    for j in range(n):
+        acc = 0.0
+        for i in range(n):
+            acc += abs(X[i, j])
+        if acc > best:
+            best = acc
+    return best
+
+
+@njit(cache=True)
+def expm_skew(u):
+    """``exp(u)`` of a finite skew matrix: Taylor polynomial with scaling and squaring.
+
+    For skew u (a normal matrix with eigenvalues ``±iθ_k``) the error of the Taylor
+    polynomial ``T_m`` is ``max_k |e^{iθ_k} − T_m(iθ_k)| ≤ θ₁^{m+1}/(m+1)!`` in the 2-norm, and
+    ``θ₁ = ‖u‖₂ ≤ η = min(‖u‖₁, ‖u²‖₁^{1/2})`` (u² is needed anyway). The degree
+    m ∈ {4, 6, 9, 12, 16} is the least with ``η ≤ θ_m`` (error below 2⁻⁵³); above
+    ``θ₁₆ ≈ 0.83`` u is scaled by ``2⁻ˢ`` and the result squared s times (as in
+    Higham's scaling and squaring, SIAM J. Matrix Anal. Appl. 26, 2005, with the Taylor
+    approximant of Al-Mohy & Higham, 2009). ``T_m`` is evaluated by Paterson–Stockmeyer,
+    ``T_m = Σ_j (u^p)^j B_j(u)``, ``B_j = Σ_{i<p} u^i/(jp + i)!``, in ``p + q − 2`` products
+    (m = pq); no linear solve.
+    """
+    n = u.shape[0]
+    u2 = u @ u
+    # θ₁ = ‖u‖₂ ≤ min(‖u‖₁, ‖u²‖₁^{1/2}); the second is often several times tighter for large n
+    norm = min(_onenorm(u), np.sqrt(_onenorm(u2)))
+    last = _SHAPES.shape[0] - 1
+    pick = last
+    for i in range(last + 1):
+        if norm <= _THETAS[i]:
+            pick = i
+            break
+    s = 0
+    if norm > _THETAS[last]:
+        s = int(np.ceil(np.log2(norm / _THETAS[last])))
+    p, q = _SHAPES[pick, 0], _SHAPES[pick, 1]
+    scale = 2.0 ** (-s)  # exact: a power of two
+    x = u * scale
+    x2 = u2 * (scale * scale)
+    x3 = x2
+    if p >= 3:
+        x3 = x2 @ x
+    top = x2 if p == 2 else (x3 if p == 3 else x2 @ x2)
+    c = _INV_FACTORIAL
+    # Horner in x^p: S = c_m x^p + B_{q−1}, then S ← S x^p + B_j for j = q − 2 … 0
+    S = c[p * q] * top
+    for j in range(q - 1, -1, -1):
+        if j < q - 1:
+            S = S @ top
+        c0, c1, c2 = c[j * p], c[j * p + 1], c[j * p + 2] if p >= 3 else 0.0
+        c3 = c[j * p + 3] if p == 4 else 0.0
+        for a in range(n):
+            S[a, a] += c0
+            for b in range(n):
+                S[a, b] += c1 * x[a, b]
+                if p >= 3:
+                    S[a, b] += c2 * x2[a, b]
+                if p == 4:
+                    S[a, b] += c3 * x3[a, b]
+    for _ in range(s):
+        S = S @ S
+    return S
+
+
+@njit(cache=True)
+def so_ad_radius_exceeds(u):
+    """1 when ``θ₁ + θ₂ ≥ 2π`` for the skew matrix u (the dexp⁻¹ series diverges), 0 when
+    not, 2 when u is not finite (not a "too large step": the non-finite state is reported).
+
+    Two sufficient bounds settle the usual cases without a decomposition:
+    ``θ₁ + θ₂ ≤ ‖u‖_F`` (``‖u‖_F² = 2 Σ_k θ_k²``) and, one product dearer,
+    ``θ₁ + θ₂ ≤ (8(θ₁⁴ + θ₂⁴))^{1/4} ≤ (2‖u²‖_F)^{1/2}`` (``‖u²‖_F² = 2 Σ_k θ_k⁴``; tighter when
+    many planes rotate alike, as in a large random u). Only when both fail are the angles
+    computed: the eigenvalues of the symmetric ``(u/m)ᵀ(u/m)`` (m = max |u_ij|, against
+    overflow) are ``θ_k²/m²``, each twice, so in ascending order ``θ₁ = m √λ_{n−1}`` and
+    ``θ₂ = m √λ_{n−3}`` — the generic path's ``s₀ + s₂`` from the singular values.
+    """
+    n = u.shape[0]
+    ss = 0.0
+    big = 0.0
+    for i in range(n):
+        for j in range(n):
+            x = u[i, j]
+            if not np.isfinite(x):
+                return 2
+            ss += x * x
+            if abs(x) > big:
+                big = abs(x)
+    if np.sqrt(ss) < _TWO_PI:
+        return 0
+    v = u * (1.0 / big)
+    w = v @ v
+    ss = 0.0
+    for x in w.ravel():
+        ss += x * x
+    if big * np.sqrt(2.0 * np.sqrt(ss)) < _TWO_PI:
+        return 0
+    lam = np.linalg.eigvalsh(v.T @ v)
+    theta = big * (np.sqrt(max(lam[n - 1], 0.0)) + np.sqrt(max(lam[n - 3], 0.0)))
+    return 1 if theta >= _TWO_PI else 0
+
+
+@njit(cache=True)
+def _bracket(X, Y):
+    """``[X, Y] = XY − YX = W − Wᵀ`` with ``W = XY``, for skew X, Y: one product, exactly skew
+    (``W_ac − W_ca = −(W_ca − W_ac)`` in floating point)."""
+    W = X @ Y
+    n = W.shape[0]
+    out = np.empty((n, n))
+    for a in range(n):  # rows written in order; the transposed read is the strided one
+        for c in range(n):
+            out[a, c] = W[a, c] - W[c, a]
+    return out
+
+
+@njit(cache=True)
+def _act(Q, A, M):
+    """``(Ã', Ω̃') = (skew(QᵀAQ), Ã' ∘ M)``: the action on the momentum, made exactly skew as
+    the generic action does (``skew_part``), and the inertia operator ``Ω̃_ij = M_ij Ã'_ij``
+    (M symmetric, so Ω̃' is exactly skew too)."""
+    C = Q.T @ (A @ Q)
+    n = C.shape[0]
+    A1 = np.empty((n, n))
+    Om = np.empty((n, n))
+    for a in range(n):
+        for c in range(n):
+            d = 0.5 * (C[a, c] - C[c, a])
+            A1[a, c] = d
+            Om[a, c] = d * M[a, c]
+    return A1, Om
+
+
+@njit(cache=True)
+def _accumulate(out, K, weights, upto, h):
+    """``out += Σ_{j < upto} (h w_j) K[j]`` over the nonzero weights, in the order of j (the
+    generic path's linear combinations); returns whether any weight was nonzero."""
+    n, r = out.shape[0], out.shape[1]
+    any_weight = False
+    for j in range(upto):
+        if weights[j] != 0.0:
+            any_weight = True
+            w = h * weights[j]
+            for a in range(n):
+                for c in range(r):
+                    out[a, c] += w * K[j, a, c]
+    return any_weight
+
+
+@njit(cache=True)
+def _store(K, i, X):
+    """``K[i] = X``."""
+    for a in range(X.shape[0]):
+        for c in range(X.shape[1]):
+            K[i, a, c] = X[a, c]
+
+
+@njit(cache=True)
+def _finite(X):
+    for x in X.ravel():
+        if not np.isfinite(x):
+            return False
+    return True
+
+
+@njit(cache=True)
+def _exp_or_nan(u):
+    """``exp(u)``, or a matrix of NaN when u is not finite (the driver reports the state)."""
+    if _finite(u):
+        return expm_skew(u)
+    out = np.empty_like(u)
+    out[:] = np.nan
+    return out
+
+
+@njit(cache=True)
+def _lie_step(A, R, orient, M, tab, b, h, coeffs, K):
+    """One RKMK step (right action, exp coordinates) from ``(A, R)``; returns
+    ``(ok, A₁, R₁)``. ``ok`` is False when a stage increment reaches the dexp⁻¹ radius."""
+    s = b.shape[0]
+    n = A.shape[0]
+    degree = coeffs.shape[0] - 1
+    for i in range(s):
+        u = np.zeros((n, n))
+        if not _accumulate(u, K, tab[i], i, h):
+            _store(K, i, A * M)  # u = 0: ξ = Ω̃(Ã)
+            continue
+        if so_ad_radius_exceeds(u) == 1:
+            return False, A, R
+        _, xi = _act(_exp_or_nan(u), A, M)
+        k = xi.copy()
+        term = xi
+        minus_u = -u
+        for d in range(1, degree + 1):
+            term = _bracket(minus_u, term)
+            if coeffs[d] != 0.0:
+                k += coeffs[d] * term
+        _store(K, i, k)
+    u = np.zeros((n, n))
+    _accumulate(u, K, b, s, h)
+    Q = _exp_or_nan(u)
+    A1, _ = _act(Q, A, M)
+    return True, A1, (R @ Q if orient else R)
+
+
+@njit(cache=True)
+def _classical_step(A, R, orient, M, tab, b, h, KA, KR):
+    """One classical RK step on ``Ã' = [Ã, Ω̃]``, ``R̃' = R̃ Ω̃`` (Ã stays exactly skew)."""
+    s = b.shape[0]
+    for i in range(s):
+        Ai = A.copy()
+        _accumulate(Ai, KA, tab[i], i, h)
+        Om = Ai * M
+        _store(KA, i, _bracket(Ai, Om))
+        if orient:
+            Ri = R.copy()
+            _accumulate(Ri, KR, tab[i], i, h)
+            _store(KR, i, Ri @ Om)
+    A1 = A.copy()
+    _accumulate(A1, KA, b, s, h)
+    R1 = R.copy()
+    if orient:
+        _accumulate(R1, KR, b, s, h)
+    return A1, R1
+
+
+@njit(cache=True)
+def _project(R):
+    """Newton–Schulz toward the polar factor: ``R ← R(3I − RᵀR)/2 = R − R E/2`` with
+    ``E = RᵀR − I``, once, then again while ``max |E|`` exceeds 1e-8 (quadratic convergence:
+    the last step leaves ~1e-16)."""
+    n = R.shape[0]
+    for _ in range(8):
+        E = R.T @ R
+        worst = 0.0
+        for i in range(n):
+            E[i, i] -= 1.0
+        for x in E.ravel():
+            if abs(x) > worst:
+                worst = abs(x)
+        if not np.isfinite(worst):
+            return R
+        R = R - 0.5 * (R @ E)
+        if worst <= 1e-8:
+            break
+    return R
+
+
+@njit(cache=True)
+def _load(X, stack, m):
+    """``X = stack[m]``."""
+    for a in range(X.shape[0]):
+        for c in range(X.shape[1]):
+            X[a, c] = stack[m, a, c]
+
+
+@njit(cache=True)
+def _save(out, slot, m, X):
+    """``out[slot, m] = X``."""
+    for a in range(X.shape[0]):
+        for c in range(X.shape[1]):
+            out[slot, m, a, c] = X[a, c]
+
+
+@njit(cache=True, nogil=True)
+def _run_bodies(
+    lo, hi, A0, R0, orient, M, tab, b, coeffs, lie, h, h_last, k_from, k_to, nsteps, save_steps, project,
+    out_A, out_R, fin_A, fin_R, status,
+):  # fmt: skip
+    """Steps ``k_from < k ≤ k_to`` of the bodies ``lo ≤ m < hi`` on the global grid (the last
+    global step has size ``h_last``); states after the steps in ``save_steps`` go to
+    ``out_*``, the states after ``k_to`` to ``fin_*``; ``status[m]`` is -1, or the step at which
+    a stage of body m left the dexp⁻¹ radius (that body stops there). Releases the GIL, so
+    that threads can run disjoint ranges of bodies."""
+    s = b.shape[0]
+    n = A0.shape[1]
+    r = R0.shape[1]
+    K = np.zeros((s, n, n))
+    KR = np.zeros((s, r, r))
+    for m in range(lo, hi):
+        A = np.empty((n, n))
+        R = np.empty((r, r))
+        _load(A, A0, m)
+        _load(R, R0, m)
+        slot = 0
+        status[m] = -1
+        for k in range(k_from, k_to):
+            hk = h if k < nsteps - 1 else h_last
+            if lie:
+                ok, A, R = _lie_step(A, R, orient, M, tab, b, hk, coeffs, K)
+                if not ok:
+                    status[m] = k
+                    break
+            else:
+                A, R = _classical_step(A, R, orient, M, tab, b, hk, K, KR)
+            if project and orient:
+                R = _project(R)
+            if slot < save_steps.shape[0] and save_steps[slot] == k + 1:
+                _save(out_A, slot, m, A)
+                _save(out_R, slot, m, R)
+                slot += 1
+        _store(fin_A, m, A)
+        _store(fin_R, m, R)
+
+
+def integrate_topn(
+    A0,
+    R0,
+    b_principal,
+    tableau_A,
+    tableau_b,
+    coeffs,
+    lie: bool,
+    h,
+    h_last,
+    k_from,
+    k_to,
+    nsteps,
+    save_steps,
+    project: bool,
+    threads: int = 1,
+):
+    """Run the compiled loop over steps ``k_from < k ≤ k_to`` (bodies in ``threads`` threads).
+
+    Parameters
+    ----------
+    A0 : ndarray, shape (N, n, n)
+        Body momenta ``Ã = PᵀAP`` in the principal frame (exactly skew).
+    R0 : ndarray, shape (N, n, n) or (N, 0, 0)
+        Orientations ``R̃ = RP``; empty trailing shape: the top carries no orientation.
+    b_principal : ndarray, shape (n,)
+        Eigenvalues b of the mass tensor (``Ω̃_ij = −Ã_ij / (b_i + b_j)``).
+    tableau_A, tableau_b : ndarray
+        The explicit Butcher tableau.
+    coeffs : sequence of float
+        ``B_d / d!`` for ``d ≤`` the dexp⁻¹ degree (RKMK); ignored for classical RK.
+    lie : bool
+        RKMK (True) or classical RK on the embedded equations (False).
+    h, h_last : float
+        The grid step and the size of the grid's last step.
+    k_from, k_to, nsteps : int
+        The steps to take, on a grid of ``nsteps`` steps.
+    save_steps : array_like of int
+        Global step numbers after which the state is saved (ascending, in ``(k_from, k_to]``).
+    project : bool
+        Newton–Schulz projection of R̃ after each step.
+    threads : int
+        Python threads, each running the compiled loop (which releases the GIL) over a
+        contiguous range of bodies; 1 runs them all in the calling thread.
+
+    Returns
+    -------
+    out_A, out_R : ndarray
+        The saved states, shapes ``(m, N, n, n)`` (``out_R``: ``(m, N, 0, 0)`` without
+        orientation).
+    fin_A, fin_R : ndarray
+        The states after ``k_to``.
+    bad : int
+        The first step at which a stage left the dexp⁻¹ radius (-1: none); the run stops there.
+    """
+    save_steps = np.asarray(save_steps, dtype=np.int64)
+    A0 = np.ascontiguousarray(A0, dtype=float)
+    R0 = np.ascontiguousarray(R0, dtype=float)
+    N, n = A0.shape[0], A0.shape[1]
+    r = R0.shape[1]
+    m = save_steps.size
+    out_A, out_R = np.empty((m, N, n, n)), np.empty((m, N, r, r))
+    fin_A, fin_R = np.empty((N, n, n)), np.empty((N, r, r))
+    b_principal = np.asarray(b_principal, dtype=float)
+    pair = b_principal[:, None] + b_principal[None, :]
+    np.fill_diagonal(pair, 1.0)  # the diagonal of a bivector is zero anyway
+    M = -1.0 / pair
+    status = np.empty(N, dtype=np.int64)
+    args = (
+        A0,
+        R0,
+        r > 0,
+        M,
+        np.ascontiguousarray(tableau_A, dtype=float),
+        np.ascontiguousarray(tableau_b, dtype=float),
+        np.asarray(coeffs, dtype=float),
+        bool(lie),
+        float(h),
+        float(h_last),
+        int(k_from),
+        int(k_to),
+        int(nsteps),
+        save_steps,
+        bool(project),
+        out_A,
+        out_R,
+        fin_A,
+        fin_R,
+        status,
+    )
+    threads = min(int(threads), N)
+    if threads > 1:
+        # contiguous ranges of bodies, one per thread; the kernel releases the GIL
+        cuts = np.linspace(0, N, threads + 1).astype(np.int64)
+        with ThreadPoolExecutor(threads) as pool:
+            for job in [pool.submit(_run_bodies, cuts[i], cuts[i + 1], *args) for i in range(threads)]:
+                job.result()
+    else:
+        _run_bodies(0, N, *args)
+    bad = status[status >= 0]
+    return out_A, out_R, fin_A, fin_R, int(bad.min()) if bad.size else -1
+
+
+class TopNKernel:
+    """The compiled n-dimensional top kernel (n ≥ 4) with its own state representation
+    ``(Ã, R̃) = (PᵀAP, RP)`` in the principal frame (P a proper eigenbasis of B), so that a run
+    split into segments gives the same bits as one that is not: the conversion to ``(A, R)``
+    happens only on output.
+
+    Parameters
+    ----------
+    sys_decl : dict
+        ``{"kind": "topn", "b": eigenvalues of B, "P": eigenbasis, "orientation": bool}``.
+    meth_decl : dict
+        ``{"kind": "rkmk" | "rk", "A", "b", "c"[, "dexpinv_degree"]}``.
+    y : dict
+        The initial state (unused: the layout does not depend on it).
+    batch : tuple of int
+        The batch shape of the run.
+    """
+
+    def __init__(self, sys_decl: dict, meth_decl: dict, y, batch: tuple[int, ...]):
+        self.b = np.asarray(sys_decl["b"], dtype=float)
+        self.n = self.b.size
+        self.orientation = bool(sys_decl["orientation"])
+        P = np.array(sys_decl["P"], dtype=float)
+        if np.linalg.det(P) < 0:  # a proper frame keeps R̃ = RP a rotation
+            P[:, -1] *= -1.0
+        self.P = P
+        # a diagonal B needs no change of frame (P = I): the conversions are skipped, not rounded
+        self.identity_frame = bool(np.array_equal(P, np.eye(self.n)))
+        self.method = meth_decl
+        self.lie = meth_decl["kind"] == "rkmk"
+        self.stages = int(np.asarray(meth_decl["b"]).size)
+        self.coeffs = bernoulli_dexpinv_coefficients(meth_decl["dexpinv_degree"]) if self.lie else (1.0,)
+        self.batch = batch
+        bodies = int(np.prod(batch)) if batch else 1
+        self.parallel, self.threads = use_threads(bodies)
+
+    def describe(self) -> str:
+        """Which kernel runs."""
+        threads = f"{self.threads} threads" if self.parallel else "serial"
+        kind = "RKMK" if self.lie else "classical RK"
+        return f"compiled {self.n}D-top kernel, {kind}, per body, {threads}"
+
+    def start(self, y: dict) -> dict:
+        n = self.n
+        A = y["A"].reshape(-1, n, n)
+        R = y["R"].reshape(-1, n, n) if self.orientation else None
+        if not self.identity_frame:
+            A = self.P.T @ A @ self.P
+            if self.orientation:
+                R = R @ self.P
+        A = 0.5 * (A - np.swapaxes(A, -1, -2))  # exactly skew (the identity on a skew A)
+        internal = {"A": np.ascontiguousarray(A, dtype=float)}
+        if self.orientation:
+            internal["R"] = np.ascontiguousarray(R, dtype=float)
+        return internal
+
+    def advance(self, internal: dict, k_from: int, k_to: int, plan, save_steps, project: bool):
+        tab = self.method
+        A = internal["A"]
+        # without orientation the kernel steps an empty R (one type signature for both cases)
+        R = internal["R"] if self.orientation else np.empty((A.shape[0], 0, 0))
+        out_A, out_R, fin_A, fin_R, bad = integrate_topn(
+            A,
+            R,
+            self.b,
+            tab["A"],
+            tab["b"],
+            self.coeffs,
+            self.lie,
+            plan.h,
+            plan.last_step,
+            k_from,
+            k_to,
+            plan.nsteps,
+            save_steps,
+            project,
+            self.threads,
+        )
+        if bad >= 0:
+            raise range_error(bad, plan, f"so({self.n})")
+        new = {"A": fin_A, "R": fin_R} if self.orientation else {"A": fin_A}
+        return new, self._user(out_A, out_R)
+
+    def _user(self, A, R) -> dict:
+        lead, n = A.shape[:-3], self.n
+        if not self.identity_frame:
+            A = self.P @ A @ self.P.T
+            A = 0.5 * (A - np.swapaxes(A, -1, -2))
+        states = {"A": A.reshape(lead + self.batch + (n, n))}
+        if self.orientation:
+            if not self.identity_frame:
+                R = R @ self.P.T
+            states["R"] = R.reshape(lead + self.batch + (n, n))
+        return states
+
+    def user_state(self, internal: dict) -> dict:
+        R = internal["R"][None] if self.orientation else None
+        return {k: v[0] for k, v in self._user(internal["A"][None], R).items()}

@@ -1,0 +1,195 @@
+"""The compiled n-dimensional top (lieint.fast.topn) must match the generic numpy path.
+
+Every registered fixed-step method whose ``compiled()`` declares kind "rkmk" or "rk" is run on
+both paths, for n = 4, 5, 6, 8, with and without the orientation, batched, thinned by
+``save_every``; a run cut into segments (streamed, interrupted and resumed) gives the bits of
+one that is not; the dexp⁻¹ range is the generic path's to the last bit of the step.
+Small n, few steps: the kernel compiles once (one type signature), about 13 s on a cold cache.
+"""
+
+import numpy as np
+import pytest
+from conftest import compiled_methods, random_rotation, random_skew
+from scipy.linalg import expm
+
+import lieint
+from lieint.groups.so import so_ad_spectral_radius
+
+COMPILED = compiled_methods()
+
+
+def test_the_registry_has_compiled_methods_of_both_kinds():
+    kinds = {lieint.get_method(name).compiled()["kind"] for name in COMPILED}
+    assert kinds == {"rkmk", "rk"} and "rkmk4" in COMPILED and "rk4" in COMPILED
+
+
+def top(n, rng, diagonal):
+    b = np.linspace(0.6, 1.9, n)
+    if diagonal:
+        return np.diag(b)
+    Q = random_rotation(rng, n)
+    Q[:, 0] *= -1  # an improper eigenbasis on purpose: the kernel must fix its orientation
+    return Q @ np.diag(b) @ Q.T
+
+
+@pytest.mark.parametrize("method", COMPILED)
+@pytest.mark.parametrize("n", [4, 5, 6, 8])
+def test_topn_matches_the_generic_path(rng, method, n):
+    B = top(n, rng, diagonal=n % 2 == 0)
+    project = n in (5, 8)
+    Omega = random_skew(rng, n, (2,), scale=1.5)
+    for orientation in (True, False):
+        system = lieint.EulerTop(B, orientation=orientation)
+        R = random_rotation(rng, n, (2,)) if orientation else None
+        y0 = system.initial_state(Omega=Omega, R=R)
+        kw = dict(t_span=(0.0, 0.405), h=0.01, method=method, project=project, save_every=7)
+        fast = lieint.integrate(system, y0, backend="numba", **kw)
+        ref = lieint.integrate(system, y0, backend="numpy", **kw)
+        assert fast.stats.backend == "numba" and ref.stats.backend == "numpy"
+        assert "compiled" in fast.stats.backend_reason and f"{n}D-top" in fast.stats.backend_reason
+        assert np.array_equal(fast.t, ref.t) and fast.t[-1] == 0.405
+        assert list(fast.states) == list(ref.states) == (["A", "R"] if orientation else ["A"])
+        assert fast.states["A"].shape == ref.states["A"].shape == (fast.t.size, 2, n, n)
+        np.testing.assert_allclose(fast.states["A"], ref.states["A"], rtol=0, atol=1e-12)
+        if orientation:
+            np.testing.assert_allclose(fast.states["R"], ref.states["R"], rtol=0, atol=1e-12)
+        assert fast.nsteps == ref.nsteps and fast.nfev == ref.nfev
+
+
+def test_topn_single_body_and_two_batch_dimensions(rng):
+    system = lieint.EulerTop(top(5, rng, diagonal=False))
+    Omega = random_skew(rng, 5, (2, 2))
+    y0 = system.initial_state(Omega=Omega, R=random_rotation(rng, 5, (2, 2)))
+    kw = dict(t_span=(0.0, 0.3), h=0.01, method="rkmk4", save_every=4)
+    fast = lieint.integrate(system, y0, backend="auto", **kw)
+    ref = lieint.integrate(system, y0, backend="numpy", **kw)
+    assert fast.stats.backend == "numba" and fast.states["R"].shape == (fast.t.size, 2, 2, 5, 5)
+    for name in ("A", "R"):
+        np.testing.assert_allclose(fast.states[name], ref.states[name], rtol=0, atol=1e-12)
+    one = lieint.integrate(system, {k: v[1, 0] for k, v in y0.items()}, backend="auto", **kw)
+    assert one.stats.threads == 1 and "serial" in one.stats.backend_reason
+    for name in ("A", "R"):  # each body alone gives the bits it gets in the ensemble
+        assert np.array_equal(one.states[name], fast.states[name][:, 1, 0])
+    # the invariants of the action are kept: spectrum of A, space momentum, R on SO(5)
+    assert np.max(fast.drift("casimirs")) < 1e-13
+    assert np.max(fast.invariants["orthogonality"]) < 1e-13
+
+
+SCENE4 = """
+[scene]
+name = "4D top"
+
+[body]
+mass_tensor = [[0.5, 0.1, 0, 0], [0.1, 1.0, 0, 0], [0, 0, 1.7, 0.2], [0, 0, 0.2, 2.3]]
+
+[support]
+type = "fixed_point"
+
+[initial]
+omega = [[0, -0.3, 0.5, -0.2], [0.3, 0, -0.4, 0.6], [-0.5, 0.4, 0, -0.1], [0.2, -0.6, 0.1, 0]]
+
+[integrator]
+method = "{method}"
+step = 0.01
+t_end = 3.005
+save_every = 7
+project = true
+
+[output]
+quantities = ["orientation"]
+"""
+
+
+@pytest.mark.parametrize("method", ["rkmk4", "rk4"])
+def test_topn_segments_streamed_and_resumed_equal_one_run(tmp_path, method):
+    import h5py
+
+    from lieint.scenes import build_system, load_scene
+
+    path = tmp_path / "top4.toml"
+    path.write_text(SCENE4.format(method=method))
+    scene = load_scene(path)
+    system, y0 = build_system(scene)
+    whole = lieint.integrate(system, y0, (0.0, 3.005), h=0.01, method=method, project=True, save_every=7)
+    assert whole.stats.backend == "numba"
+    out = tmp_path / "top4.h5"
+    first = lieint.run(path, out, progress=False, checkpoint_every=13, stop_after=101)
+    assert first.status == "interrupted", first.message
+    rest = lieint.run(path, out, progress=False, checkpoint_every=29, resume=True)
+    assert rest.status == "complete", rest.message
+    with h5py.File(out) as f:
+        assert f.attrs["backend"] == "numba"
+        assert np.array_equal(f["t"][()], whole.t)
+        assert np.array_equal(f["states/A"][()], whole.states["A"])
+        assert np.array_equal(f["states/R"][()], whole.states["R"])
+
+
+def _two_plane_omega(rng, n):
+    """A body velocity with rotation angles 2, 0.6, 0.4, … in random planes: the Frobenius
+    bound (and the one from ‖u²‖) is loose, so the range is decided by the exact test."""
+    angles = [2.0, 0.6, 0.4, 0.2][: n // 2]
+    D = np.zeros((n, n))
+    for k, a in enumerate(angles):
+        D[2 * k + 1, 2 * k], D[2 * k, 2 * k + 1] = a, -a
+    Q = random_rotation(rng, n)
+    return Q @ D @ Q.T
+
+
+@pytest.mark.parametrize("n", [4, 7])
+def test_topn_range_just_passes_and_just_fails_on_both_paths(rng, n):
+    # RKMK2's second stage is u = h Ω(A₀): θ₁ + θ₂ of it is h times that of Ω₀
+    system = lieint.EulerTop(top(n, rng, diagonal=False))
+    y0 = system.initial_state(Omega=_two_plane_omega(rng, n))
+    u = system.angular_velocity(y0["A"])
+    rho = float(so_ad_spectral_radius(u))
+    assert np.linalg.norm(u) > rho * 1.05 and np.sqrt(2 * np.linalg.norm(u @ u)) > rho * 1.05
+    h_edge = 2 * np.pi / rho
+    kw = dict(method="rkmk2")
+    inside = h_edge * (1 - 1e-9)
+    with pytest.warns(lieint.LieStepWarning, match="too large for this motion"):  # on both paths alike
+        fast = lieint.integrate(system, y0, (0.0, inside), h=inside, backend="numba", **kw)
+    with pytest.warns(lieint.LieStepWarning, match="too large for this motion"):
+        ref = lieint.integrate(system, y0, (0.0, inside), h=inside, backend="numpy", **kw)
+    assert fast.stats.backend == "numba" and fast.nsteps == 1
+    for name in ("A", "R"):
+        np.testing.assert_allclose(fast.states[name], ref.states[name], rtol=0, atol=1e-12)
+    outside = h_edge * (1 + 1e-9)
+    for backend in ("numpy", "numba"):
+        with pytest.raises(lieint.DexpinvRangeError, match="Lie step too large for exponential coordinates"):
+            lieint.integrate(system, y0, (0.0, outside), h=outside, backend=backend, **kw)
+
+
+def test_the_kernel_range_test_and_exponential_against_numpy_and_mpmath(rng):
+    import mpmath
+
+    from lieint.fast.topn import expm_skew, so_ad_radius_exceeds
+
+    mpmath.mp.dps = 30
+    for n in (4, 5, 9, 16):
+        for scale in (1e-6, 0.01, 0.3, 1.0, 3.0, 30.0):  # every Taylor degree, and squarings
+            u = random_skew(rng, n)
+            u *= scale / np.linalg.norm(u, 2)
+            Q = expm_skew(u)
+            if n <= 9:  # to round-off, ε times the condition ~θ (scipy's expm errs by 1e-13 at θ = 30)
+                exact = np.array(mpmath.expm(mpmath.matrix(u.tolist())).tolist(), dtype=float)
+                np.testing.assert_allclose(Q, exact, rtol=0, atol=2e-15 * max(1.0, scale))
+            np.testing.assert_allclose(Q, expm(u), rtol=0, atol=4e-15 * max(1.0, scale**2))
+            assert np.abs(Q.T @ Q - np.eye(n)).max() < 1e-14
+            rho = float(so_ad_spectral_radius(u))
+            assert so_ad_radius_exceeds(u) == int(rho >= 2 * np.pi)
+            for f in (1 - 1e-10, 1 + 1e-10):
+                assert so_ad_radius_exceeds(u * (2 * np.pi / rho * f)) == int(f > 1)
+    assert so_ad_radius_exceeds(np.full((4, 4), np.nan)) == 2  # not a "too large step"
+
+
+def test_topn_reports_a_non_finite_state_like_the_generic_path(rng):
+    system = lieint.EulerTop(top(4, rng, diagonal=True))
+    y0 = system.initial_state(Omega=random_skew(rng, 4, scale=50.0))
+    kw = dict(t_span=(0.0, 40.0), h=0.2, method="rk4", save_every=5)
+    with pytest.warns(lieint.LieStepWarning):
+        fast = lieint.integrate(system, y0, backend="numba", **kw)
+    with pytest.warns(lieint.LieStepWarning):
+        ref = lieint.integrate(system, y0, backend="numpy", **kw)
+    assert not fast.success and not ref.success
+    assert "non-finite" in fast.message and "non-finite" in ref.message
+    assert np.isfinite(fast.states["A"]).all() and fast.t.size >= 1
