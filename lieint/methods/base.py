@@ -111,6 +111,14 @@ class Method(ABC):
         """What a compiled kernel needs to run this method (see :mod:`lieint.fast`), or None."""
         return None
 
+    def steps_as(self, cls: type, names: tuple[str, ...] = ("step",)) -> bool:
+        """True when this object steps exactly as ``cls`` defines it: none of ``names`` is
+        overridden by a subclass or set on the instance. A declaration for the compiled
+        kernels stands for the class's own step; a subclass that changes it integrates
+        something else and must run on the generic path."""
+        own = getattr(self, "__dict__", {})
+        return all(getattr(type(self), name) is getattr(cls, name) and name not in own for name in names)
+
 
 @dataclass(frozen=True)
 class MethodSpec:

@@ -50,6 +50,9 @@ class ClassicalRK(Method):
         return StepResult(_axpy(y, b, ks, h), None, self.tableau.stages, None, dense=(ks, h))
 
     def compiled(self):
+        """Classical RK on the state arrays has compiled kernels (unless a subclass changes the step)."""
+        if not self.steps_as(ClassicalRK):
+            return None
         return {"kind": "rk", "A": self.tableau.A, "b": self.tableau.b, "c": self.tableau.c}
 
 

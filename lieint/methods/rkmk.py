@@ -152,6 +152,8 @@ class RKMK(Method):
         """
         if self.coordinates != "exp" or self.dexpinv_degree is None:
             return None
+        if not self.steps_as(RKMK, ("step", "stage_increments", "_difference")):
+            return None
         tab = self.butcher
         decl = {"kind": "rkmk", "A": tab.A, "b": tab.b, "c": tab.c, "dexpinv_degree": self.dexpinv_degree}
         if isinstance(self.tableau, EmbeddedPair):

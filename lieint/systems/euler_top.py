@@ -220,10 +220,10 @@ class EulerTop(LieGroupSystem):
 
         The declaration stands for the Euler top's equations: a subclass that overrides the
         generator, the action or the projection integrates other dynamics and declares None
-        (the generic path then runs what it defines).
+        (the generic path then runs what it defines) — on the class or set on the instance.
         """
-        cls = type(self)
-        if any(getattr(cls, name) is not getattr(EulerTop, name) for name in _DYNAMICS):
+        cls, own = type(self), getattr(self, "__dict__", {})
+        if any(getattr(cls, name) is not getattr(EulerTop, name) or name in own for name in _DYNAMICS):
             return None
         if self.n == 3:
             return {"kind": "top3", "moments": self.principal_moments, "P": self.P, "orientation": self.orientation}
