@@ -380,7 +380,11 @@ class _FixedLoop:
                     )
                     break
                 carry.nfev += result.nfev
-                y_new = system.project(result.y) if d.project else result.y
+                try:
+                    y_new = system.project(result.y) if d.project else result.y
+                except np.linalg.LinAlgError:  # the SVD of a non-finite R
+                    failure = _nonfinite(k + 1, plan.time(k + 1), f"Reduce the step `h` = {plan.h:g}")
+                    break
                 saving = slot < saves.size and saves[slot] == k + 1
                 if (saving or (k + 1) % _FINITE_CHECK_EVERY == 0) and not _all_finite(y_new):
                     failure = _nonfinite(k + 1, plan.time(k + 1), f"Reduce the step `h` = {plan.h:g}")
@@ -439,7 +443,7 @@ class _KernelLoop:
             saves = saves[:bad]
             done = int(saves[-1]) if bad > 0 else carry.k
             # the run stops here (a failed run is not resumed: the failure would recur)
-            failure = _nonfinite(done, plan.time(done), f"Reduce the step `h` = {plan.h:g}", after=True)
+            failure = _nonfinite(done, plan.time(done), f"Reduce the step `h` = {plan.h:g}", until=k_to)
         carry.nfev += self.kernel.stages * (done - carry.k)
         carry.k, carry.t = done, plan.time(done)
         return Segment(plan.times(saves), states, failure)
@@ -686,8 +690,10 @@ def _all_finite(y: dict) -> bool:
     return all(_finite(arr) for arr in y.values())
 
 
-def _nonfinite(k: int, t: float, advice: str, after: bool = False) -> str:
-    where = f"after step {k}" if after else f"by step {k}"
+def _nonfinite(k: int, t: float, advice: str, until: int | None = None) -> str:
+    """The message of a run whose state became non-finite by step k, or (a compiled segment,
+    which reports only its saved rows) after step k and by step ``until``."""
+    where = f"by step {k}" if until is None else f"after step {k} and by step {until}"
     return (
         f"The state became non-finite (NaN or inf) {where} (t = {t:.6g}); the run stopped there. "
         f"{advice} or check the initial state."

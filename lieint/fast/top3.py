@@ -7,7 +7,8 @@ The generic path moves dicts of batched matrices through Python for every stage;
   Euler top's SO(3) action is ``Π ↦ QᵀΠ``, ``R ↦ RQ`` and the bracket is the cross product;
 * RKMK from any explicit tableau with exponential coordinates (Rodrigues) and dexp⁻¹
   truncated at the method's degree, or classical RK on the embedded equations;
-* the projection is one Newton–Schulz step ``R ← R(3I − RᵀR)/2`` toward the polar factor,
+* the projection is Newton–Schulz ``R ← R(3I − RᵀR)/2`` toward the polar factor (one step from
+  a method's step, to convergence from farther),
   which for ``‖RᵀR − I‖ ~ 1e-16`` is the polar factor to round-off;
 * bodies of an ensemble run in parallel threads (``prange``); a single body, or fewer bodies
   than threads, runs serially in the calling thread.
@@ -158,20 +159,63 @@ def _classical_step(pi, R, Iinv, A, b, h, Kpi, KR, ypi, yR):
 
 @njit(cache=True)
 def _newton_schulz(R, tmp):
-    """R ← R (3I − RᵀR)/2: one step to the polar factor (quadratic convergence)."""
+    """R ← R (3I − RᵀR)/2 toward the polar factor (quadratic convergence), in place.
+
+    One step when ``max |RᵀR − I| ≤ 1e-8`` (a step of a method leaves R that close: the step
+    then leaves ~1e-16), more until that holds otherwise. The map σ ↦ σ(3 − σ²)/2 of the
+    singular values converges for σ in (0, √3); beyond ``max |RᵀR − I| ≥ 2/3`` (which could
+    reach σ² ≥ 3) R is first divided by ``‖RᵀR‖₁^{1/2} ≥ σ_max`` (same polar factor), and at
+    most 64 steps are taken.
+    """
+    worst = _gram3(R, tmp)
+    if not np.isfinite(worst):
+        return
+    if worst >= 2.0 / 3.0:
+        norm1 = 0.0
+        for c2 in range(3):
+            col = 0.0
+            for r in range(3):
+                col += abs((1.0 if r == c2 else 0.0) - tmp[r, c2])  # tmp = I − RᵀR: |RᵀR| entries
+            norm1 = max(norm1, col)
+        if norm1 > 0.0:
+            scale = 1.0 / np.sqrt(norm1)
+            for r in range(3):
+                for c2 in range(3):
+                    R[r, c2] *= scale
+            worst = _gram3(R, tmp)
+    out = np.empty((3, 3))
+    for _ in range(128):
+        for r in range(3):
+            for c2 in range(3):
+                out[r, c2] = 0.5 * (
+                    R[r, 0] * (tmp[0, c2] + 2.0 * (0 == c2))
+                    + R[r, 1] * (tmp[1, c2] + 2.0 * (1 == c2))
+                    + R[r, 2] * (tmp[2, c2] + 2.0 * (2 == c2))
+                )
+        for r in range(3):
+            for c2 in range(3):
+                R[r, c2] = out[r, c2]
+        if worst <= 1e-8:
+            break
+        worst = _gram3(R, tmp)
+        if not np.isfinite(worst):
+            break
+
+
+@njit(cache=True)
+def _gram3(R, tmp):
+    """``tmp = I − RᵀR``; returns ``max |RᵀR − I|`` (NaN when R is not finite)."""
+    worst = 0.0
     for r in range(3):
         for c2 in range(3):
             acc = 0.0
             for k in range(3):
                 acc += R[k, r] * R[k, c2]
-            tmp[r, c2] = (3.0 if r == c2 else 0.0) - acc
-    out = np.empty((3, 3))
-    for r in range(3):
-        for c2 in range(3):
-            out[r, c2] = 0.5 * (R[r, 0] * tmp[0, c2] + R[r, 1] * tmp[1, c2] + R[r, 2] * tmp[2, c2])
-    for r in range(3):
-        for c2 in range(3):
-            R[r, c2] = out[r, c2]
+            d = (1.0 if r == c2 else 0.0) - acc
+            tmp[r, c2] = d
+            if abs(d) > worst or d != d:
+                worst = abs(d)
+    return worst
 
 
 @njit(cache=True)

@@ -24,11 +24,15 @@ is Python overhead, not arithmetic. This module runs the whole fixed-step loop i
 * the dexp⁻¹ series converges only while the spectral radius of ``ad_u`` on so(n),
   ``θ₁ + θ₂`` (the two largest rotation angles of u), is below 2π; the Frobenius norm settles
   the usual case (``‖u‖_F² = 2 Σ θ_k² ≥ (θ₁ + θ₂)²``), then ``(2‖u²‖_F)^{1/2}``, and only when
-  both fail are the angles computed exactly, from the eigenvalues ``θ_k²`` (each twice) of the
-  symmetric ``−u² = uᵀu`` (:func:`so_ad_radius_exceeds`) — the steps accepted are exactly
-  those of the generic path;
+  both fail are the angles computed, from the eigenvalues ``θ_k²`` (each twice) of the
+  symmetric ``−u² = uᵀu`` (:func:`so_ad_radius_exceeds`). Those give θ₂ to about
+  ``√ε·θ₁`` when θ₂ is near 0 (the generic path's singular values give it to ``ε·θ₁``), so
+  the two paths may decide differently on a step within about 1e-8 (relative) of the limit;
+  every other step is accepted or refused alike;
 * the projection (``project=True``) is Newton–Schulz ``R̃ ← R̃(3I − R̃ᵀR̃)/2`` toward the polar
-  factor, repeated while ``‖R̃ᵀR̃ − I‖_max`` exceeds 1e-8 (at most 8 times); Ã stays exactly skew;
+  factor, repeated while ``‖R̃ᵀR̃ − I‖_max`` exceeds 1e-8; from farther than the region where
+  it converges (a coarse classical step) R̃ is first scaled by ``‖R̃ᵀR̃‖₁^{-1/2}`` (same polar
+  factor, at most 128 steps); Ã stays exactly skew;
 * bodies of an ensemble run in parallel Python threads, each over a contiguous range of
   bodies (the compiled loop releases the GIL: no ``prange`` region to compile a second time);
   a single body, or fewer bodies than threads, runs serially in the calling thread
@@ -299,22 +303,51 @@ def _classical_step(A, R, orient, M, tab, b, h, KA, KR):
 def _project(R):
     """Newton–Schulz toward the polar factor: ``R ← R(3I − RᵀR)/2 = R − R E/2`` with
     ``E = RᵀR − I``, once, then again while ``max |E|`` exceeds 1e-8 (quadratic convergence:
-    the last step leaves ~1e-16)."""
+    the last step leaves ~1e-16).
+
+    The iteration maps each singular value σ to σ(3 − σ²)/2 and converges for σ in (0, √3).
+    ``max |E_ij| < 2/n`` bounds the spectral radius of E below 2, i.e. σ² < 3; beyond it (a
+    coarse classical step) R is first divided by ``‖RᵀR‖₁^{1/2} ≥ σ_max`` — the polar factor of
+    cR is that of R — and the iteration runs until it has converged (at most 128 steps: a
+    singular value of 1e-18 grows ×1.5 a step).
+    """
     n = R.shape[0]
-    for _ in range(8):
-        E = R.T @ R
-        worst = 0.0
-        for i in range(n):
-            E[i, i] -= 1.0
-        for x in E.ravel():
-            if abs(x) > worst:
-                worst = abs(x)
-        if not np.isfinite(worst):
-            return R
+    E, worst = _gram_defect(R)
+    if not np.isfinite(worst):
+        return R
+    if worst >= 2.0 / n:
+        G = R.T @ R
+        norm1 = 0.0
+        for c in range(n):
+            col = 0.0
+            for r in range(n):
+                col += abs(G[r, c])
+            norm1 = max(norm1, col)
+        if norm1 > 0.0:
+            R = R / np.sqrt(norm1)
+            E, worst = _gram_defect(R)
+    for _ in range(128):
         R = R - 0.5 * (R @ E)
         if worst <= 1e-8:
             break
+        E, worst = _gram_defect(R)
+        if not np.isfinite(worst):
+            break
     return R
+
+
+@njit(cache=True)
+def _gram_defect(R):
+    """``E = RᵀR − I`` and ``max |E_ij|``."""
+    n = R.shape[0]
+    E = R.T @ R
+    for i in range(n):
+        E[i, i] -= 1.0
+    worst = 0.0
+    for x in E.ravel():
+        if abs(x) > worst or x != x:
+            worst = abs(x)
+    return E, worst
 
 
 @njit(cache=True)
