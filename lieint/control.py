@@ -162,8 +162,17 @@ class StepSizeController:
         f0 = system.vector_field(t0, y0)
 
         def rms(values: dict) -> float:
-            total = sum(float(np.sum((v / (self.atol + self.rtol * np.abs(y0[k]))) ** 2)) for k, v in values.items())
-            return math.sqrt(total / max(sum(np.size(v) for v in values.values()), 1))
+            ratios = [v / (self.atol + self.rtol * np.abs(y0[k])) for k, v in values.items()]
+            count = max(sum(np.size(r) for r in ratios), 1)
+            with np.errstate(over="ignore"):
+                total = sum(float(np.sum(r**2)) for r in ratios)
+            if math.isfinite(total):
+                return math.sqrt(total / count)
+            # the squares overflowed (a tiny atol, 1e-200): scale by the largest ratio first
+            top = max(float(np.max(np.abs(r))) for r in ratios)
+            if not math.isfinite(top):
+                return top
+            return top * math.sqrt(sum(float(np.sum((r / top) ** 2)) for r in ratios) / count)
 
         d0, d1 = rms(y0), rms(f0)
         h0 = 1e-6 if d0 < 1e-5 or d1 < 1e-5 else 0.01 * d0 / d1

@@ -32,7 +32,10 @@ def adaptive_kernel_for(system, method, y0) -> tuple[Top3AdaptiveKernel | None, 
             f"{method.name!r} has no compiled adaptive form (compiled: RKMK embedded pairs in exp "
             "coordinates with truncated dexp⁻¹)"
         )
-    return Top3AdaptiveKernel(sys_decl, meth_decl, system.batch_shape(y0)), ""
+    batch = system.batch_shape(y0)
+    if 0 in batch:
+        return None, "the ensemble is empty"
+    return Top3AdaptiveKernel(sys_decl, meth_decl, batch), ""
 
 
 class Top3AdaptiveKernel(Top3Kernel):
