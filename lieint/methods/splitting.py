@@ -237,9 +237,7 @@ class _Pieces:
 # -- the registry's entries -------------------------------------------------------------------
 
 
-def _build(
-    name: str, order: int, coordinates: str | None = None, split=AUTO, composition=AUTO, free=AUTO
-) -> Splitting:
+def _build(name: str, order: int, coordinates: str | None = None, split=AUTO, composition=AUTO, free=AUTO) -> Splitting:
     split = None if split is AUTO else split
     composition = "yoshida" if composition is AUTO else composition
     free = "rotations" if free is AUTO else free
