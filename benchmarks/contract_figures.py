@@ -49,8 +49,10 @@ def cayley_against_exp() -> None:
     for coordinates in ("exp", "cayley"):
         sol = lieint.integrate(system, y0, (0.0, 10.0), method="rkmk45", coordinates=coordinates, rtol=1e-6)
         finals[coordinates] = sol.states["A"][-1]
-    print(f"rkmk45 rtol 1e-6: final A, Cayley minus exponential coordinates: "
-          f"{np.abs(finals['exp'] - finals['cayley']).max():.2e} (the coordinates are honoured)")
+    print(
+        f"rkmk45 rtol 1e-6: final A, Cayley minus exponential coordinates: "
+        f"{np.abs(finals['exp'] - finals['cayley']).max():.2e} (the coordinates are honoured)"
+    )
 
 
 def ensemble_drift_per_member(members: int = 200) -> None:
@@ -62,9 +64,11 @@ def ensemble_drift_per_member(members: int = 200) -> None:
     energy = sol.invariants["energy"]  # (time, members)
     per_member = sol.drift("energy")
     pooled = np.abs(energy - energy[0]).max(axis=0) / np.linalg.norm(energy[0])
-    print(f"{members}-member ensemble, RKMK4 h = 0.05, T = 100: worst member's energy drift "
-          f"{per_member.max():.2e}; pooled-norm definition {pooled.max():.2e} "
-          f"({per_member.max() / pooled.max():.1f}x understated, sqrt(members) = {np.sqrt(members):.1f})")
+    print(
+        f"{members}-member ensemble, RKMK4 h = 0.05, T = 100: worst member's energy drift "
+        f"{per_member.max():.2e}; pooled-norm definition {pooled.max():.2e} "
+        f"({per_member.max() / pooled.max():.1f}x understated, sqrt(members) = {np.sqrt(members):.1f})"
+    )
 
 
 def scipy_step_counts() -> None:
