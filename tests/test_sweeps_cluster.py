@@ -102,7 +102,7 @@ def _mismatch(swept, here) -> str:
     members = np.flatnonzero(np.abs(swept - here).reshape(len(swept), -1).max(axis=1) > 0)
     return (
         f"max |difference| {np.abs(swept - here).max():.3e} in members {members[:10].tolist()} ...; "
-        f"run_lanes signatures in this process: {lanes.run_lanes.signatures}"
+        f"run_lanes signatures in this process: {getattr(lanes.run_lanes, 'signatures', '-')}"
     )
 
 
