@@ -424,3 +424,25 @@ def test_integrate_names_the_method_argument_when_it_does_not_apply(name):
     system, y0 = build(first_refusing_system(name))[:2]
     with pytest.raises(ValueError, match=rf"^`method` {re.escape(repr(name))}"):
         lieint.integrate(system, y0, (0.0, 0.1), h=0.01, method=name)
+
+
+def _arrays(value):
+    """Every numpy array reachable from a method's fields (tuples, lists, nested dataclasses)."""
+    stack = [value]
+    while stack:
+        x = stack.pop()
+        if isinstance(x, np.ndarray):
+            yield x
+        elif isinstance(x, (tuple, list)):
+            stack.extend(x)
+        elif hasattr(x, "__dataclass_fields__"):
+            stack.extend(getattr(x, name) for name in x.__dataclass_fields__)
+
+
+@pytest.mark.parametrize("name", METHODS)
+def test_every_method_s_coefficients_are_read_only(name):
+    # get_method hands out one object per name and options: a coefficient changed through one
+    # use (the Crouch–Grossman weights were writable) would change every later run
+    method = lieint.get_method(name)
+    writable = [a for a in _arrays(method) if a.flags.writeable]
+    assert not writable, f"{name}: {len(writable)} writable coefficient arrays"

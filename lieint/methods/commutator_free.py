@@ -145,6 +145,7 @@ def _cg(name: str, order: int, A, b, c, source: str) -> CommutatorFree:
     def unit(j, value):
         e = np.zeros(s)
         e[j] = value
+        e.flags.writeable = False  # coefficients are data shared by every use of the method
         return e
 
     stages = tuple(tuple(unit(j, A[i][j]) for j in range(i) if A[i][j] != 0.0) for i in range(s))
