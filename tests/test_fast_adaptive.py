@@ -150,8 +150,11 @@ def test_backends_of_adaptive_runs(rng):
     with pytest.raises(ValueError, match=r"`backend='numba'`: dense output, events and `t_eval` need the generic"):
         lieint.integrate(top, y0, dense_output=True, backend="numba", **kw)
     ball = lieint.ChaplyginBall(np.diag([0.1, 0.15, 0.2]), 1.0, 1.0)
-    with pytest.raises(ValueError, match=r"`backend='numba'`: no compiled kernel covers this run: ChaplyginBall"):
-        lieint.integrate(ball, ball.initial_state(angular_velocity=[1.0, 2.0, 0.5]), backend="numba", **kw)
+    run = lieint.integrate(ball, ball.initial_state(angular_velocity=[1.0, 2.0, 0.5]), backend="numba", **kw)
+    assert run.stats.backend == "numba" and "Lie-group kernel on se(3), adaptive" in run.stats.backend_reason
+    flat = lieint.EulerTop(np.diag([1.0, 2.0]))
+    with pytest.raises(ValueError, match=r"`backend='numba'`: no compiled kernel covers this run: EulerTop \(n = 2\)"):
+        lieint.integrate(flat, flat.initial_state(Omega=[[0.0, -1.0], [1.0, 0.0]]), backend="numba", **kw)
 
 
 def test_compiled_adaptive_rejects_steps_beyond_the_dexpinv_radius():

@@ -1,9 +1,11 @@
 """Compiled fast paths (numba), chosen by :func:`lieint.integrate` when they apply.
 
-Two kernels: the 3D Euler top (:class:`Top3Kernel`, :mod:`lieint.fast.top3` and the SIMD lanes
-of :mod:`lieint.fast.lanes`) and the Euler top of any dimension n ≥ 4
-(:class:`lieint.fast.topn.TopNKernel`), each for fixed-step RKMK in exponential coordinates with
-a truncated dexp⁻¹ and for classical RK.
+Three kernels: the 3D Euler top (:class:`Top3Kernel`, :mod:`lieint.fast.top3` and the SIMD
+lanes of :mod:`lieint.fast.lanes`), the Euler top of any dimension n ≥ 4
+(:class:`lieint.fast.topn.TopNKernel`), and one generic loop for every system on SO(n) or SE(n)
+times a vector space that declares compiled pieces (:class:`lieint.fast.generic.LieKernel`:
+heavy top, free body, rolling and Chaplygin ball, :mod:`lieint.fast.bodies`), each for
+fixed-step RKMK in exponential coordinates with a truncated dexp⁻¹ and for classical RK.
 
 Only imported when first used, so ``import lieint`` stays light; numba compiles on the first
 call in a fresh environment and caches the machine code on disk for later processes.
@@ -41,15 +43,33 @@ def kernel_for(system, method, y0, plan) -> tuple[object | None, str]:
             f"{method.name!r} has no compiled form (compiled: RKMK in exp coordinates with truncated dexp⁻¹, RK)",
         )
     kind = sys_decl.get("kind")
-    if kind not in ("top3", "topn"):
+    if kind not in ("top3", "topn", "lie"):
         return None, f"no kernel for the compiled form {kind!r}"
     if meth_decl["kind"] not in ("rkmk", "rk"):
-        return None, f"no {'3D' if kind == 'top3' else 'n-dimensional'}-top kernel for {meth_decl['kind']!r} methods"
+        label = {"top3": "3D-top", "topn": "n-dimensional-top", "lie": "Lie-group"}[kind]
+        return None, f"no {label} kernel for {meth_decl['kind']!r} methods"
+    if kind == "lie":
+        from .generic import LieKernel
+
+        batch = system.batch_shape(y0)
+        if 0 in batch:
+            return None, "the ensemble is empty"
+        return LieKernel(pieces_of(sys_decl), meth_decl, y0, batch), ""
     if kind == "topn":
         from .topn import TopNKernel
 
         return TopNKernel(sys_decl, meth_decl, y0, system.batch_shape(y0)), ""
     return Top3Kernel(sys_decl, meth_decl, y0, system.batch_shape(y0)), ""
+
+
+def pieces_of(sys_decl: dict) -> dict:
+    """A ``"lie"`` declaration with its compiled pieces resolved (the built-in systems name
+    theirs, :data:`lieint.fast.bodies.PIECES`)."""
+    if not isinstance(sys_decl["pieces"], str):
+        return sys_decl
+    from .bodies import PIECES
+
+    return dict(sys_decl, pieces=PIECES[sys_decl["pieces"]])
 
 
 def use_threads(bodies: int) -> tuple[bool, int]:

@@ -16,7 +16,7 @@ from . import Top3Kernel
 __all__ = ["Top3AdaptiveKernel", "adaptive_kernel_for"]
 
 
-def adaptive_kernel_for(system, method, y0) -> tuple[Top3AdaptiveKernel | None, str]:
+def adaptive_kernel_for(system, method, y0) -> tuple[object | None, str]:
     """The compiled adaptive kernel for this run, or None with the reason none applies."""
     sys_decl = system.compiled()
     if sys_decl is None:
@@ -24,7 +24,7 @@ def adaptive_kernel_for(system, method, y0) -> tuple[Top3AdaptiveKernel | None, 
         if isinstance(getattr(system, "n", None), int):
             label += f" (n = {system.n})"
         return None, f"{label} declares no compiled form"
-    if sys_decl.get("kind") != "top3":
+    if sys_decl.get("kind") not in ("top3", "lie"):
         return None, f"no adaptive kernel for the compiled form {sys_decl.get('kind')!r}"
     meth_decl = method.compiled()
     if meth_decl is None or meth_decl.get("kind") != "rkmk" or "b_hat" not in meth_decl:
@@ -35,6 +35,11 @@ def adaptive_kernel_for(system, method, y0) -> tuple[Top3AdaptiveKernel | None, 
     batch = system.batch_shape(y0)
     if 0 in batch:
         return None, "the ensemble is empty"
+    if sys_decl["kind"] == "lie":
+        from . import pieces_of
+        from .generic_adaptive import LieAdaptiveKernel
+
+        return LieAdaptiveKernel(pieces_of(sys_decl), meth_decl, batch), ""
     return Top3AdaptiveKernel(sys_decl, meth_decl, batch), ""
 
 

@@ -16,7 +16,7 @@ is Python overhead, not arithmetic. This module runs the whole fixed-step loop i
       (Ã, R̃) ← (QᵀÃQ, R̃Q),  Q = exp(h Σ_j b_j k_j),
 
   or classical RK on the embedded equations ``Ã' = [Ã, Ω̃]``, ``R̃' = R̃Ω̃``;
-* ``exp`` of a skew matrix by scaling and squaring with a Taylor polynomial of degree
+* ``exp`` of a skew matrix (:mod:`lieint.fast.skew`) by scaling and squaring with a Taylor polynomial of degree
   4, 6, 9, 12 or 16 chosen so that the truncation error is below the unit round-off
   (:func:`expm_skew`): only matrix products (BLAS), no linear solve — numba's
   ``np.linalg.solve`` alone would add about 5 s to the one-time compilation;
@@ -45,7 +45,6 @@ installation (cached on disk).
 
 from __future__ import annotations
 
-import math
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
@@ -53,140 +52,9 @@ from numba import njit
 
 from ..groups.base import bernoulli_dexpinv_coefficients
 from . import range_error, use_threads
+from .skew import _bracket, _exp_or_nan, _project, expm_skew, so_ad_radius_exceeds
 
 __all__ = ["TopNKernel", "expm_skew", "integrate_topn", "so_ad_radius_exceeds"]
-
-_TWO_PI = 2.0 * np.pi
-
-#: ``1/k!`` for the Taylor polynomial of exp
-_INV_FACTORIAL = np.array([1.0 / math.factorial(k) for k in range(17)])
-#: Paterson–Stockmeyer shapes ``(p, q)`` of the Taylor degrees ``m = pq`` used, and for each
-#: the largest norm θ_m with ``θ_m^{m+1}/(m+1)! ≤ 2⁻⁵³`` (the truncation error on a skew
-#: matrix of spectral norm θ ≤ θ_m, whose eigenvalues are ``±iθ_k``, stays below the unit
-#: round-off): m = 4, 6, 9, 12, 16 cost 2, 3, 4, 5, 6 products.
-_SHAPES = np.array([[2, 2], [3, 2], [3, 3], [4, 3], [4, 4]], dtype=np.int64)
-_THETAS = np.array([(math.factorial(p * q + 1) * 2.0**-53) ** (1.0 / (p * q + 1)) for p, q in _SHAPES])
-
-
-@njit(cache=True)
-def _onenorm(X):
-    """``‖X‖₁``, the largest absolute column sum (for skew X it bounds ``‖X‖₂ = θ₁``)."""
-    n = X.shape[0]
-    best = 0.0
-    for j in range(n):
-        acc = 0.0
-        for i in range(n):
-            acc += abs(X[i, j])
-        if acc > best:
-            best = acc
-    return best
-
-
-@njit(cache=True)
-def expm_skew(u):
-    """``exp(u)`` of a finite skew matrix: Taylor polynomial with scaling and squaring.
-
-    For skew u (a normal matrix with eigenvalues ``±iθ_k``) the error of the Taylor
-    polynomial ``T_m`` is ``max_k |e^{iθ_k} − T_m(iθ_k)| ≤ θ₁^{m+1}/(m+1)!`` in the 2-norm, and
-    ``θ₁ = ‖u‖₂ ≤ η = min(‖u‖₁, ‖u²‖₁^{1/2})`` (u² is needed anyway). The degree
-    m ∈ {4, 6, 9, 12, 16} is the least with ``η ≤ θ_m`` (error below 2⁻⁵³); above
-    ``θ₁₆ ≈ 0.83`` u is scaled by ``2⁻ˢ`` and the result squared s times (as in
-    Higham's scaling and squaring, SIAM J. Matrix Anal. Appl. 26, 2005, with the Taylor
-    approximant of Al-Mohy & Higham, 2009). ``T_m`` is evaluated by Paterson–Stockmeyer,
-    ``T_m = Σ_j (u^p)^j B_j(u)``, ``B_j = Σ_{i<p} u^i/(jp + i)!``, in ``p + q − 2`` products
-    (m = pq); no linear solve.
-    """
-    n = u.shape[0]
-    u2 = u @ u
-    # θ₁ = ‖u‖₂ ≤ min(‖u‖₁, ‖u²‖₁^{1/2}); the second is often several times tighter for large n
-    norm = min(_onenorm(u), np.sqrt(_onenorm(u2)))
-    last = _SHAPES.shape[0] - 1
-    pick = last
-    for i in range(last + 1):
-        if norm <= _THETAS[i]:
-            pick = i
-            break
-    s = 0
-    if norm > _THETAS[last]:
-        s = int(np.ceil(np.log2(norm / _THETAS[last])))
-    p, q = _SHAPES[pick, 0], _SHAPES[pick, 1]
-    scale = 2.0 ** (-s)  # exact: a power of two
-    x = u * scale
-    x2 = u2 * (scale * scale)
-    x3 = x2
-    if p >= 3:
-        x3 = x2 @ x
-    top = x2 if p == 2 else (x3 if p == 3 else x2 @ x2)
-    c = _INV_FACTORIAL
-    # Horner in x^p: S = c_m x^p + B_{q−1}, then S ← S x^p + B_j for j = q − 2 … 0
-    S = c[p * q] * top
-    for j in range(q - 1, -1, -1):
-        if j < q - 1:
-            S = S @ top
-        c0, c1, c2 = c[j * p], c[j * p + 1], c[j * p + 2] if p >= 3 else 0.0
-        c3 = c[j * p + 3] if p == 4 else 0.0
-        for a in range(n):
-            S[a, a] += c0
-            for b in range(n):
-                S[a, b] += c1 * x[a, b]
-                if p >= 3:
-                    S[a, b] += c2 * x2[a, b]
-                if p == 4:
-                    S[a, b] += c3 * x3[a, b]
-    for _ in range(s):
-        S = S @ S
-    return S
-
-
-@njit(cache=True)
-def so_ad_radius_exceeds(u):
-    """1 when ``θ₁ + θ₂ ≥ 2π`` for the skew matrix u (the dexp⁻¹ series diverges), 0 when
-    not, 2 when u is not finite (not a "too large step": the non-finite state is reported).
-
-    Two sufficient bounds settle the usual cases without a decomposition:
-    ``θ₁ + θ₂ ≤ ‖u‖_F`` (``‖u‖_F² = 2 Σ_k θ_k²``) and, one product dearer,
-    ``θ₁ + θ₂ ≤ (8(θ₁⁴ + θ₂⁴))^{1/4} ≤ (2‖u²‖_F)^{1/2}`` (``‖u²‖_F² = 2 Σ_k θ_k⁴``; tighter when
-    many planes rotate alike, as in a large random u). Only when both fail are the angles
-    computed: the eigenvalues of the symmetric ``(u/m)ᵀ(u/m)`` (m = max |u_ij|, against
-    overflow) are ``θ_k²/m²``, each twice, so in ascending order ``θ₁ = m √λ_{n−1}`` and
-    ``θ₂ = m √λ_{n−3}`` — the generic path's ``s₀ + s₂`` from the singular values.
-    """
-    n = u.shape[0]
-    ss = 0.0
-    big = 0.0
-    for i in range(n):
-        for j in range(n):
-            x = u[i, j]
-            if not np.isfinite(x):
-                return 2
-            ss += x * x
-            if abs(x) > big:
-                big = abs(x)
-    if np.sqrt(ss) < _TWO_PI:
-        return 0
-    v = u * (1.0 / big)
-    w = v @ v
-    ss = 0.0
-    for x in w.ravel():
-        ss += x * x
-    if big * np.sqrt(2.0 * np.sqrt(ss)) < _TWO_PI:
-        return 0
-    lam = np.linalg.eigvalsh(v.T @ v)
-    theta = big * (np.sqrt(max(lam[n - 1], 0.0)) + np.sqrt(max(lam[n - 3], 0.0)))
-    return 1 if theta >= _TWO_PI else 0
-
-
-@njit(cache=True)
-def _bracket(X, Y):
-    """``[X, Y] = XY − YX = W − Wᵀ`` with ``W = XY``, for skew X, Y: one product, exactly skew
-    (``W_ac − W_ca = −(W_ca − W_ac)`` in floating point)."""
-    W = X @ Y
-    n = W.shape[0]
-    out = np.empty((n, n))
-    for a in range(n):  # rows written in order; the transposed read is the strided one
-        for c in range(n):
-            out[a, c] = W[a, c] - W[c, a]
-    return out
 
 
 @njit(cache=True)
@@ -228,24 +96,6 @@ def _store(K, i, X):
     for a in range(X.shape[0]):
         for c in range(X.shape[1]):
             K[i, a, c] = X[a, c]
-
-
-@njit(cache=True)
-def _finite(X):
-    for x in X.ravel():
-        if not np.isfinite(x):
-            return False
-    return True
-
-
-@njit(cache=True)
-def _exp_or_nan(u):
-    """``exp(u)``, or a matrix of NaN when u is not finite (the driver reports the state)."""
-    if _finite(u):
-        return expm_skew(u)
-    out = np.empty_like(u)
-    out[:] = np.nan
-    return out
 
 
 @njit(cache=True)
@@ -297,57 +147,6 @@ def _classical_step(A, R, orient, M, tab, b, h, KA, KR):
     if orient:
         _accumulate(R1, KR, b, s, h)
     return A1, R1
-
-
-@njit(cache=True)
-def _project(R):
-    """Newton–Schulz toward the polar factor: ``R ← R(3I − RᵀR)/2 = R − R E/2`` with
-    ``E = RᵀR − I``, once, then again while ``max |E|`` exceeds 1e-8 (quadratic convergence:
-    the last step leaves ~1e-16).
-
-    The iteration maps each singular value σ to σ(3 − σ²)/2 and converges for σ in (0, √3).
-    ``max |E_ij| < 2/n`` bounds the spectral radius of E below 2, i.e. σ² < 3; beyond it (a
-    coarse classical step) R is first divided by ``‖RᵀR‖₁^{1/2} ≥ σ_max`` — the polar factor of
-    cR is that of R — and the iteration runs until it has converged (at most 128 steps: a
-    singular value of 1e-18 grows ×1.5 a step).
-    """
-    n = R.shape[0]
-    E, worst = _gram_defect(R)
-    if not np.isfinite(worst):
-        return R
-    if worst >= 2.0 / n:
-        G = R.T @ R
-        norm1 = 0.0
-        for c in range(n):
-            col = 0.0
-            for r in range(n):
-                col += abs(G[r, c])
-            norm1 = max(norm1, col)
-        if norm1 > 0.0:
-            R = R / np.sqrt(norm1)
-            E, worst = _gram_defect(R)
-    for _ in range(128):
-        R = R - 0.5 * (R @ E)
-        if worst <= 1e-8:
-            break
-        E, worst = _gram_defect(R)
-        if not np.isfinite(worst):
-            break
-    return R
-
-
-@njit(cache=True)
-def _gram_defect(R):
-    """``E = RᵀR − I`` and ``max |E_ij|``."""
-    n = R.shape[0]
-    E = R.T @ R
-    for i in range(n):
-        E[i, i] -= 1.0
-    worst = 0.0
-    for x in E.ravel():
-        if abs(x) > worst or x != x:
-            worst = abs(x)
-    return E, worst
 
 
 @njit(cache=True)

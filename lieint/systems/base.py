@@ -194,8 +194,32 @@ class LieGroupSystem(ABC):
         return result
 
     def compiled(self):
-        """What a compiled kernel needs to step this system (see :mod:`lieint.fast`), or None."""
+        """What a compiled kernel needs to step this system (see :mod:`lieint.fast`), or None.
+
+        A system on ``SO(n)`` or ``SE(n)`` times a vector space may return
+        ``{"kind": "lie", "pieces": ..., "params": ..., "n": n, "translation": bool,
+        "abelian": m, "fields": self.fields}`` with its compiled generator, action, vector field
+        and projection (:class:`lieint.fast.generic.CompiledPieces`, or the name of built-in
+        pieces): every fixed-step RKMK method and classical RK then run compiled
+        (:class:`lieint.fast.generic.LieKernel`).
+        """
         return None
+
+    def field_offsets(self) -> dict[str, int]:
+        """Where each field starts in the state flattened field after field (the layout of the
+        compiled kernels' state vector)."""
+        offsets, start = {}, 0
+        for name, shape in self.fields.items():
+            offsets[name] = start
+            start += int(np.prod(shape, dtype=int))
+        return offsets
+
+    def dynamics_as(self, cls: type, names: tuple[str, ...]) -> bool:
+        """True when none of ``names`` is overridden below ``cls`` or set on the instance: a
+        compiled declaration stands for ``cls``'s equations, and a subclass that changes them
+        integrates other dynamics on the generic path."""
+        own = getattr(self, "__dict__", {})
+        return all(getattr(type(self), name) is getattr(cls, name) and name not in own for name in names)
 
     def batch_shape(self, y: State) -> tuple[int, ...]:
         """Leading batch shape of a validated state."""

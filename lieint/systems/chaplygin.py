@@ -27,6 +27,12 @@ from .rolling_ball import RollingPose, check_ball, rolling_initial_kinematics
 
 __all__ = ["ChaplyginBall"]
 
+#: what the compiled declaration stands for (see :meth:`LieGroupSystem.dynamics_as`)
+_DYNAMICS = (
+    "generator", "act", "infinitesimal_action", "vector_field", "project", "contact_mass_tensor", "angular_velocity",
+    "_twist", "_move_pose", "_pose_rate", "_project_pose",
+)  # fmt: skip
+
 
 class ChaplyginBall(RollingPose, LieGroupSystem):
     """Chaplygin's ball: a ball with centre of mass at its centre rolling on a plane.
@@ -80,6 +86,25 @@ class ChaplyginBall(RollingPose, LieGroupSystem):
     def energy(self, y: State) -> np.ndarray:
         """``T = ¼ tr(Ω A_K) = −¼⟨Ω, A_K⟩`` (gravity does no work: the centre stays at height r)."""
         return -0.25 * inner(self.angular_velocity(y["A"], y["Gamma"]), y["A"])
+
+    def compiled(self):
+        """The generic compiled kernel's declaration (:mod:`lieint.fast.bodies`, pieces
+        ``"chaplygin_ball"``) for n ≥ 3: parameters n, the offsets of R and of the centre,
+        ``M r²``, r, ``B_C`` and ν."""
+        if self.n < 3 or not self.dynamics_as(ChaplyginBall, _DYNAMICS):
+            return None
+        offset = self.field_offsets()
+        head = [self.n, offset.get("R", -1), offset.get("center", -1), self._Mr2, self.radius]
+        params = np.concatenate([head, self.B_C.ravel(), self.normal])
+        return {
+            "kind": "lie",
+            "pieces": "chaplygin_ball",
+            "params": params,
+            "n": self.n,
+            "translation": self.track_center,
+            "abelian": 0,
+            "fields": self.fields,
+        }
 
     # -- the LieGroupSystem contract ---------------------------------------------------
     def generator(self, t, y: State) -> np.ndarray:

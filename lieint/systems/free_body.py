@@ -15,6 +15,10 @@ from .rigid import casimir_invariant, momentum_outputs, orientation_output, pose
 
 __all__ = ["FreeBody"]
 
+#: what the compiled declaration stands for (see :meth:`LieGroupSystem.dynamics_as`)
+_DYNAMICS = ("generator", "act", "infinitesimal_action", "vector_field", "project")
+_TOP = ("generator", "act", "infinitesimal_action", "project", "angular_velocity")
+
 
 class FreeBody(LieGroupSystem):
     """A free rigid body: centre of mass in uniform motion or free fall, rotation about it.
@@ -82,6 +86,29 @@ class FreeBody(LieGroupSystem):
     def project(self, y: State) -> State:
         out = dict(y) | self.top.project(y)
         return out
+
+    def compiled(self):
+        """The generic compiled kernel's declaration (:mod:`lieint.fast.bodies`, pieces
+        ``"free_body"``) for n ≥ 3: parameters n, the offsets of R and of the centre, whether B
+        is diagonal, the eigenbasis P of B, ``−1/(b_i + b_j)`` and g."""
+        if self.n < 3 or not self.dynamics_as(FreeBody, _DYNAMICS) or not self.top.dynamics_as(EulerTop, _TOP):
+            return None
+        inertia, n = self.inertia, self.n
+        offset = self.field_offsets()
+        g = np.zeros(n) if self.gravity is None else self.gravity
+        M = inertia.minus_inv_pair.copy()
+        np.fill_diagonal(M, 0.0)
+        head = [n, offset.get("R", -1), float(inertia.diagonal)]
+        params = np.concatenate([head, inertia.P.ravel(), M.ravel(), [offset["center"]], g])
+        return {
+            "kind": "lie",
+            "pieces": "free_body",
+            "params": params,
+            "n": n,
+            "translation": False,
+            "abelian": 2 * n,
+            "fields": self.fields,
+        }
 
     def energy(self, y: State) -> np.ndarray:
         v = y["velocity"]

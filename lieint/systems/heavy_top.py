@@ -17,6 +17,17 @@ from .rigid import momentum_outputs, orientation_output, pose_invariants
 
 __all__ = ["HeavyTop"]
 
+#: what the compiled declaration stands for (see :meth:`LieGroupSystem.dynamics_as`)
+_DYNAMICS = ("generator", "act", "infinitesimal_action", "vector_field", "project")
+_TOP = ("angular_velocity",)
+
+
+def _off_diagonal(M: np.ndarray) -> np.ndarray:
+    """M with a zero diagonal, flattened (the diagonal of a bivector is zero anyway)."""
+    M = M.copy()
+    np.fill_diagonal(M, 0.0)
+    return M.ravel()
+
 
 class HeavyTop(LieGroupSystem):
     """A rigid body with a fixed point and centre of mass ``X_G`` under gravity g, any n ≥ 2.
@@ -144,6 +155,27 @@ class HeavyTop(LieGroupSystem):
         if self.orientation:
             out["R"] = project_to_so(y["R"])
         return out
+
+    def compiled(self):
+        """The generic compiled kernel's declaration (:mod:`lieint.fast.bodies`, pieces
+        ``"heavy_top"``) for n ≥ 3: parameters n, the offset of R, whether B is diagonal, the
+        eigenbasis P of B, ``−1/(b_i + b_j)``, ``M X_G`` and ``|g|``."""
+        if self.n < 3 or not self.dynamics_as(HeavyTop, _DYNAMICS) or not self.top.dynamics_as(EulerTop, _TOP):
+            return None
+        inertia, n = self.inertia, self.n
+        head = [n, self.field_offsets().get("R", -1), float(inertia.diagonal)]
+        params = np.concatenate(
+            [head, inertia.P.ravel(), _off_diagonal(inertia.minus_inv_pair), self._MXG, [np.linalg.norm(self.gravity)]]
+        )
+        return {
+            "kind": "lie",
+            "pieces": "heavy_top",
+            "params": params,
+            "n": n,
+            "translation": True,
+            "abelian": 0,
+            "fields": self.fields,
+        }
 
     # -- physics -----------------------------------------------------------------------
     def energy(self, A: np.ndarray, Gamma: np.ndarray) -> np.ndarray:

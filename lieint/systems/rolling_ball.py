@@ -37,6 +37,12 @@ from .base import Invariant, LieGroupSystem, Output, State
 from .mass import check_mass_tensor, solve_lyapunov_sym
 from .rigid import orientation_output, pose_invariants
 
+#: what the compiled declaration stands for (see :meth:`LieGroupSystem.dynamics_as`)
+_DYNAMICS = (
+    "generator", "act", "infinitesimal_action", "vector_field", "project", "contact_mass_tensor", "body_gravity",
+    "angular_acceleration", "_twist", "_move_pose", "_pose_rate", "_project_pose",
+)  # fmt: skip
+
 __all__ = ["RollingBall", "RollingPose", "check_ball", "rolling_initial_kinematics"]
 
 
@@ -274,6 +280,29 @@ class RollingBall(RollingPose, LieGroupSystem):
         else:  # ⟨g, p⟩ = c⟨ν, p⟩ = c r on the plane
             U = U + self.mass * self._g_normal * self.radius
         return T - U
+
+    def compiled(self):
+        """The generic compiled kernel's declaration (:mod:`lieint.fast.bodies`, pieces
+        ``"rolling_ball"``) for n ≥ 3: parameters n, the offsets of R, the centre and G, M, r,
+        the gravity mode (0 none, 1 along ν with ``G = ⟨g, ν⟩Γ``, 2 tilted: G a field),
+        ``⟨g, ν⟩``, ``|g|``, ``B_C``, ``X_G`` and ν; the vector factor carries ``δΩ`` (n²)."""
+        if self.n < 3 or not self.dynamics_as(RollingBall, _DYNAMICS):
+            return None
+        offset = self.field_offsets()
+        mode = 0 if self.gravity is None else (2 if self._tilted else 1)
+        gnorm = 0.0 if self.gravity is None else float(np.linalg.norm(self.gravity))
+        head = [self.n, offset.get("R", -1), offset.get("center", -1), offset.get("G", -1)]
+        head += [self.mass, self.radius, mode, self._g_normal, gnorm]
+        params = np.concatenate([head, self.B_C.ravel(), self.center_of_mass, self.normal])
+        return {
+            "kind": "lie",
+            "pieces": "rolling_ball",
+            "params": params,
+            "n": self.n,
+            "translation": self.track_center,
+            "abelian": self.n * self.n,
+            "fields": self.fields,
+        }
 
     # -- the LieGroupSystem contract ---------------------------------------------------
     def generator(self, t, y: State):

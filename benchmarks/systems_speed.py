@@ -1,0 +1,209 @@
+"""CPU time to reach an error, every built-in rigid system: lieint compiled against scipy DOP853.
+
+Run: ``OPENBLAS_NUM_THREADS=1 python benchmarks/systems_speed.py`` (about five minutes;
+``--quick`` for a smoke run; ``--busy`` times everything a second time while another CPU-bound
+process runs, as on a user's busy laptop).
+
+For each system — the Euler top in 3, 4 and 6 dimensions, the heavy top in 3 and 4, the ball
+with an offset centre of mass on an incline in 3, the Chaplygin ball in 3 and 4 — and each
+target error 1e-6 and 1e-10 on the **whole state** at the final time (every field: A or Ω, Γ,
+G, R, the centre; max over fields of ``max|y − y_ref| / max(1, max|y_ref|)``):
+
+* lieint with default settings (``lieint.integrate``: the compiled kernel is chosen by itself),
+  the cheapest of rkmk4 and rkmk6 over a sweep of steps and of adaptive rkmk853 over rtol
+  (atol = rtol·1e-3) that reaches the target;
+* ``scipy.integrate.solve_ivp(method="DOP853")`` on the same equations (the system's embedded
+  vector field, all fields flattened), the loosest rtol (atol = rtol·1e-3) that reaches the
+  target, R projected onto SO(n) at the end as a user would.
+
+The reference is DOP853 at rtol 1e-13, atol 1e-15; its own error is estimated by its distance
+to compiled rkmk6 with 20,000 steps (printed: it bounds what a target can mean). Times are
+process CPU time of the whole call, the minimum over repeats, side by side in this one run.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import subprocess
+import sys
+import time
+
+import numpy as np
+from scipy.integrate import solve_ivp
+
+import lieint
+from lieint.groups import project_to_so
+
+TARGETS = (1e-6, 1e-10)
+
+
+def _spd(rng, n, lo, hi):
+    Q, _ = np.linalg.qr(rng.normal(size=(n, n)))
+    return Q @ np.diag(rng.uniform(lo, hi, n)) @ Q.T
+
+
+def _skew(rng, n, scale=1.0):
+    X = rng.normal(size=(n, n)) * scale
+    return X - X.T
+
+
+def cases():
+    """(label, system, initial state, T); fixed seeds."""
+    rng = np.random.default_rng(7)
+    out = []
+    top3 = lieint.EulerTop.from_principal_moments([1.0, 2.0, 3.0])
+    out.append(("Euler top n=3", top3, top3.initial_state(angular_velocity=[0.3, 1.0, 0.4]), 20.0))
+    for n in (4, 6):
+        top = lieint.EulerTop(_spd(rng, n, 0.5, 1.5))
+        out.append((f"Euler top n={n}", top, top.initial_state(Omega=_skew(rng, n, 0.5)), 10.0))
+    for n in (3, 4):
+        heavy = lieint.HeavyTop(_spd(rng, n, 0.5, 1.5), 1.0, 0.1 * rng.normal(size=n), -9.81 * np.eye(n)[-1])
+        out.append((f"heavy top n={n}", heavy, heavy.initial_state(Omega=_skew(rng, n, 0.7)), 5.0))
+    angle = 0.3
+    incline = np.array([9.81 * np.sin(angle), 0.0, -9.81 * np.cos(angle)])
+    ball = lieint.RollingBall(np.diag([0.1, 0.15, 0.2]), 1.0, 1.0, [0.0, 0.1, -0.2], incline)
+    out.append(("offset ball on incline n=3", ball, ball.initial_state(angular_velocity=[0.3, 1.0, 0.4]), 5.0))
+    for n in (3, 4):
+        chap = lieint.ChaplyginBall(_spd(rng, n, 0.05, 0.2), 1.0, 1.0)
+        out.append((f"Chaplygin ball n={n}", chap, chap.initial_state(Omega=_skew(rng, n, 0.7)), 10.0))
+    return out
+
+
+def cpu_min(fn, repeats: int) -> float:
+    best = float("inf")
+    for _ in range(repeats):
+        t0 = time.process_time()
+        fn()
+        best = min(best, time.process_time() - t0)
+    return best
+
+
+class Case:
+    """One system: its flattened vector field for scipy, the reference and the error measure."""
+
+    def __init__(self, system, y0, T):
+        self.system, self.y0, self.T = system, y0, T
+        self.names = list(y0)
+        self.shapes = [np.shape(y0[k]) for k in self.names]
+        self.sizes = [int(np.prod(s)) for s in self.shapes]
+        self.z0 = self.flat(y0)
+        sol = self.scipy(1e-13, 1e-15)
+        self.ref = sol
+        check = self.lieint("rkmk6", 20_000)
+        self.ref_error = self.error(check)
+
+    def flat(self, y):
+        return np.concatenate([np.asarray(y[k], dtype=float).ravel() for k in self.names])
+
+    def unflat(self, z):
+        out, start = {}, 0
+        for name, shape, size in zip(self.names, self.shapes, self.sizes, strict=True):
+            out[name] = z[start : start + size].reshape(shape)
+            start += size
+        return out
+
+    def rhs(self, t, z):
+        return self.flat(self.system.vector_field(t, self.unflat(z)))
+
+    def scipy(self, rtol, atol):
+        sol = solve_ivp(self.rhs, (0.0, self.T), self.z0, method="DOP853", rtol=rtol, atol=atol)
+        y = self.unflat(sol.y[:, -1].copy())
+        if "R" in y:
+            y["R"] = project_to_so(y["R"])  # the projection a user would apply
+        return y
+
+    def lieint(self, method, n=None, rtol=None):
+        if n is not None:
+            run = lieint.integrate(self.system, self.y0, (0.0, self.T), h=self.T / n, method=method, save_every=n)
+        else:
+            run = lieint.integrate(self.system, self.y0, (0.0, self.T), method=method, rtol=rtol, atol=rtol * 1e-3)
+        return {k: v[-1] for k, v in run.states.items()}, run
+
+    def error(self, y):
+        y = y[0] if isinstance(y, tuple) else y
+        return max(
+            float(np.max(np.abs(y[k] - self.ref[k]))) / max(1.0, float(np.max(np.abs(self.ref[k])))) for k in self.names
+        )
+
+
+def sweeps(case: Case, quick: bool):
+    """Errors of every setting (one call each, also the warm-up)."""
+    counts = [round(25 * 2 ** (k / 2)) for k in range(0, 22, 2 if quick else 1)]  # 25 … ~25,600
+    rtols = [10.0 ** (-k / 2) for k in range(8, 29, 2 if quick else 1)]  # 1e-4 … 1e-14
+    series = {"rkmk4": [], "rkmk6": [], "rkmk853": [], "DOP853": []}
+    for method in ("rkmk4", "rkmk6"):
+        for n in counts:
+            try:
+                series[method].append((case.error(case.lieint(method, n)), n))
+            except lieint.DexpinvRangeError:
+                continue
+    for rtol in rtols:
+        series["rkmk853"].append((case.error(case.lieint("rkmk853", rtol=rtol)), rtol))
+        series["DOP853"].append((case.error(case.scipy(rtol, rtol * 1e-3)), rtol))
+    return series
+
+
+def cheapest(series, name, target):
+    ok = [row for row in series[name] if row[0] <= target]
+    if not ok:
+        return None
+    return max(ok, key=lambda r: r[1]) if name in ("rkmk853", "DOP853") else min(ok, key=lambda r: r[1])
+
+
+def table(all_series, reps: int, label: str) -> None:
+    print(f"\n{label}; load average {os.getloadavg()[0]:.2f}; CPU time, min of {reps} repeats")
+    print(
+        f"{'system':<27s} {'target':>6s} {'lieint best':>22s} {'error':>8s} {'CPU ms':>8s}"
+        f" {'DOP853':>12s} {'error':>8s} {'CPU ms':>8s} {'ratio':>7s}"
+    )
+    for name, (case, series) in all_series.items():
+        for target in TARGETS:
+            best = None
+            for method in ("rkmk4", "rkmk6", "rkmk853"):
+                row = cheapest(series, method, target)
+                if row is None:
+                    continue
+                if method == "rkmk853":
+                    cpu = cpu_min(lambda c=case, r=row[1]: c.lieint("rkmk853", rtol=r), reps)
+                    setting = f"rkmk853 rtol {row[1]:.0e}"
+                else:
+                    cpu = cpu_min(lambda c=case, m=method, n=row[1]: c.lieint(m, n), reps)
+                    setting = f"{method} {row[1]} steps"
+                if best is None or cpu < best[2]:
+                    best = (setting, row[0], cpu)
+            sp = cheapest(series, "DOP853", target)
+            sp_cpu = cpu_min(lambda c=case, r=sp[1]: c.scipy(r, r * 1e-3), max(1, reps // 2)) if sp else None
+            lie_txt = f"{best[0]:>22s} {best[1]:8.1e} {1e3 * best[2]:8.2f}" if best else f"{'not reached':>40s}"
+            sp_txt = f"{f'rtol {sp[1]:.0e}':>12s} {sp[0]:8.1e} {1e3 * sp_cpu:8.2f}" if sp else f"{'not reached':>30s}"
+            ratio = f"{sp_cpu / best[2]:7.1f}" if best and sp else "      -"
+            print(f"{name:<27s} {target:6.0e} {lie_txt} {sp_txt} {ratio}")
+
+
+def main(quick: bool, busy: bool) -> None:
+    reps = 3 if quick else 5
+    threads = os.environ.get("NUMBA_NUM_THREADS", "default")
+    blas = os.environ.get("OPENBLAS_NUM_THREADS", "unset")
+    print(f"numba threads: {threads}, OPENBLAS_NUM_THREADS={blas}, cores: {os.cpu_count()}")
+    all_series = {}
+    for label, system, y0, T in cases():
+        case = Case(system, y0, T)
+        all_series[label] = (case, sweeps(case, quick))
+        print(f"{label:<27s} T = {T:g}, reference error estimate {case.ref_error:.1e}")
+    table(all_series, reps, "Idle machine")
+    if busy:
+        hog = subprocess.Popen([sys.executable, "-c", "while True: pass"])
+        try:
+            time.sleep(1.0)
+            table(all_series, reps, "With another CPU-bound process running")
+        finally:
+            hog.kill()
+    print("ratio: DOP853's CPU time / lieint's (the cheapest lieint series reaching the target)")
+
+
+if __name__ == "__main__":
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="a smoke run: fewer settings and repeats")
+    parser.add_argument("--busy", action="store_true", help="time again with a CPU-bound process running")
+    args = parser.parse_args()
+    main(args.quick, args.busy)

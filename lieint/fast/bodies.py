@@ -1,0 +1,347 @@
+"""Compiled pieces of the built-in systems on SO(n)/SE(n) × Rᵐ, for :mod:`lieint.fast.generic`.
+
+Each system's ``compiled()`` names its pieces (``"pieces": "heavy_top"``) and packs its
+parameters into one float vector whose first entries are ``n`` and the offsets of its fields
+in the flattened state; these functions read that layout. The equations are the generic
+path's, in the lecture's notation (MATH.md §3–§5):
+
+* heavy top, ``(Q, v)·(A, Γ, R) = (Qᵀ(A + v∧Γ)Q, QᵀΓ, RQ)``, ``ξ = (Ω(A), M X_G)``;
+* free body, ``(Q, p, w)·(A, R, q, v) = (QᵀAQ, RQ, q + p, v + w)``, ``ξ = (Ω(A), v, g)``;
+* Chaplygin ball, ``(Q, v)·(A_K, Γ, R, q) = (QᵀA_KQ, QᵀΓ, RQ, q + Rv)``,
+  ``ξ = (Ω, rΩΓ)`` with ``A_K = −(B_K Ω + Ω B_K)``, ``B_K = B_C + M r² ΓΓᵀ``;
+* rolling ball, ``((Q, v), δ)·(Ω, Γ, G, R, q) = (Ω + δ, QᵀΓ, QᵀG, RQ, q + Rv)``,
+  ``ξ = ((Ω, rΩΓ), Ω̇)`` with Ω̇ from the rolling equation (a Lyapunov solve in the eigenbasis
+  of ``B_K(Γ)``).
+
+The Lyapunov equation ``B X + X B = C`` is solved in the eigenbasis of B as
+:func:`lieint.systems.mass.solve_lyapunov_sym` does, and every Ω is made exactly skew.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from .generic import ACTION, FIELD, GENERATOR, CompiledPieces
+from .skew import _project, mm, mv
+
+__all__ = ["PIECES"]
+
+# -- shared helpers ----------------------------------------------------------------------------
+
+
+@njit(cache=True)
+def _mat(x, off, n):
+    """``x[off : off + n²]`` as a C-contiguous n×n copy."""
+    return x[off : off + n * n].copy().reshape(n, n)
+
+
+@njit(cache=True)
+def _vec(x, off, n):
+    """``x[off : off + n]`` as a copy."""
+    return x[off : off + n].copy()
+
+
+@njit(cache=True)
+def _put(out, off, X):
+    """``out[off : off + X.size] = X`` (row-major)."""
+    flat = X.reshape(X.size)
+    for i in range(flat.size):
+        out[off + i] = flat[i]
+
+
+@njit(cache=True)
+def _skew(X):
+    """``(X − Xᵀ)/2``, exactly skew."""
+    return 0.5 * (X - X.T)
+
+
+@njit(cache=True)
+def _wedge(u, v):
+    """``u ∧ v = u vᵀ − v uᵀ``."""
+    return np.outer(u, v) - np.outer(v, u)
+
+
+@njit(cache=True)
+def _lyapunov(B, C):
+    """X with ``B X + X B = C`` for skew C and symmetric B, exactly skew (eigenbasis of B)."""
+    n = B.shape[0]
+    b, P = np.linalg.eigh(B)
+    Ct = mm(mm(P.T, C), P)
+    for i in range(n):
+        for j in range(n):
+            Ct[i, j] /= (b[i] + b[j]) if i != j else (2.0 * b[i] + 1.0)
+    return _skew(mm(mm(P, Ct), P.T))
+
+
+@njit(cache=True)
+def _rotate_back(Q, x):
+    """``Qᵀx``."""
+    return mv(Q.T, x)
+
+
+@njit(cache=True)
+def _normalized(x, norm):
+    """x scaled to length ``norm``."""
+    return x * (norm / np.sqrt(np.sum(x * x)))
+
+
+@njit(cache=True)
+def _move_pose(Q, t, y, out, oR, oC, n):
+    """``R ← RQ`` and ``q ← q + R t`` (the old R) where the state carries them."""
+    if oR >= 0:
+        R = _mat(y, oR, n)
+        _put(out, oR, mm(R, Q))
+        if oC >= 0:
+            _put(out, oC, _vec(y, oC, n) + mv(R, t))
+
+
+@njit(cache=True)
+def _pose_rate(Om, V, y, out, oR, oC, n):
+    """``Ṙ = RΩ``, ``q̇ = R V``."""
+    if oR >= 0:
+        R = _mat(y, oR, n)
+        _put(out, oR, mm(R, Om))
+        if oC >= 0:
+            _put(out, oC, mv(R, V))
+
+
+@njit(cache=True)
+def _project_pose(y, out, oR, oC, n, normal, radius):
+    """R onto SO(n) (polar factor); the centre back onto the plane ``⟨q, ν⟩ = r``."""
+    if oR >= 0:
+        _put(out, oR, _project(_mat(y, oR, n)))
+        if oC >= 0:
+            q = _vec(y, oC, n)
+            _put(out, oC, q - (np.dot(q, normal) - radius) * normal)
+
+
+@njit(cache=True)
+def _copy(y, out):
+    out[:] = y
+
+
+# -- the rigid body with constant B: heavy top and free body ------------------------------------
+# params: n, oR, ident, P (n²), M = −1/(b_i + b_j) (n², 0 on the diagonal), then the system's own
+
+
+@njit(cache=True)
+def _top_omega(A, par, n):
+    """Ω(A): ``Ω_ij = −Ã_ij/(b_i + b_j)`` in the eigenbasis P of B, made exactly skew."""
+    M = _mat(par, 3 + n * n, n)
+    if par[2] != 0.0:
+        return _skew(A * M)
+    P = _mat(par, 3, n)
+    return _skew(mm(mm(P, mm(mm(P.T, A), P) * M), P.T))
+
+
+# heavy top: fields A, Gamma, [R]; own params M X_G (n), |g|
+@njit(GENERATOR, cache=True)
+def _heavy_generator(y, par, W, v, a):
+    n = W.shape[0]
+    W[:, :] = _top_omega(_mat(y, 0, n), par, n)
+    v[:] = par[3 + 2 * n * n : 3 + 2 * n * n + n]
+
+
+@njit(ACTION, cache=True)
+def _heavy_action(Q, t, a, y, par, out):
+    n = Q.shape[0]
+    G = _vec(y, n * n, n)
+    A = _mat(y, 0, n) + _wedge(t, G)
+    _put(out, 0, mm(mm(Q.T, A), Q))
+    _put(out, n * n, _rotate_back(Q, G))
+    oR = int(par[1])
+    if oR >= 0:
+        _put(out, oR, mm(_mat(y, oR, n), Q))
+
+
+@njit(FIELD, cache=True)
+def _heavy_field(y, par, out):
+    n = int(par[0])
+    A, G = _mat(y, 0, n), _vec(y, n * n, n)
+    Om = _top_omega(A, par, n)
+    MXG = _vec(par, 3 + 2 * n * n, n)
+    _put(out, 0, mm(A, Om) - mm(Om, A) + _wedge(MXG, G))
+    _put(out, n * n, -mv(Om, G))
+    oR = int(par[1])
+    if oR >= 0:
+        _put(out, oR, mm(_mat(y, oR, n), Om))
+
+
+@njit(FIELD, cache=True)
+def _heavy_projection(y, par, out):
+    n = int(par[0])
+    _put(out, 0, _skew(_mat(y, 0, n)))
+    _put(out, n * n, _normalized(_vec(y, n * n, n), par[3 + 2 * n * n + n]))
+    _project_pose(y, out, int(par[1]), -1, n, np.empty(0), 0.0)
+
+
+# free body: fields A, [R], center, velocity; own params oC, g (n)
+@njit(GENERATOR, cache=True)
+def _free_generator(y, par, W, v, a):
+    n = W.shape[0]
+    W[:, :] = _top_omega(_mat(y, 0, n), par, n)
+    oC = int(par[3 + 2 * n * n])
+    a[:n] = y[oC + n : oC + 2 * n]
+    a[n:] = par[4 + 2 * n * n : 4 + 2 * n * n + n]
+
+
+@njit(ACTION, cache=True)
+def _free_action(Q, t, a, y, par, out):
+    n = Q.shape[0]
+    _put(out, 0, _skew(mm(mm(Q.T, _mat(y, 0, n)), Q)))
+    oR, oC = int(par[1]), int(par[3 + 2 * n * n])
+    if oR >= 0:
+        _put(out, oR, mm(_mat(y, oR, n), Q))
+    for i in range(2 * n):
+        out[oC + i] = y[oC + i] + a[i]
+
+
+@njit(FIELD, cache=True)
+def _free_field(y, par, out):
+    n = int(par[0])
+    A = _mat(y, 0, n)
+    Om = _top_omega(A, par, n)
+    _put(out, 0, mm(A, Om) - mm(Om, A))
+    oR, oC = int(par[1]), int(par[3 + 2 * n * n])
+    if oR >= 0:
+        _put(out, oR, mm(_mat(y, oR, n), Om))
+    for i in range(n):
+        out[oC + i] = y[oC + n + i]
+        out[oC + n + i] = par[4 + 2 * n * n + i]
+
+
+@njit(FIELD, cache=True)
+def _free_projection(y, par, out):
+    n = int(par[0])
+    _copy(y, out)
+    _put(out, 0, _skew(_mat(y, 0, n)))
+    _project_pose(y, out, int(par[1]), -1, n, np.empty(0), 0.0)
+
+
+# -- the balls ---------------------------------------------------------------------------------
+# Chaplygin: fields A, Gamma, [R], [center]; params n, oR, oC, M r², r, B_C (n²), ν (n)
+
+
+@njit(cache=True)
+def _chaplygin_omega(y, par, n):
+    """Ω from ``A_K = −(B_K Ω + Ω B_K)``, ``B_K = B_C + M r² ΓΓᵀ``."""
+    G = _vec(y, n * n, n)
+    BK = _mat(par, 5, n) + par[3] * np.outer(G, G)
+    return _lyapunov(BK, -_mat(y, 0, n)), G
+
+
+@njit(GENERATOR, cache=True)
+def _chaplygin_generator(y, par, W, v, a):
+    n = W.shape[0]
+    Om, G = _chaplygin_omega(y, par, n)
+    W[:, :] = Om
+    if v.size:
+        v[:] = par[4] * mv(Om, G)
+
+
+@njit(ACTION, cache=True)
+def _chaplygin_action(Q, t, a, y, par, out):
+    n = Q.shape[0]
+    _put(out, 0, mm(mm(Q.T, _mat(y, 0, n)), Q))
+    _put(out, n * n, _rotate_back(Q, _vec(y, n * n, n)))
+    _move_pose(Q, t, y, out, int(par[1]), int(par[2]), n)
+
+
+@njit(FIELD, cache=True)
+def _chaplygin_field(y, par, out):
+    n = int(par[0])
+    Om, G = _chaplygin_omega(y, par, n)
+    A = _mat(y, 0, n)
+    _put(out, 0, mm(A, Om) - mm(Om, A))
+    _put(out, n * n, -mv(Om, G))
+    _pose_rate(Om, par[4] * mv(Om, G), y, out, int(par[1]), int(par[2]), n)
+
+
+@njit(FIELD, cache=True)
+def _chaplygin_projection(y, par, out):
+    n = int(par[0])
+    _copy(y, out)
+    _put(out, 0, _skew(_mat(y, 0, n)))
+    _put(out, n * n, _normalized(_vec(y, n * n, n), 1.0))
+    _project_pose(y, out, int(par[1]), int(par[2]), n, _vec(par, 5 + n * n, n), par[4])
+
+
+# rolling ball: fields Omega, Gamma, [G], [R], [center]; params n, oR, oC, oG, M, r, gravity mode
+# (0: none, 1: along ν, c = ⟨g, ν⟩; 2: tilted, G a field), c, |g|, B_C (n²), X_G (n), ν (n)
+
+
+@njit(cache=True)
+def _ball_acceleration(y, par, n):
+    """Ω̇ of the rolling equation: ``B_K Ω̇ + Ω̇ B_K = [B_K, Ω²] − M (κ + X_G) ∧ (Ω²κ + G)``,
+    ``κ = rΓ``, ``B_K = B_C + M(X_G κᵀ + κ X_Gᵀ) + M κκᵀ``."""
+    Om = _mat(y, 0, n)
+    M, r = par[4], par[5]
+    k = r * _vec(y, n * n, n)
+    XG = _vec(par, 9 + n * n, n)
+    BK = _mat(par, 9, n) + M * np.outer(k, k) + M * (np.outer(XG, k) + np.outer(k, XG))
+    Om2 = mm(Om, Om)
+    force = mv(Om2, k)
+    mode = par[6]
+    if mode == 1.0:
+        force = force + par[7] * _vec(y, n * n, n)
+    elif mode == 2.0:
+        force = force + _vec(y, int(par[3]), n)
+    C = mm(BK, Om2) - mm(Om2, BK) - M * _wedge(k + XG, force)
+    return _lyapunov(BK, C)
+
+
+@njit(GENERATOR, cache=True)
+def _ball_generator(y, par, W, v, a):
+    n = W.shape[0]
+    Om = _mat(y, 0, n)
+    W[:, :] = Om
+    if v.size:
+        v[:] = par[5] * mv(Om, _vec(y, n * n, n))
+    _put(a, 0, _ball_acceleration(y, par, n))
+
+
+@njit(ACTION, cache=True)
+def _ball_action(Q, t, a, y, par, out):
+    n = Q.shape[0]
+    for i in range(n * n):
+        out[i] = y[i] + a[i]
+    _put(out, n * n, _rotate_back(Q, _vec(y, n * n, n)))
+    oG = int(par[3])
+    if oG >= 0:
+        _put(out, oG, _rotate_back(Q, _vec(y, oG, n)))
+    _move_pose(Q, t, y, out, int(par[1]), int(par[2]), n)
+
+
+@njit(FIELD, cache=True)
+def _ball_field(y, par, out):
+    n = int(par[0])
+    Om = _mat(y, 0, n)
+    _put(out, 0, _ball_acceleration(y, par, n))
+    G = _vec(y, n * n, n)
+    _put(out, n * n, -mv(Om, G))
+    oG = int(par[3])
+    if oG >= 0:
+        _put(out, oG, -mv(Om, _vec(y, oG, n)))
+    _pose_rate(Om, par[5] * mv(Om, G), y, out, int(par[1]), int(par[2]), n)
+
+
+@njit(FIELD, cache=True)
+def _ball_projection(y, par, out):
+    n = int(par[0])
+    _copy(y, out)
+    _put(out, 0, _skew(_mat(y, 0, n)))
+    _put(out, n * n, _normalized(_vec(y, n * n, n), 1.0))
+    oG = int(par[3])
+    if oG >= 0:
+        _put(out, oG, _normalized(_vec(y, oG, n), par[8]))
+    _project_pose(y, out, int(par[1]), int(par[2]), n, _vec(par, 9 + n * n + n, n), par[5])
+
+
+#: the built-in systems' pieces, by the name their ``compiled()`` declares
+PIECES = {
+    "heavy_top": CompiledPieces(_heavy_generator, _heavy_action, _heavy_field, _heavy_projection),
+    "free_body": CompiledPieces(_free_generator, _free_action, _free_field, _free_projection),
+    "chaplygin_ball": CompiledPieces(_chaplygin_generator, _chaplygin_action, _chaplygin_field, _chaplygin_projection),
+    "rolling_ball": CompiledPieces(_ball_generator, _ball_action, _ball_field, _ball_projection),
+}

@@ -1,0 +1,400 @@
+"""One compiled loop for every system on SO(n) or SE(n) times a vector space (numba, cached).
+
+A system moved by the right action of ``G = SO(n) × Rᵐ`` or ``G = SE(n) × Rᵐ`` (the heavy
+top, the free body, the rolling and the Chaplygin ball, MATH.md §3–§5) supplies four compiled
+*pieces* (:class:`CompiledPieces`) working on its state flattened to one float vector y:
+
+* ``generator(y, params, W, v, a)`` writes ``ξ(y) = (W, v, a)``: W ∈ so(n), v ∈ Rⁿ the
+  translation of se(n) (length 0 on SO(n)), a ∈ Rᵐ (length 0 without a vector factor);
+* ``action(Q, t, a, y, params, out)`` writes ``ρ(g, y)`` for ``g = ((Q, t), a)``;
+* ``vector_field(y, params, out)`` writes ``ẏ`` (classical RK, on the flattened state);
+* ``projection(y, params, out)`` writes the projected state (``project=True``).
+
+Their signatures are fixed (:data:`GENERATOR`, :data:`ACTION`, :data:`FIELD`); the loop takes
+them as first-class function values, so it is compiled once per installation for every
+system (cached on disk) and a system outside the package opts in by declaring its own pieces
+(``system.compiled()`` returning ``{"kind": "lie", ...}``, see :class:`LieKernel`).
+
+One RKMK step in exponential coordinates with dexp⁻¹ truncated at the method's degree, as
+the generic path (:mod:`lieint.methods.rkmk`)::
+
+    u_i = h Σ_j a_ij k_j,   k_i = Σ_{d ≤ degree} (B_d/d!) ad_{−u_i}^d ξ(ρ(exp u_i, y)),
+    y ← ρ(exp(h Σ_j b_j k_j), y),
+
+with the bracket of ``se(n) ⊕ Rᵐ``, ``[(W₁, v₁, a₁), (W₂, v₂, a₂)] = ([W₁, W₂], W₁v₂ − W₂v₁, 0)``
+(the vector factor is abelian: its dexp⁻¹ is the identity) and ``exp(W, v) = (exp W, φ₁(W) v)``
+(:func:`lieint.fast.skew.expm_se`). A stage whose rotation part reaches the dexp⁻¹ radius
+(``θ₁ + θ₂ ≥ 2π``, the same test as the generic path's) stops the body there.
+"""
+
+from __future__ import annotations
+
+import math
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit, types
+
+from ..groups.base import bernoulli_dexpinv_coefficients
+from . import range_error, use_threads
+from .skew import _bracket, _finite, expm_se, expm_skew, mv, so_ad_radius_exceeds
+
+__all__ = ["ACTION", "FIELD", "GENERATOR", "CompiledPieces", "LieKernel", "integrate_lie"]
+
+_vec = types.float64[::1]
+_mat = types.float64[:, ::1]
+#: ``generator(y, params, W, v, a)``: writes ξ(y) = (W, v, a)
+GENERATOR = types.void(_vec, _vec, _mat, _vec, _vec)
+#: ``action(Q, t, a, y, params, out)``: writes ρ(((Q, t), a), y)
+ACTION = types.void(_mat, _vec, _vec, _vec, _vec, _vec)
+#: ``vector_field(y, params, out)`` and ``projection(y, params, out)``
+FIELD = types.void(_vec, _vec, _vec)
+
+
+@dataclass(frozen=True)
+class CompiledPieces:
+    """A system's compiled generator, action, vector field and projection (numba functions
+    compiled with the signatures :data:`GENERATOR`, :data:`ACTION`, :data:`FIELD`, :data:`FIELD`)."""
+
+    generator: object
+    action: object
+    vector_field: object
+    projection: object
+
+
+@njit(cache=True)
+def _combine(out, K, weights, upto, h):
+    """``out = Σ_{j < upto} (h w_j) K[j]`` over the nonzero weights (zero if none); returns
+    whether any weight was nonzero."""
+    out[:] = 0.0
+    any_weight = False
+    flat = out.ravel()
+    for j in range(upto):
+        if weights[j] != 0.0:
+            any_weight = True
+            w = h * weights[j]
+            Kj = K[j].ravel()
+            for i in range(flat.size):
+                flat[i] += w * Kj[i]
+    return any_weight
+
+
+@njit(cache=True)
+def _exponential(uW, uv, nv):
+    """``(Q, t) = exp(uW, uv)`` on SE(n) (``nv = n``) or ``(exp uW, ·)`` on SO(n); NaN when
+    u is not finite (the driver reports the non-finite state)."""
+    n = uW.shape[0]
+    if not (_finite(uW) and _finite(uv)):
+        Q = np.empty((n, n))
+        Q[:] = np.nan
+        t = np.empty(nv)
+        t[:] = np.nan
+        return Q, t
+    if nv == 0:
+        return expm_skew(uW), np.empty(0)
+    return expm_se(uW, uv)
+
+
+@njit(cache=True)
+def _out_of_range(uW, nv):
+    """The generic path's dexp⁻¹ range test on the rotation part (``θ₁ + θ₂ ≥ 2π``; on se(2)
+    the spectral radius of ad is ``|θ|``)."""
+    if uW.shape[0] == 2:
+        return nv > 0 and abs(uW[1, 0]) >= 2.0 * np.pi
+    return so_ad_radius_exceeds(uW) == 1
+
+
+@njit(cache=True)
+def lie_step(gen, act, y, par, nv, tab, b, h, coeffs, KW, Kv, Ka, y_stage, y1):
+    """One RKMK step from y into ``y1``; False when a stage leaves the dexp⁻¹ radius."""
+    s = b.shape[0]
+    n = KW.shape[1]
+    degree = coeffs.shape[0] - 1
+    uW = np.empty((n, n))
+    uv = np.empty(nv)
+    ua = np.empty(Ka.shape[1])
+    for i in range(s):
+        _combine(uW, KW, tab[i], i, h)
+        _combine(uv, Kv, tab[i], i, h)
+        if not _combine(ua, Ka, tab[i], i, h):
+            gen(y, par, KW[i], Kv[i], Ka[i])  # u = 0: k_i = ξ(y)
+            continue
+        if _out_of_range(uW, nv):
+            return False
+        Q, t = _exponential(uW, uv, nv)
+        act(Q, t, ua, y, par, y_stage)
+        gen(y_stage, par, KW[i], Kv[i], Ka[i])
+        # k_i = Σ_d (B_d/d!) ad_{−u}^d ξ: ad_{−u}(W, v) = ([−uW, W], −uW v + W uv)
+        tW = KW[i].copy()
+        tv = Kv[i].copy()
+        minus_uW = -uW
+        for d in range(1, degree + 1):
+            nW = _bracket(minus_uW, tW)
+            if nv > 0:
+                tv = mv(minus_uW, tv) + mv(tW, uv)
+            tW = nW
+            if coeffs[d] != 0.0:
+                KW[i] += coeffs[d] * tW
+                if nv > 0:
+                    Kv[i] += coeffs[d] * tv
+    move(act, y, par, nv, KW, Kv, Ka, b, h, y1)
+    return True
+
+
+@njit(cache=True)
+def move(act, y, par, nv, KW, Kv, Ka, w, h, out):
+    """``out = ρ(exp(h Σ_j w_j k_j), y)``: the step's new state (weights b) or an embedded
+    solution (weights b̂)."""
+    n = KW.shape[1]
+    uW = np.empty((n, n))
+    uv = np.empty(nv)
+    ua = np.empty(Ka.shape[1])
+    s = w.shape[0]
+    _combine(uW, KW, w, s, h)
+    _combine(uv, Kv, w, s, h)
+    _combine(ua, Ka, w, s, h)
+    Q, t = _exponential(uW, uv, nv)
+    act(Q, t, ua, y, par, out)
+
+
+@njit(cache=True)
+def _classical_step(field, y, par, tab, b, h, K, y_stage, y1):
+    """One classical RK step on the flattened state: ``y1 = y + h Σ_j b_j K_j``."""
+    s = b.shape[0]
+    for i in range(s):
+        _combine(y_stage, K, tab[i], i, h)
+        y_stage += y
+        field(y_stage, par, K[i])
+    _combine(y1, K, b, s, h)
+    y1 += y
+
+
+_RUN_SIGNATURE = types.void(
+    types.FunctionType(GENERATOR),
+    types.FunctionType(ACTION),
+    types.FunctionType(FIELD),
+    types.FunctionType(FIELD),
+    types.int64,  # lo
+    types.int64,  # hi
+    _mat,  # Y0 (N, d)
+    _vec,  # params
+    types.int64,  # n
+    types.int64,  # nv: n on SE(n), 0 on SO(n)
+    types.int64,  # m: size of the vector factor
+    _mat,  # tableau A
+    _vec,  # tableau b
+    _vec,  # dexp⁻¹ coefficients
+    types.boolean,  # lie
+    types.float64,  # h
+    types.float64,  # h_last
+    types.int64,  # k_from
+    types.int64,  # k_to
+    types.int64,  # nsteps
+    types.int64[::1],  # save_steps
+    types.boolean,  # project
+    types.float64[:, :, ::1],  # out (saves, N, d)
+    _mat,  # fin (N, d)
+    types.int64[::1],  # status (N,)
+)
+
+
+@njit(_RUN_SIGNATURE, cache=True, nogil=True)
+def _run_bodies(
+    gen, act, field, proj, lo, hi, Y0, par, n, nv, m, tab, b, coeffs, lie, h, h_last, k_from, k_to, nsteps,
+    save_steps, project, out, fin, status,
+):  # fmt: skip
+    """Steps ``k_from < k ≤ k_to`` of the bodies ``lo ≤ m < hi`` (see :func:`integrate_lie`).
+    Releases the GIL, so that threads can run disjoint ranges of bodies."""
+    s = b.shape[0]
+    d = Y0.shape[1]
+    KW = np.zeros((s, n, n))
+    Kv = np.zeros((s, nv))
+    Ka = np.zeros((s, m))
+    K = np.zeros((s, d))
+    y_stage = np.empty(d)
+    y1 = np.empty(d)
+    for body in range(lo, hi):
+        y = Y0[body].copy()
+        slot = 0
+        status[body] = -1
+        for k in range(k_from, k_to):
+            hk = h if k < nsteps - 1 else h_last
+            if lie:
+                if not lie_step(gen, act, y, par, nv, tab, b, hk, coeffs, KW, Kv, Ka, y_stage, y1):
+                    status[body] = k
+                    break
+            else:
+                _classical_step(field, y, par, tab, b, hk, K, y_stage, y1)
+            if project:
+                proj(y1, par, y)
+            else:
+                y[:] = y1
+            if slot < save_steps.shape[0] and save_steps[slot] == k + 1:
+                out[slot, body] = y
+                slot += 1
+        fin[body] = y
+
+
+def integrate_lie(
+    pieces: CompiledPieces,
+    Y0,
+    params,
+    n: int,
+    translation: bool,
+    m: int,
+    tableau_A,
+    tableau_b,
+    coeffs,
+    lie: bool,
+    h: float,
+    h_last: float,
+    k_from: int,
+    k_to: int,
+    nsteps: int,
+    save_steps,
+    project: bool,
+    threads: int = 1,
+):
+    """Run the compiled loop over steps ``k_from < k ≤ k_to`` of N bodies.
+
+    Parameters
+    ----------
+    pieces : CompiledPieces
+        The system's compiled generator, action, vector field and projection.
+    Y0 : ndarray, shape (N, d)
+        The flattened states.
+    params : ndarray, shape (p,)
+        The system's parameters, as its pieces read them.
+    n, translation, m : int, bool, int
+        The group: SE(n) (``translation``) or SO(n), times ``Rᵐ``.
+    tableau_A, tableau_b, coeffs, lie, h, h_last, k_from, k_to, nsteps, save_steps, project, threads
+        As :func:`lieint.fast.topn.integrate_topn`.
+
+    Returns
+    -------
+    out : ndarray, shape (saves, N, d)
+    fin : ndarray, shape (N, d)
+    bad : int
+        The first step at which a stage left the dexp⁻¹ radius (-1: none).
+    """
+    Y0 = np.ascontiguousarray(Y0, dtype=float)
+    save_steps = np.ascontiguousarray(save_steps, dtype=np.int64)
+    N, d = Y0.shape
+    out = np.empty((save_steps.size, N, d))
+    fin = np.empty((N, d))
+    status = np.empty(N, dtype=np.int64)
+    args = (
+        Y0,
+        np.require(params, float, ["C", "W"]),
+        int(n),
+        int(n) if translation else 0,
+        int(m),
+        # the registry's tableaux are read-only; the compiled signature takes writable arrays
+        np.require(tableau_A, float, ["C", "W"]),
+        np.require(tableau_b, float, ["C", "W"]),
+        np.require(coeffs, float, ["C", "W"]),
+        bool(lie),
+        float(h),
+        float(h_last),
+        int(k_from),
+        int(k_to),
+        int(nsteps),
+        save_steps,
+        bool(project),
+        out,
+        fin,
+        status,
+    )
+    fns = (pieces.generator, pieces.action, pieces.vector_field, pieces.projection)
+    threads = min(int(threads), N)
+    if threads > 1:
+        cuts = np.linspace(0, N, threads + 1).astype(np.int64)
+        with ThreadPoolExecutor(threads) as pool:
+            jobs = [pool.submit(_run_bodies, *fns, int(cuts[i]), int(cuts[i + 1]), *args) for i in range(threads)]
+            for job in jobs:
+                job.result()
+    else:
+        _run_bodies(*fns, 0, N, *args)
+    bad = status[status >= 0]
+    return out, fin, int(bad.min()) if bad.size else -1
+
+
+class LieKernel:
+    """The generic compiled kernel for a system declaring its compiled pieces.
+
+    Parameters
+    ----------
+    sys_decl : dict
+        ``{"kind": "lie", "pieces": CompiledPieces, "params": array, "n": int,
+        "translation": bool, "abelian": int, "fields": {name: shape}, "group": str}``.
+    meth_decl : dict
+        ``{"kind": "rkmk" | "rk", "A", "b", "c"[, "dexpinv_degree"]}``.
+    y : dict
+        The initial state (unused: the layout does not depend on it).
+    batch : tuple of int
+        The batch shape of the run.
+    """
+
+    def __init__(self, sys_decl: dict, meth_decl: dict, y, batch: tuple[int, ...]):
+        self.pieces = sys_decl["pieces"]
+        self.params = np.require(sys_decl["params"], float, ["C", "W"])
+        self.n = int(sys_decl["n"])
+        self.translation = bool(sys_decl["translation"])
+        self.m = int(sys_decl["abelian"])
+        self.fields = {name: tuple(shape) for name, shape in sys_decl["fields"].items()}
+        self.sizes = [math.prod(shape) for shape in self.fields.values()]
+        self.group = sys_decl.get("group", f"{'se' if self.translation else 'so'}({self.n})")
+        self.method = meth_decl
+        self.lie = meth_decl["kind"] == "rkmk"
+        self.stages = int(np.asarray(meth_decl["b"]).size)
+        self.coeffs = np.array(bernoulli_dexpinv_coefficients(meth_decl["dexpinv_degree"]) if self.lie else (1.0,))
+        self.batch = batch
+        self.parallel, self.threads = use_threads(math.prod(batch))
+
+    def describe(self) -> str:
+        """Which kernel runs."""
+        threads = f"{self.threads} threads" if self.parallel else "serial"
+        kind = "RKMK" if self.lie else "classical RK"
+        return f"compiled Lie-group kernel on {self.group}, {kind}, per body, {threads}"
+
+    def start(self, y: dict) -> dict:
+        N = math.prod(self.batch)
+        return {"Y": np.concatenate([np.asarray(y[name], dtype=float).reshape(N, -1) for name in self.fields], axis=1)}
+
+    def advance(self, internal: dict, k_from: int, k_to: int, plan, save_steps, project: bool):
+        tab = self.method
+        out, fin, bad = integrate_lie(
+            self.pieces,
+            internal["Y"],
+            self.params,
+            self.n,
+            self.translation,
+            self.m,
+            tab["A"],
+            tab["b"],
+            self.coeffs,
+            self.lie,
+            plan.h,
+            plan.last_step,
+            k_from,
+            k_to,
+            plan.nsteps,
+            save_steps,
+            project,
+            self.threads,
+        )
+        if bad >= 0:
+            raise range_error(bad, plan, self.group)
+        return {"Y": fin}, self._user(out)
+
+    def _user(self, Y) -> dict:
+        lead = Y.shape[:-2]
+        states, start = {}, 0
+        for (name, shape), size in zip(self.fields.items(), self.sizes, strict=True):
+            states[name] = Y[..., start : start + size].reshape(lead + self.batch + shape)
+            start += size
+        return states
+
+    def user_state(self, internal: dict) -> dict:
+        return {k: v[0] for k, v in self._user(internal["Y"][None]).items()}

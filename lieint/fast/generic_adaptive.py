@@ -1,0 +1,223 @@
+"""Compiled adaptive RKMK for every system with compiled pieces (numba, cached on disk).
+
+The controller loop of :mod:`lieint.fast.top3_adaptive` — trial step, error norm, accept or
+reject, next step size, the generic path's controller constant for constant — around the stage
+code of the generic compiled kernel (:func:`lieint.fast.generic.lie_step`), for one body or a
+batch sharing one step size:
+
+* a trial step computes the stages ``k_i``, ``y₁ = ρ(exp(h Σ b_j k_j), y₀)`` and the embedded
+  ``ŷ = ρ(exp(h Σ b̂_j k_j), y₀)`` (and DOP853's second, weights ``b̂₃``);
+* the error is measured on the flattened state — every field of the user's state, in the
+  user's frame, as the generic path measures it:
+  ``r_i = (y₁ − ŷ)_i / (atol + rtol·max(|y₀,i|, |y₁,i|))``, ``err = √(Σ r_i²/N)`` over all
+  entries of all bodies, or ``s₅/√((s₅ + 0.01 s₃)·N)`` for DOP853;
+* ``err ≥ 1`` (or non-finite, or a stage beyond the dexp⁻¹ radius) rejects the step, an
+  accepted one moves (and, asked, projects) the state, saves every ``save_every``-th step and
+  the last, and proposes the next step as :class:`lieint.control.StepSizeController` does.
+
+The loop hands back ``(t, h)`` between accepted steps, so a run split into calls takes the
+same steps as one call.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit, types
+
+from .generic import ACTION, FIELD, GENERATOR, LieKernel, lie_step, move
+from .top3_adaptive import _factor
+
+__all__ = ["LieAdaptiveKernel", "adaptive_lie"]
+
+_vec = types.float64[::1]
+_mat = types.float64[:, ::1]
+
+
+@njit(cache=True)
+def _scaled(y0, y1, yh, rtol, atol):
+    """``Σ_i ((y₁ − ŷ)_i / (atol + rtol·max(|y₀,i|, |y₁,i|)))²``."""
+    total = 0.0
+    for i in range(y0.shape[0]):
+        x = (y1[i] - yh[i]) / (atol + rtol * max(abs(y0[i]), abs(y1[i])))
+        total += x * x
+    return total
+
+
+_SIGNATURE = types.Tuple((types.int64, types.float64, types.float64) + (types.int64,) * 5)(
+    types.FunctionType(GENERATOR),
+    types.FunctionType(ACTION),
+    types.FunctionType(FIELD),
+    _mat,  # Y (N, d), moved in place
+    _vec,  # params
+    types.int64,  # nv
+    types.int64,  # m
+    _mat,  # tableau A
+    _vec,  # b
+    _vec,  # b_hat
+    _vec,  # b_low
+    types.boolean,  # has_low
+    _vec,  # dexp⁻¹ coefficients
+    types.float64,  # rtol
+    types.float64,  # atol
+    types.int64,  # q
+    types.float64,  # safety
+    types.float64,  # fmin
+    types.float64,  # fmax
+    types.float64,  # h_min
+    types.float64,  # t
+    types.float64,  # t1
+    types.float64,  # h
+    types.int64,  # k
+    types.int64,  # max_accept
+    types.int64,  # save_every
+    types.boolean,  # project
+    _vec,  # out_t
+    types.float64[:, :, ::1],  # out_Y (cap, N, d)
+)
+
+
+@njit(_SIGNATURE, cache=True)
+def adaptive_lie(
+    gen, act, proj, Y, par, nv, m, A, b, b_hat, b_low, has_low, coeffs, rtol, atol, q, safety, fmin, fmax, h_min,
+    t, t1, h, k, max_accept, save_every, project, out_t, out_Y,
+):  # fmt: skip
+    """Adaptive RKMK steps from ``t`` in place on the flattened states ``Y`` (N, d).
+
+    Arguments and results as :func:`lieint.fast.top3_adaptive.adaptive_top3`, with the
+    system's compiled generator, action and projection, its parameters ``par``, ``nv = n`` on
+    SE(n) (0 on SO(n)) and m the size of its vector factor. Returns
+    ``(status, t, h, k, accepted, rejected, nfev, rows)``.
+    """
+    N, d = Y.shape
+    n = int(par[0])
+    s = b.shape[0]
+    cap = out_t.shape[0]
+    KW = np.zeros((s, n, n))
+    Kv = np.zeros((s, nv))
+    Ka = np.zeros((s, m))
+    y_stage = np.empty(d)
+    yh = np.empty(d)
+    Y1 = np.empty((N, d))
+    count = float(N * d)
+    accepted = 0
+    rejected = 0
+    nfev = 0
+    rows = 0
+    status = 0
+    after_rejection = False
+    while t < t1 and accepted < max_accept and rows < cap:
+        h = min(h, t1 - t)
+        ok = True
+        s5 = 0.0
+        s3 = 0.0
+        for body in range(N):
+            if not lie_step(gen, act, Y[body], par, nv, A, b, h, coeffs, KW, Kv, Ka, y_stage, Y1[body]):
+                ok = False
+                break
+            move(act, Y[body], par, nv, KW, Kv, Ka, b_hat, h, yh)
+            s5 += _scaled(Y[body], Y1[body], yh, rtol, atol)
+            if has_low:
+                move(act, Y[body], par, nv, KW, Kv, Ka, b_low, h, yh)
+                s3 += _scaled(Y[body], Y1[body], yh, rtol, atol)
+        if ok:
+            nfev += s
+            if not has_low:
+                err = math.sqrt(s5 / count)
+            elif s5 == 0.0 and s3 == 0.0:
+                err = 0.0
+            else:
+                err = s5 / math.sqrt((s5 + 0.01 * s3) * count)
+        else:
+            err = math.inf
+        if not math.isfinite(err) or err >= 1.0:
+            rejected += 1
+            after_rejection = True
+            h *= _factor(err, q, safety, fmin, fmax, False)
+            if h < h_min:
+                status = 1
+                break
+            continue
+        t = t1 if t1 - (t + h) <= h_min else t + h
+        for body in range(N):
+            if project:
+                proj(Y1[body], par, Y[body])
+            else:
+                Y[body] = Y1[body]
+        k += 1
+        accepted += 1
+        if k % save_every == 0 or t == t1:
+            out_t[rows] = t
+            out_Y[rows] = Y
+            rows += 1
+        h *= _factor(err, q, safety, fmin, fmax, after_rejection)
+        after_rejection = False
+    return status, t, h, k, accepted, rejected, nfev, rows
+
+
+class LieAdaptiveKernel(LieKernel):
+    """Adaptive RKMK through the generic compiled kernel: the whole controller loop in machine
+    code, serial (a batch shares one step size), state flattened as :class:`LieKernel`'s."""
+
+    #: rows the kernel writes per call before handing them back (memory stays bounded) ...
+    ROWS_PER_CALL = 4096
+    #: ... and the bytes those rows may take (fewer rows per call for a large batch)
+    BYTES_PER_CALL = 32_000_000
+
+    def __init__(self, sys_decl: dict, meth_decl: dict, batch: tuple[int, ...]):
+        super().__init__(sys_decl, meth_decl, None, batch)
+        self.parallel, self.threads = False, 1
+        self.b_hat = np.array(meth_decl["b_hat"], dtype=float)
+        low = meth_decl.get("b_hat_low")
+        self.has_low = low is not None
+        self.b_low = np.array(low if low is not None else np.zeros_like(self.b_hat), dtype=float)
+        self.error_order = int(meth_decl["error_order"])
+        self.tab_A = np.array(meth_decl["A"], dtype=float)
+        self.tab_b = np.array(meth_decl["b"], dtype=float)
+
+    def describe(self) -> str:
+        return f"compiled Lie-group kernel on {self.group}, adaptive RKMK (whole controller loop), per body, serial"
+
+    def advance_adaptive(self, internal: dict, t, t1, h, k, max_accept, save_every, project, controller, h_min):
+        """Accepted steps from ``(t, h)`` at step ``k`` until ``t1``, ``max_accept`` accepted
+        steps or :attr:`ROWS_PER_CALL` saved rows (see
+        :meth:`lieint.fast.adaptive.Top3AdaptiveKernel.advance_adaptive`)."""
+        Y = internal["Y"].copy()
+        N, d = Y.shape
+        rows_fit = self.BYTES_PER_CALL // (8 * d * N)
+        cap = max(1, min(self.ROWS_PER_CALL, rows_fit, max_accept // save_every + 1))
+        out_t, out_Y = np.empty(cap), np.empty((cap, N, d))
+        status, t, h, k, accepted, rejected, nfev, rows = adaptive_lie(
+            self.pieces.generator,
+            self.pieces.action,
+            self.pieces.projection,
+            Y,
+            self.params,
+            self.n if self.translation else 0,
+            self.m,
+            self.tab_A,
+            self.tab_b,
+            self.b_hat,
+            self.b_low,
+            self.has_low,
+            self.coeffs,
+            float(controller.rtol),
+            float(controller.atol),
+            self.error_order,
+            float(controller.safety),
+            float(controller.factor_min),
+            float(controller.factor_max),
+            float(h_min),
+            float(t),
+            float(t1),
+            float(h),
+            int(k),
+            int(min(max_accept, np.iinfo(np.int64).max)),
+            int(save_every),
+            bool(project),
+            out_t,
+            out_Y,
+        )
+        saved = self._user(out_Y[:rows])
+        return {"Y": Y}, (t, h, k), (accepted, rejected, nfev), out_t[:rows].copy(), saved, status == 1
