@@ -75,9 +75,45 @@ def _lyapunov(B, C):
 
 
 @njit(cache=True)
-def _rotate_back(Q, x):
-    """``Qᵀx``."""
-    return mv(Q.T, x)
+def _conj_into(Q, C, out, off):
+    """``out[off : off + n²] = QᵀCQ`` (row-major)."""
+    n = Q.shape[0]
+    D = np.empty((n, n))
+    for i in range(n):
+        for j in range(n):
+            acc = 0.0
+            for k in range(n):
+                acc += C[i, k] * Q[k, j]
+            D[i, j] = acc
+    for i in range(n):
+        for j in range(n):
+            acc = 0.0
+            for k in range(n):
+                acc += Q[k, i] * D[k, j]
+            out[off + i * n + j] = acc
+
+
+@njit(cache=True)
+def _rotate_back_into(Q, y, yoff, out, ooff):
+    """``out[ooff : ooff + n] = Qᵀ y[yoff : yoff + n]``."""
+    n = Q.shape[0]
+    for i in range(n):
+        acc = 0.0
+        for k in range(n):
+            acc += Q[k, i] * y[yoff + k]
+        out[ooff + i] = acc
+
+
+@njit(cache=True)
+def _times_into(y, off, Q, out):
+    """``out[off : off + n²] = R Q`` for the matrix R stored at ``y[off : off + n²]``."""
+    n = Q.shape[0]
+    for i in range(n):
+        for j in range(n):
+            acc = 0.0
+            for k in range(n):
+                acc += y[off + i * n + k] * Q[k, j]
+            out[off + i * n + j] = acc
 
 
 @njit(cache=True)
@@ -90,10 +126,13 @@ def _normalized(x, norm):
 def _move_pose(Q, t, y, out, oR, oC, n):
     """``R ← RQ`` and ``q ← q + R t`` (the old R) where the state carries them."""
     if oR >= 0:
-        R = _mat(y, oR, n)
-        _put(out, oR, mm(R, Q))
+        _times_into(y, oR, Q, out)
         if oC >= 0:
-            _put(out, oC, _vec(y, oC, n) + mv(R, t))
+            for i in range(n):
+                acc = y[oC + i]
+                for k in range(n):
+                    acc += y[oR + i * n + k] * t[k]
+                out[oC + i] = acc
 
 
 @njit(cache=True)
@@ -139,20 +178,29 @@ def _top_omega(A, par, n):
 @njit(GENERATOR, cache=True)
 def _heavy_generator(y, par, W, v, a):
     n = W.shape[0]
-    W[:, :] = _top_omega(_mat(y, 0, n), par, n)
+    if par[2] != 0.0:  # diagonal B: Ω_ij = −A_ij/(b_i + b_j), made exactly skew
+        m = 3 + n * n
+        for i in range(n):
+            for j in range(n):
+                W[i, j] = 0.5 * (y[i * n + j] * par[m + i * n + j] - y[j * n + i] * par[m + j * n + i])
+    else:
+        W[:, :] = _top_omega(_mat(y, 0, n), par, n)
     v[:] = par[3 + 2 * n * n : 3 + 2 * n * n + n]
 
 
 @njit(ACTION, cache=True)
 def _heavy_action(Q, t, a, y, par, out):
     n = Q.shape[0]
-    G = _vec(y, n * n, n)
-    A = _mat(y, 0, n) + _wedge(t, G)
-    _put(out, 0, mm(mm(Q.T, A), Q))
-    _put(out, n * n, _rotate_back(Q, G))
+    nn = n * n
+    C = np.empty((n, n))  # A + t ∧ Γ
+    for i in range(n):
+        for j in range(n):
+            C[i, j] = y[i * n + j] + t[i] * y[nn + j] - y[nn + i] * t[j]
+    _conj_into(Q, C, out, 0)
+    _rotate_back_into(Q, y, nn, out, nn)
     oR = int(par[1])
     if oR >= 0:
-        _put(out, oR, mm(_mat(y, oR, n), Q))
+        _times_into(y, oR, Q, out)
 
 
 @njit(FIELD, cache=True)
@@ -189,10 +237,15 @@ def _free_generator(y, par, W, v, a):
 @njit(ACTION, cache=True)
 def _free_action(Q, t, a, y, par, out):
     n = Q.shape[0]
-    _put(out, 0, _skew(mm(mm(Q.T, _mat(y, 0, n)), Q)))
+    _conj_into(Q, _mat(y, 0, n), out, 0)
+    for i in range(n):  # exactly skew, as the generic action's skew_part
+        for j in range(i, n):
+            d = 0.5 * (out[i * n + j] - out[j * n + i])
+            out[i * n + j] = d
+            out[j * n + i] = -d
     oR, oC = int(par[1]), int(par[3 + 2 * n * n])
     if oR >= 0:
-        _put(out, oR, mm(_mat(y, oR, n), Q))
+        _times_into(y, oR, Q, out)
     for i in range(2 * n):
         out[oC + i] = y[oC + i] + a[i]
 
@@ -243,8 +296,8 @@ def _chaplygin_generator(y, par, W, v, a):
 @njit(ACTION, cache=True)
 def _chaplygin_action(Q, t, a, y, par, out):
     n = Q.shape[0]
-    _put(out, 0, mm(mm(Q.T, _mat(y, 0, n)), Q))
-    _put(out, n * n, _rotate_back(Q, _vec(y, n * n, n)))
+    _conj_into(Q, _mat(y, 0, n), out, 0)
+    _rotate_back_into(Q, y, n * n, out, n * n)
     _move_pose(Q, t, y, out, int(par[1]), int(par[2]), n)
 
 
@@ -306,10 +359,10 @@ def _ball_action(Q, t, a, y, par, out):
     n = Q.shape[0]
     for i in range(n * n):
         out[i] = y[i] + a[i]
-    _put(out, n * n, _rotate_back(Q, _vec(y, n * n, n)))
+    _rotate_back_into(Q, y, n * n, out, n * n)
     oG = int(par[3])
     if oG >= 0:
-        _put(out, oG, _rotate_back(Q, _vec(y, oG, n)))
+        _rotate_back_into(Q, y, oG, out, oG)
     _move_pose(Q, t, y, out, int(par[1]), int(par[2]), n)
 
 

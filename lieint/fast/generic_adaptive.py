@@ -189,9 +189,8 @@ class LieAdaptiveKernel(LieKernel):
         cap = max(1, min(self.ROWS_PER_CALL, rows_fit, max_accept // save_every + 1))
         out_t, out_Y = np.empty(cap), np.empty((cap, N, d))
         status, t, h, k, accepted, rejected, nfev, rows = adaptive_lie(
-            self.pieces.generator,
-            self.pieces.action,
-            self.pieces.projection,
+            *self.pieces.functions[:2],
+            self.pieces.functions[3],
             Y,
             self.params,
             self.n if self.translation else 0,

@@ -115,12 +115,43 @@ def expm_se(W, v):
     power of θ larger than the rotation's. Returns ``(Q, t)``.
     """
     n = W.shape[0]
+    if n == 3:
+        return _exp_se3(W, v)
     X = np.zeros((n + 1, n + 1))
     X[:n, :n] = W
     X[:n, n] = v
     X2 = mm(X, X)
     S = _scaled_taylor(X, X2, min(_onenorm(W), np.sqrt(_onenorm(X2[:n, :n]))), _THETAS_SE)
     return np.ascontiguousarray(S[:n, :n]), np.ascontiguousarray(S[:n, n])
+
+
+@njit(cache=True)
+def _exp_se3(W, v):
+    """Closed forms on se(3): ``exp W = I + (sin θ/θ) W + ((1 − cos θ)/θ²) W²`` (Rodrigues) and
+    ``φ₁(W) = I + ((1 − cos θ)/θ²) W + ((θ − sin θ)/θ³) W²``, with their Taylor series below
+    θ = 1e-3 (next terms below 1e-22); v of length 0 gives the rotation alone."""
+    t2 = W[2, 1] * W[2, 1] + W[0, 2] * W[0, 2] + W[1, 0] * W[1, 0]
+    if t2 < 1e-6:
+        a = 1.0 - t2 / 6.0 + t2 * t2 / 120.0
+        b = 0.5 - t2 / 24.0 + t2 * t2 / 720.0
+        c = 1.0 / 6.0 - t2 / 120.0 + t2 * t2 / 5040.0
+    else:
+        theta = np.sqrt(t2)
+        a = np.sin(theta) / theta
+        b = (1.0 - np.cos(theta)) / t2
+        c = (theta - np.sin(theta)) / (t2 * theta)
+    Q = np.empty((3, 3))
+    V = np.empty((3, 3))
+    for i in range(3):
+        for j in range(3):
+            w2 = W[i, 0] * W[0, j] + W[i, 1] * W[1, j] + W[i, 2] * W[2, j]
+            e = 1.0 if i == j else 0.0
+            Q[i, j] = e + a * W[i, j] + b * w2
+            V[i, j] = e + b * W[i, j] + c * w2
+    t = np.zeros(v.shape[0])
+    for i in range(v.shape[0]):
+        t[i] = V[i, 0] * v[0] + V[i, 1] * v[1] + V[i, 2] * v[2]
+    return Q, t
 
 
 @njit(cache=True)
