@@ -83,28 +83,38 @@ def test_compiled_path_streamed_in_segments(tmp_path, reference, every):
 
 @pytest.mark.parametrize(
     "extra, backend",
-    [("", "numpy"), ('method = "rk4"', "numpy"), ("", "lanes"), ("", "topn")],
-    ids=["generic-rkmk4", "generic-rk4", "compiled-ensemble-lanes", "compiled-4d-top"],
+    [
+        ('coordinates = "cayley"', "numpy"),
+        ("", "lie"),
+        ('method = "rk4"', "lie"),
+        ("", "lanes"),
+        ("", "topn"),
+    ],
+    ids=["generic-rkmk4-cayley", "lie-kernel-rkmk4", "lie-kernel-rk4", "compiled-ensemble-lanes", "compiled-4d-top"],
 )
 @pytest.mark.parametrize("every", [1, 7, 1000])
 def test_every_back_end_streamed(tmp_path, every, extra, backend):
-    """The generic path (forced by a 4D heavy top), the SIMD lanes of ensembles and the
-    compiled n-dimensional top (a 4D free top)."""
+    """The generic path (Cayley coordinates have no compiled form), the generic compiled kernel
+    (a 4D heavy top), the SIMD lanes of ensembles and the compiled n-dimensional top (a 4D free
+    top)."""
     n = 1_003
     if backend == "lanes":
         text = TOP3.format(t_end=n * 0.01, every=every, extra="").replace(
             "[integrator]", "[ensemble]\ncount = 64\nseed = 1\nspread = 0.01\n\n[integrator]"
         )
-    else:  # a 4D body: a free top (compiled) or, under gravity, a heavy top (no compiled kernel)
+    else:  # a 4D body: a free top, or under gravity a heavy top
         body = "mass_tensor = [[0.5, 0, 0, 0], [0, 1.0, 0, 0], [0, 0, 1.7, 0], [0, 0, 0, 2.3]]"
-        if backend == "numpy":
+        if backend != "topn":
             body += "\nmass = 1.0\ncenter_of_mass = [0.0, 0.0, 0.1, 0.0]\n\n[forces]\ngravity = [0.0, 0.0, 0.0, -1.0]"
         text = TOP3.format(t_end=n * 0.01, every=every, extra="").replace("principal_moments = [1.0, 2.0, 3.0]", body)
         text = text.replace(
             "angular_velocity = [0.01, 1.0, 0.01]",
             "omega = [[0, -0.3, 0.5, -0.2], [0.3, 0, -0.4, 0.6], [-0.5, 0.4, 0, -0.1], [0.2, -0.6, 0.1, 0]]",
         )
-        text = text.replace('method = "rkmk4"', 'method = "rk4"') if extra else text
+        if extra.startswith("method"):
+            text = text.replace('method = "rkmk4"', extra)
+        elif extra:
+            text = text.replace('method = "rkmk4"', f'method = "rkmk4"\n{extra}')
     full, thin = tmp_path / "full.toml", tmp_path / "thin.toml"
     full.write_text(text.replace(f"save_every = {every}", "save_every = 1"))
     thin.write_text(text)
@@ -115,7 +125,7 @@ def test_every_back_end_streamed(tmp_path, every, extra, backend):
     with h5py.File(tmp_path / "full.h5") as a, h5py.File(tmp_path / "thin.h5") as b:
         if backend == "lanes":
             assert b.attrs["backend"] == "numba" and b["states/A"].shape[1] == 64
-        elif backend == "topn":
+        elif backend in ("topn", "lie"):
             assert b.attrs["backend"] == "numba" and b["states/A"].shape[1:] == (4, 4)
         else:
             assert b.attrs["backend"] == "numpy"
