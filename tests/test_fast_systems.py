@@ -218,3 +218,20 @@ def test_compiled_adaptive_pairs_take_the_generic_paths_steps(n, name):
                 scale = max(1.0, float(np.max(np.abs(expected[-1]))))
                 err = float(np.max(np.abs(fast.states[field][-1] - expected[-1]))) / scale
                 assert err < 1e-10, (method, project, field, err)
+
+
+@pytest.mark.parametrize("n", [4, 6])
+def test_the_adaptive_pairs_of_the_n_dimensional_top_run_compiled(n):
+    """The Euler top for n ≥ 4 runs its fixed steps in its own kernel and its adaptive pairs
+    through the generic kernel (``compiled()["lie"]``), taking the generic path's steps."""
+    rng = np.random.default_rng(n)
+    top = lieint.EulerTop(_spd(rng, n, 0.5, 1.5))
+    y0 = initial(top, rng)
+    for method in ("rkmk23", "rkmk45", "rkmk853"):
+        kw = dict(t_span=(0.0, 2.0), method=method, rtol=1e-8, atol=1e-10)
+        fast = lieint.integrate(top, y0, backend="numba", **kw)
+        ref = lieint.integrate(top, y0, backend="numpy", **kw)
+        assert f"Lie-group kernel on so({n}), adaptive" in fast.stats.backend_reason
+        assert (fast.t.size, fast.stats.nrejected) == (ref.t.size, ref.stats.nrejected), method
+        for field, expected in ref.states.items():
+            np.testing.assert_allclose(fast.states[field][-1], expected[-1], rtol=0, atol=1e-11)

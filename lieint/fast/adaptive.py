@@ -24,6 +24,8 @@ def adaptive_kernel_for(system, method, y0) -> tuple[object | None, str]:
         if isinstance(getattr(system, "n", None), int):
             label += f" (n = {system.n})"
         return None, f"{label} declares no compiled form"
+    if sys_decl.get("kind") == "topn" and "lie" in sys_decl:  # the n-D top: through the generic kernel
+        sys_decl = sys_decl["lie"]
     if sys_decl.get("kind") not in ("top3", "lie"):
         return None, f"no adaptive kernel for the compiled form {sys_decl.get('kind')!r}"
     meth_decl = method.compiled()

@@ -5,6 +5,7 @@ parameters into one float vector whose first entries are ``n`` and the offsets o
 in the flattened state; these functions read that layout. The equations are the generic
 path's, in the lecture's notation (MATH.md §3–§5):
 
+* Euler top, ``Q·(A, R) = (QᵀAQ, RQ)``, ``ξ = Ω(A)`` (its adaptive pairs for n ≥ 4);
 * heavy top, ``(Q, v)·(A, Γ, R) = (Qᵀ(A + v∧Γ)Q, QᵀΓ, RQ)``, ``ξ = (Ω(A), M X_G)``;
 * free body, ``(Q, p, w)·(A, R, q, v) = (QᵀAQ, RQ, q + p, v + w)``, ``ξ = (Ω(A), v, g)``;
 * Chaplygin ball, ``(Q, v)·(A_K, Γ, R, q) = (QᵀA_KQ, QᵀΓ, RQ, q + Rv)``,
@@ -174,9 +175,9 @@ def _top_omega(A, par, n):
     return _skew(mm(mm(P, mm(mm(P.T, A), P) * M), P.T))
 
 
-# heavy top: fields A, Gamma, [R]; own params M X_G (n), |g|
-@njit(GENERATOR, cache=True)
-def _heavy_generator(y, par, W, v, a):
+@njit(cache=True)
+def _omega_into(y, par, W):
+    """``W = Ω(A)`` for the momentum A stored first in y."""
     n = W.shape[0]
     if par[2] != 0.0:  # diagonal B: Ω_ij = −A_ij/(b_i + b_j), made exactly skew
         m = 3 + n * n
@@ -185,6 +186,59 @@ def _heavy_generator(y, par, W, v, a):
                 W[i, j] = 0.5 * (y[i * n + j] * par[m + i * n + j] - y[j * n + i] * par[m + j * n + i])
     else:
         W[:, :] = _top_omega(_mat(y, 0, n), par, n)
+
+
+@njit(cache=True)
+def _conj_skew_into(Q, y, out):
+    """``out[: n²] = skew(QᵀAQ)`` for the momentum A stored first in y (the Euler top's action,
+    made exactly skew as the generic one)."""
+    n = Q.shape[0]
+    _conj_into(Q, _mat(y, 0, n), out, 0)
+    for i in range(n):
+        for j in range(i, n):
+            d = 0.5 * (out[i * n + j] - out[j * n + i])
+            out[i * n + j] = d
+            out[j * n + i] = -d
+
+
+# Euler top (its adaptive pairs for n ≥ 4): fields A, [R]; no own params
+@njit(GENERATOR, cache=True)
+def _top_generator(y, par, W, v, a):
+    _omega_into(y, par, W)
+
+
+@njit(ACTION, cache=True)
+def _top_action(Q, t, a, y, par, out):
+    _conj_skew_into(Q, y, out)
+    oR = int(par[1])
+    if oR >= 0:
+        _times_into(y, oR, Q, out)
+
+
+@njit(FIELD, cache=True)
+def _top_field(y, par, out):
+    n = int(par[0])
+    A = _mat(y, 0, n)
+    Om = _top_omega(A, par, n)
+    _put(out, 0, mm(A, Om) - mm(Om, A))
+    oR = int(par[1])
+    if oR >= 0:
+        _put(out, oR, mm(_mat(y, oR, n), Om))
+
+
+@njit(FIELD, cache=True)
+def _top_projection(y, par, out):
+    n = int(par[0])
+    _copy(y, out)
+    _put(out, 0, _skew(_mat(y, 0, n)))
+    _project_pose(y, out, int(par[1]), -1, n, np.empty(0), 0.0)
+
+
+# heavy top: fields A, Gamma, [R]; own params M X_G (n), |g|
+@njit(GENERATOR, cache=True)
+def _heavy_generator(y, par, W, v, a):
+    n = W.shape[0]
+    _omega_into(y, par, W)
     v[:] = par[3 + 2 * n * n : 3 + 2 * n * n + n]
 
 
@@ -228,7 +282,7 @@ def _heavy_projection(y, par, out):
 @njit(GENERATOR, cache=True)
 def _free_generator(y, par, W, v, a):
     n = W.shape[0]
-    W[:, :] = _top_omega(_mat(y, 0, n), par, n)
+    _omega_into(y, par, W)
     oC = int(par[3 + 2 * n * n])
     a[:n] = y[oC + n : oC + 2 * n]
     a[n:] = par[4 + 2 * n * n : 4 + 2 * n * n + n]
@@ -237,12 +291,7 @@ def _free_generator(y, par, W, v, a):
 @njit(ACTION, cache=True)
 def _free_action(Q, t, a, y, par, out):
     n = Q.shape[0]
-    _conj_into(Q, _mat(y, 0, n), out, 0)
-    for i in range(n):  # exactly skew, as the generic action's skew_part
-        for j in range(i, n):
-            d = 0.5 * (out[i * n + j] - out[j * n + i])
-            out[i * n + j] = d
-            out[j * n + i] = -d
+    _conj_skew_into(Q, y, out)
     oR, oC = int(par[1]), int(par[3 + 2 * n * n])
     if oR >= 0:
         _times_into(y, oR, Q, out)
@@ -393,6 +442,7 @@ def _ball_projection(y, par, out):
 
 #: the built-in systems' pieces, by the name their ``compiled()`` declares
 PIECES = {
+    "euler_top": CompiledPieces(_top_generator, _top_action, _top_field, _top_projection),
     "heavy_top": CompiledPieces(_heavy_generator, _heavy_action, _heavy_field, _heavy_projection),
     "free_body": CompiledPieces(_free_generator, _free_action, _free_field, _free_projection),
     "chaplygin_ball": CompiledPieces(_chaplygin_generator, _chaplygin_action, _chaplygin_field, _chaplygin_projection),

@@ -216,7 +216,9 @@ class EulerTop(LieGroupSystem):
     def compiled(self):
         """What the compiled kernels (:mod:`lieint.fast`) need: for n = 3 the principal moments
         and frame (``"top3"``), for n ≥ 4 the eigenvalues b and eigenbasis P of B (``"topn"``,
-        :mod:`lieint.fast.topn`); None for n = 2 (so(2) is abelian: nothing to compile).
+        :mod:`lieint.fast.topn`) with, under ``"lie"``, the generic kernel's declaration
+        (:mod:`lieint.fast.generic`: its adaptive pairs); None for n = 2 (so(2) is abelian:
+        nothing to compile).
 
         The declaration stands for the Euler top's equations: a subclass that overrides the
         generator, the action or the projection integrates other dynamics and declares None
@@ -229,7 +231,14 @@ class EulerTop(LieGroupSystem):
             return {"kind": "top3", "moments": self.principal_moments, "P": self.P, "orientation": self.orientation}
         if self.n < 3:
             return None
-        return {"kind": "topn", "b": self.b, "P": self.P, "orientation": self.orientation}
+        # the generic kernel's form too (lieint.fast.generic): it runs the adaptive pairs
+        M = self.inertia.minus_inv_pair.copy()
+        np.fill_diagonal(M, 0.0)
+        head = [self.n, self.field_offsets().get("R", -1), float(self.inertia.diagonal)]
+        params = np.concatenate([head, self.inertia.P.ravel(), M.ravel()])
+        lie = {"kind": "lie", "pieces": "euler_top", "params": params, "n": self.n}
+        lie.update(translation=False, abelian=0, fields=self.fields)
+        return {"kind": "topn", "b": self.b, "P": self.P, "orientation": self.orientation, "lie": lie}
 
     @property
     def manakov_labels(self) -> list[tuple[int, int]]:
