@@ -65,14 +65,53 @@ def _wedge(u, v):
 
 @njit(cache=True)
 def _lyapunov(B, C):
-    """X with ``B X + X B = C`` for skew C and symmetric B, exactly skew (eigenbasis of B)."""
+    """X with ``B X + X B = C`` for skew C and symmetric B, exactly skew: for n = 3 by the
+    inertia tensor (:func:`_lyapunov3`), else in the eigenbasis of B."""
     n = B.shape[0]
+    if n == 3:
+        return _lyapunov3(B, C)
     b, P = np.linalg.eigh(B)
     Ct = mm(mm(P.T, C), P)
     for i in range(n):
         for j in range(n):
             Ct[i, j] /= (b[i] + b[j]) if i != j else (2.0 * b[i] + 1.0)
     return _skew(mm(mm(P, Ct), P.T))
+
+
+@njit(cache=True)
+def _lyapunov3(B, C):
+    """n = 3: with ``X = x̂``, ``B x̂ + x̂ B = ((tr B) I − B) x)^``, so x solves ``I x = c``
+    (``C = ĉ``, I = (tr B) 1 − B the inertia tensor, symmetric positive definite for a body that
+    is not a rod): Gaussian elimination with partial pivoting on the 3×3 system."""
+    tr = B[0, 0] + B[1, 1] + B[2, 2]
+    M = np.empty((3, 4))
+    for i in range(3):
+        for j in range(3):
+            M[i, j] = -B[i, j]
+        M[i, i] += tr
+    M[0, 3], M[1, 3], M[2, 3] = C[2, 1], C[0, 2], C[1, 0]
+    for col in range(3):
+        pivot = col
+        for r in range(col + 1, 3):
+            if abs(M[r, col]) > abs(M[pivot, col]):
+                pivot = r
+        if pivot != col:
+            for j in range(4):
+                M[col, j], M[pivot, j] = M[pivot, j], M[col, j]
+        for r in range(col + 1, 3):
+            f = M[r, col] / M[col, col]
+            for j in range(col, 4):
+                M[r, j] -= f * M[col, j]
+    x = np.empty(3)
+    for i in range(2, -1, -1):
+        acc = M[i, 3]
+        for j in range(i + 1, 3):
+            acc -= M[i, j] * x[j]
+        x[i] = acc / M[i, i]
+    X = np.zeros((3, 3))
+    X[0, 1], X[0, 2], X[1, 2] = -x[2], x[1], -x[0]
+    X[1, 0], X[2, 0], X[2, 1] = x[2], -x[1], x[0]
+    return X
 
 
 @njit(cache=True)

@@ -40,7 +40,7 @@ from numba.core.types.function_type import CompileResultWAP
 
 from ..groups.base import bernoulli_dexpinv_coefficients
 from . import range_error, use_threads
-from .skew import _finite, expm_se, expm_skew, so_ad_radius_exceeds
+from .skew import _finite, exp_se3_into, expm_se, expm_skew, so_ad_radius_exceeds
 
 __all__ = ["ACTION", "FIELD", "GENERATOR", "CompiledPieces", "LieKernel", "integrate_lie"]
 
@@ -94,35 +94,38 @@ class _Piece:
 
 @njit(cache=True)
 def _combine(out, K, weights, upto, h):
-    """``out = Σ_{j < upto} (h w_j) K[j]`` over the nonzero weights (zero if none); returns
-    whether any weight was nonzero."""
-    out[:] = 0.0
+    """``out = Σ_{j < upto} (h w_j) K[j]`` over the nonzero weights (zero if none), on flat
+    views (out of shape (size,), K of shape (stages, size)); returns whether any weight was
+    nonzero."""
+    size = out.shape[0]
+    for i in range(size):
+        out[i] = 0.0
     any_weight = False
-    flat = out.ravel()
     for j in range(upto):
         if weights[j] != 0.0:
             any_weight = True
             w = h * weights[j]
-            Kj = K[j].ravel()
-            for i in range(flat.size):
-                flat[i] += w * Kj[i]
+            for i in range(size):
+                out[i] += w * K[j, i]
     return any_weight
 
 
 @njit(cache=True)
-def _exponential(uW, uv, nv):
-    """``(Q, t) = exp(uW, uv)`` on SE(n) (``nv = n``) or ``(exp uW, ·)`` on SO(n); NaN when
-    u is not finite (the driver reports the non-finite state)."""
+def _exponential(uW, uv, nv, Q, t):
+    """``(Q, t) = exp(uW, uv)`` on SE(n) (``nv = n``) or ``Q = exp uW`` on SO(n), written into
+    Q and t; NaN when u is not finite (the driver reports the non-finite state)."""
     n = uW.shape[0]
     if not (_finite(uW) and _finite(uv)):
-        Q = np.empty((n, n))
-        Q[:] = np.nan
-        t = np.empty(nv)
+        Q[:, :] = np.nan
         t[:] = np.nan
-        return Q, t
-    if nv == 0 and n != 3:
-        return expm_skew(uW), np.empty(0)
-    return expm_se(uW, uv)  # n = 3: closed forms (uv of length 0 on SO(3))
+    elif n == 3:
+        exp_se3_into(uW, uv, Q, t)  # closed forms (uv of length 0 on SO(3))
+    elif nv == 0:
+        Q[:, :] = expm_skew(uW)
+    else:
+        Q1, t1 = expm_se(uW, uv)
+        Q[:, :] = Q1
+        t[:] = t1
 
 
 @njit(cache=True)
@@ -173,20 +176,20 @@ def lie_step(gen, act, y, par, nv, tab, b, h, coeffs, KW, Kv, Ka, y_stage, y1):
     """One RKMK step from y into ``y1``; False when a stage leaves the dexp⁻¹ radius."""
     s = b.shape[0]
     n = KW.shape[1]
-    uW = np.empty((n, n))
-    uv = np.empty(nv)
-    ua = np.empty(Ka.shape[1])
+    uW, Q = np.empty((n, n)), np.empty((n, n))
     tW, P = np.empty((n, n)), np.empty((n, n))
-    tv, nw = np.empty(nv), np.empty(nv)
+    uv, t, tv, nw = np.empty(nv), np.empty(nv), np.empty(nv), np.empty(nv)
+    ua = np.empty(Ka.shape[1])
+    uW_flat, KW_flat = uW.reshape(n * n), KW.reshape(KW.shape[0], n * n)
     for i in range(s):
-        _combine(uW, KW, tab[i], i, h)
+        _combine(uW_flat, KW_flat, tab[i], i, h)
         _combine(uv, Kv, tab[i], i, h)
         if not _combine(ua, Ka, tab[i], i, h):
             gen(y, par, KW[i], Kv[i], Ka[i])  # u = 0: k_i = ξ(y)
             continue
         if _out_of_range(uW, nv):
             return False
-        Q, t = _exponential(uW, uv, nv)
+        _exponential(uW, uv, nv, Q, t)
         act(Q, t, ua, y, par, y_stage)
         gen(y_stage, par, KW[i], Kv[i], Ka[i])
         _dexpinv(uW, uv, KW[i], Kv[i], coeffs, tW, tv, P, nw)
@@ -199,14 +202,14 @@ def move(act, y, par, nv, KW, Kv, Ka, w, h, out):
     """``out = ρ(exp(h Σ_j w_j k_j), y)``: the step's new state (weights b) or an embedded
     solution (weights b̂)."""
     n = KW.shape[1]
-    uW = np.empty((n, n))
-    uv = np.empty(nv)
+    uW, Q = np.empty((n, n)), np.empty((n, n))
+    uv, t = np.empty(nv), np.empty(nv)
     ua = np.empty(Ka.shape[1])
     s = w.shape[0]
-    _combine(uW, KW, w, s, h)
+    _combine(uW.reshape(n * n), KW.reshape(KW.shape[0], n * n), w, s, h)
     _combine(uv, Kv, w, s, h)
     _combine(ua, Ka, w, s, h)
-    Q, t = _exponential(uW, uv, nv)
+    _exponential(uW, uv, nv, Q, t)
     act(Q, t, ua, y, par, out)
 
 

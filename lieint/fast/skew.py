@@ -127,9 +127,19 @@ def expm_se(W, v):
 
 @njit(cache=True)
 def _exp_se3(W, v):
-    """Closed forms on se(3): ``exp W = I + (sin θ/θ) W + ((1 − cos θ)/θ²) W²`` (Rodrigues) and
-    ``φ₁(W) = I + ((1 − cos θ)/θ²) W + ((θ − sin θ)/θ³) W²``, with their Taylor series below
-    θ = 1e-3 (next terms below 1e-22); v of length 0 gives the rotation alone."""
+    """:func:`exp_se3_into` into new arrays ``(Q, t)``."""
+    Q = np.empty((3, 3))
+    t = np.empty(v.shape[0])
+    exp_se3_into(W, v, Q, t)
+    return Q, t
+
+
+@njit(cache=True)
+def exp_se3_into(W, v, Q, t):
+    """Closed forms on se(3) into Q and t: ``exp W = I + (sin θ/θ) W + ((1 − cos θ)/θ²) W²``
+    (Rodrigues) and ``t = φ₁(W) v``, ``φ₁(W) = I + ((1 − cos θ)/θ²) W + ((θ − sin θ)/θ³) W²``,
+    with their Taylor series below θ = 1e-3 (next terms below 1e-22); v of length 0 gives the
+    rotation alone."""
     t2 = W[2, 1] * W[2, 1] + W[0, 2] * W[0, 2] + W[1, 0] * W[1, 0]
     if t2 < 1e-6:
         a = 1.0 - t2 / 6.0 + t2 * t2 / 120.0
@@ -140,18 +150,17 @@ def _exp_se3(W, v):
         a = np.sin(theta) / theta
         b = (1.0 - np.cos(theta)) / t2
         c = (theta - np.sin(theta)) / (t2 * theta)
-    Q = np.empty((3, 3))
-    V = np.empty((3, 3))
     for i in range(3):
         for j in range(3):
             w2 = W[i, 0] * W[0, j] + W[i, 1] * W[1, j] + W[i, 2] * W[2, j]
-            e = 1.0 if i == j else 0.0
-            Q[i, j] = e + a * W[i, j] + b * w2
-            V[i, j] = e + b * W[i, j] + c * w2
-    t = np.zeros(v.shape[0])
-    for i in range(v.shape[0]):
-        t[i] = V[i, 0] * v[0] + V[i, 1] * v[1] + V[i, 2] * v[2]
-    return Q, t
+            Q[i, j] = (1.0 if i == j else 0.0) + a * W[i, j] + b * w2
+    if v.shape[0] == 3:
+        wv0 = W[0, 0] * v[0] + W[0, 1] * v[1] + W[0, 2] * v[2]
+        wv1 = W[1, 0] * v[0] + W[1, 1] * v[1] + W[1, 2] * v[2]
+        wv2 = W[2, 0] * v[0] + W[2, 1] * v[1] + W[2, 2] * v[2]
+        t[0] = v[0] + b * wv0 + c * (W[0, 0] * wv0 + W[0, 1] * wv1 + W[0, 2] * wv2)
+        t[1] = v[1] + b * wv1 + c * (W[1, 0] * wv0 + W[1, 1] * wv1 + W[1, 2] * wv2)
+        t[2] = v[2] + b * wv2 + c * (W[2, 0] * wv0 + W[2, 1] * wv1 + W[2, 2] * wv2)
 
 
 @njit(cache=True)
