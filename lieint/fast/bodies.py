@@ -14,7 +14,9 @@ path's, in the lecture's notation (MATH.md §3–§5):
   ``ξ = ((Ω, rΩΓ), Ω̇)`` with Ω̇ from the rolling equation (a Lyapunov solve in the eigenbasis
   of ``B_K(Γ)``).
 
-The Lyapunov equation ``B X + X B = C`` is solved in the eigenbasis of B as
+The pieces are compiled lazily, for the signatures of :mod:`lieint.fast.generic`, when a run of
+their system first needs them (:class:`lieint.fast.generic.CompiledPieces`), so a run of one
+system never compiles another's. The Lyapunov equation ``B X + X B = C`` is solved in the eigenbasis of B as
 :func:`lieint.systems.mass.solve_lyapunov_sym` does, and every Ω is made exactly skew.
 """
 
@@ -23,8 +25,9 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .generic import ACTION, FIELD, GENERATOR, CompiledPieces
-from .skew import _project, mm, mv
+from .generic import CompiledPieces
+from .skew import _project, mv
+from .skew import mm_loops as mm
 
 __all__ = ["PIECES"]
 
@@ -241,12 +244,12 @@ def _conj_skew_into(Q, y, out):
 
 
 # Euler top (its adaptive pairs for n ≥ 4): fields A, [R]; no own params
-@njit(GENERATOR, cache=True)
+@njit(cache=True)
 def _top_generator(y, par, W, v, a):
     _omega_into(y, par, W)
 
 
-@njit(ACTION, cache=True)
+@njit(cache=True)
 def _top_action(Q, t, a, y, par, out):
     _conj_skew_into(Q, y, out)
     oR = int(par[1])
@@ -254,7 +257,7 @@ def _top_action(Q, t, a, y, par, out):
         _times_into(y, oR, Q, out)
 
 
-@njit(FIELD, cache=True)
+@njit(cache=True)
 def _top_field(y, par, out):
     n = int(par[0])
     A = _mat(y, 0, n)
@@ -265,7 +268,7 @@ def _top_field(y, par, out):
         _put(out, oR, mm(_mat(y, oR, n), Om))
 
 
-@njit(FIELD, cache=True)
+@njit(cache=True)
 def _top_projection(y, par, out):
     n = int(par[0])
     _copy(y, out)
@@ -274,14 +277,14 @@ def _top_projection(y, par, out):
 
 
 # heavy top: fields A, Gamma, [R]; own params M X_G (n), |g|
-@njit(GENERATOR, cache=True)
+@njit(cache=True)
 def _heavy_generator(y, par, W, v, a):
     n = W.shape[0]
     _omega_into(y, par, W)
     v[:] = par[3 + 2 * n * n : 3 + 2 * n * n + n]
 
 
-@njit(ACTION, cache=True)
+@njit(cache=True)
 def _heavy_action(Q, t, a, y, par, out):
     n = Q.shape[0]
     nn = n * n
@@ -296,7 +299,7 @@ def _heavy_action(Q, t, a, y, par, out):
         _times_into(y, oR, Q, out)
 
 
-@njit(FIELD, cache=True)
+@njit(cache=True)
 def _heavy_field(y, par, out):
     n = int(par[0])
     A, G = _mat(y, 0, n), _vec(y, n * n, n)
@@ -309,7 +312,7 @@ def _heavy_field(y, par, out):
         _put(out, oR, mm(_mat(y, oR, n), Om))
 
 
-@njit(FIELD, cache=True)
+@njit(cache=True)
 def _heavy_projection(y, par, out):
     n = int(par[0])
     _put(out, 0, _skew(_mat(y, 0, n)))
@@ -318,7 +321,7 @@ def _heavy_projection(y, par, out):
 
 
 # free body: fields A, [R], center, velocity; own params oC, g (n)
-@njit(GENERATOR, cache=True)
+@njit(cache=True)
 def _free_generator(y, par, W, v, a):
     n = W.shape[0]
     _omega_into(y, par, W)
@@ -327,7 +330,7 @@ def _free_generator(y, par, W, v, a):
     a[n:] = par[4 + 2 * n * n : 4 + 2 * n * n + n]
 
 
-@njit(ACTION, cache=True)
+@njit(cache=True)
 def _free_action(Q, t, a, y, par, out):
     n = Q.shape[0]
     _conj_skew_into(Q, y, out)
@@ -338,7 +341,7 @@ def _free_action(Q, t, a, y, par, out):
         out[oC + i] = y[oC + i] + a[i]
 
 
-@njit(FIELD, cache=True)
+@njit(cache=True)
 def _free_field(y, par, out):
     n = int(par[0])
     A = _mat(y, 0, n)
@@ -352,7 +355,7 @@ def _free_field(y, par, out):
         out[oC + n + i] = par[4 + 2 * n * n + i]
 
 
-@njit(FIELD, cache=True)
+@njit(cache=True)
 def _free_projection(y, par, out):
     n = int(par[0])
     _copy(y, out)
@@ -372,7 +375,7 @@ def _chaplygin_omega(y, par, n):
     return _lyapunov(BK, -_mat(y, 0, n)), G
 
 
-@njit(GENERATOR, cache=True)
+@njit(cache=True)
 def _chaplygin_generator(y, par, W, v, a):
     n = W.shape[0]
     Om, G = _chaplygin_omega(y, par, n)
@@ -381,7 +384,7 @@ def _chaplygin_generator(y, par, W, v, a):
         v[:] = par[4] * mv(Om, G)
 
 
-@njit(ACTION, cache=True)
+@njit(cache=True)
 def _chaplygin_action(Q, t, a, y, par, out):
     n = Q.shape[0]
     _conj_into(Q, _mat(y, 0, n), out, 0)
@@ -389,7 +392,7 @@ def _chaplygin_action(Q, t, a, y, par, out):
     _move_pose(Q, t, y, out, int(par[1]), int(par[2]), n)
 
 
-@njit(FIELD, cache=True)
+@njit(cache=True)
 def _chaplygin_field(y, par, out):
     n = int(par[0])
     Om, G = _chaplygin_omega(y, par, n)
@@ -399,7 +402,7 @@ def _chaplygin_field(y, par, out):
     _pose_rate(Om, par[4] * mv(Om, G), y, out, int(par[1]), int(par[2]), n)
 
 
-@njit(FIELD, cache=True)
+@njit(cache=True)
 def _chaplygin_projection(y, par, out):
     n = int(par[0])
     _copy(y, out)
@@ -432,7 +435,7 @@ def _ball_acceleration(y, par, n):
     return _lyapunov(BK, C)
 
 
-@njit(GENERATOR, cache=True)
+@njit(cache=True)
 def _ball_generator(y, par, W, v, a):
     n = W.shape[0]
     Om = _mat(y, 0, n)
@@ -442,7 +445,7 @@ def _ball_generator(y, par, W, v, a):
     _put(a, 0, _ball_acceleration(y, par, n))
 
 
-@njit(ACTION, cache=True)
+@njit(cache=True)
 def _ball_action(Q, t, a, y, par, out):
     n = Q.shape[0]
     for i in range(n * n):
@@ -454,7 +457,7 @@ def _ball_action(Q, t, a, y, par, out):
     _move_pose(Q, t, y, out, int(par[1]), int(par[2]), n)
 
 
-@njit(FIELD, cache=True)
+@njit(cache=True)
 def _ball_field(y, par, out):
     n = int(par[0])
     Om = _mat(y, 0, n)
@@ -467,7 +470,7 @@ def _ball_field(y, par, out):
     _pose_rate(Om, par[5] * mv(Om, G), y, out, int(par[1]), int(par[2]), n)
 
 
-@njit(FIELD, cache=True)
+@njit(cache=True)
 def _ball_projection(y, par, out):
     n = int(par[0])
     _copy(y, out)

@@ -56,8 +56,9 @@ FIELD = types.void(_vec, _vec, _vec)
 
 @dataclass(frozen=True)
 class CompiledPieces:
-    """A system's compiled generator, action, vector field and projection (numba functions
-    compiled with the signatures :data:`GENERATOR`, :data:`ACTION`, :data:`FIELD`, :data:`FIELD`)."""
+    """A system's compiled generator, action, vector field and projection: numba functions,
+    compiled for the signatures :data:`GENERATOR`, :data:`ACTION`, :data:`FIELD`, :data:`FIELD`
+    when first used (or declared with them)."""
 
     generator: object
     action: object

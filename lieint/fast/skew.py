@@ -14,7 +14,7 @@ import math
 import numpy as np
 from numba import njit
 
-__all__ = ["expm_se", "expm_skew", "mm", "mv", "so_ad_radius_exceeds"]
+__all__ = ["expm_se", "expm_skew", "mm", "mm_loops", "mv", "so_ad_radius_exceeds"]
 
 _TWO_PI = 2.0 * np.pi
 
@@ -50,6 +50,15 @@ def mm(A, B):
     m = B.shape[1]
     if n > _SMALL or k > _SMALL or m > _SMALL:
         return np.ascontiguousarray(A) @ np.ascontiguousarray(B)
+    return mm_loops(A, B)
+
+
+@njit(cache=True)
+def mm_loops(A, B):
+    """``A B`` by loops only (no BLAS: the small matrices of the generic kernel's pieces, and
+    much less to compile)."""
+    n, k = A.shape
+    m = B.shape[1]
     out = np.zeros((n, m))
     for i in range(n):
         for j in range(k):
