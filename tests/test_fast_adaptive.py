@@ -144,7 +144,9 @@ def test_backends_of_adaptive_runs(rng):
     top, y0 = top_and_state(rng, True, 1)
     kw = dict(t_span=(0.0, 1.0), method="rkmk45", rtol=1e-6)
     assert lieint.integrate(top, y0, **kw).stats.backend == "numba"
-    assert lieint.integrate(top, y0, coordinates="cayley", **kw).stats.backend == "numpy"
+    cayley = lieint.integrate(top, y0, coordinates="cayley", **kw).stats  # through the generic kernel
+    assert cayley.backend == "numba" and "adaptive RKMK (Cayley)" in cayley.backend_reason
+    assert lieint.integrate(top, y0, dexpinv_degree=None, **kw).stats.backend == "numpy"
     dense = lieint.integrate(top, y0, dense_output=True, **kw)
     assert dense.stats.backend == "numpy" and "dense output" in dense.stats.backend_reason
     with pytest.raises(ValueError, match=r"`backend='numba'`: dense output, events and `t_eval` need the generic"):

@@ -17,8 +17,22 @@ from lieint.fast.generic import ACTION, FIELD, GENERATOR, CompiledPieces
 from lieint.methods.registry import get_method, method_specs
 from lieint.systems.catalog import _builtin
 
-#: methods with a compiled fixed-step form (adaptive pairs are covered by test_fast_adaptive.py)
-FIXED = [name for name in method_specs() if (m := get_method(name)).compiled() is not None and not m.adaptive]
+
+def _compiled(adaptive: bool) -> list[tuple[str, str | None]]:
+    """(name, coordinates) of every registered method and coordinate map with a compiled form."""
+    out = []
+    for name, spec in method_specs().items():
+        for coordinates in spec.coordinates or (None,):
+            method = get_method(name, coordinates=coordinates)
+            if method.compiled() is not None and method.adaptive == adaptive:
+                out.append((name, coordinates))
+    return out
+
+
+#: fixed-step methods with a compiled form, in every coordinate map (exp and Cayley)
+FIXED = _compiled(adaptive=False)
+#: embedded pairs with a compiled form, in every coordinate map
+PAIRS = _compiled(adaptive=True)
 
 
 def _spd(rng, n, lo, hi):
@@ -88,16 +102,17 @@ def test_compiled_and_generic_agree_for_every_method(n, name):
     state's size (RKMK in exp coordinates: the same stages, exp and dexp⁻¹ by other formulas)."""
     system = variants(n)[name]
     y0 = initial(system, np.random.default_rng(1))
-    for method in FIXED:
+    assert ("rkmk4", "cayley") in FIXED and ("rk4", None) in FIXED
+    for method, coordinates in FIXED:
         for project in (False, True):
-            kw = dict(t_span=(0.0, 1.0), h=0.02, method=method, project=project)
+            kw = dict(t_span=(0.0, 1.0), h=0.02, method=method, coordinates=coordinates, project=project)
             fast = lieint.integrate(system, y0, backend="numba", **kw)
             ref = lieint.integrate(system, y0, backend="numpy", **kw)
             assert fast.stats.backend == "numba" and "Lie-group kernel" in fast.stats.backend_reason
             for field, expected in ref.states.items():
                 scale = max(1.0, float(np.max(np.abs(expected))))
                 err = float(np.max(np.abs(fast.states[field] - expected))) / scale
-                assert err < 1e-12, (method, project, field, err)
+                assert err < 1e-12, (method, coordinates, project, field, err)
 
 
 def test_ensembles_run_in_threads_and_equal_one_body_at_a_time():
@@ -199,16 +214,15 @@ def test_compiled_adaptive_pairs_take_the_generic_paths_steps(n, name):
     same state."""
     system = variants(n)[name]
     y0 = initial(system, np.random.default_rng(1))
-    pairs = [name for name in method_specs() if (m := get_method(name)).adaptive and m.compiled() is not None]
-    assert len(pairs) >= 3
-    for method in pairs:
+    assert {"rkmk23", "rkmk45", "rkmk853"} <= {name for name, _ in PAIRS} and ("rkmk45", "cayley") in PAIRS
+    for method, coordinates in PAIRS:
         for project in (False, True):
-            kw = dict(t_span=(0.0, 1.0), method=method, rtol=1e-7, atol=1e-9, project=project)
+            kw = dict(t_span=(0.0, 1.0), method=method, coordinates=coordinates, rtol=1e-7, atol=1e-9, project=project)
             fast = lieint.integrate(system, y0, backend="numba", **kw)
             ref = lieint.integrate(system, y0, backend="numpy", **kw)
             assert "adaptive" in fast.stats.backend_reason
             steps = (fast.t.size, fast.stats.nrejected, fast.stats.nfev)
-            assert steps == (ref.t.size, ref.stats.nrejected, ref.stats.nfev), (method, project)
+            assert steps == (ref.t.size, ref.stats.nrejected, ref.stats.nfev), (method, coordinates, project)
             # The error estimate y₁ − ŷ cancels the state down to its own size e: the two paths'
             # round-off ε|y| changes it by ε|y|/e relative and the next step by 1/(q + 1) of
             # that. After a step far inside the tolerance (e ~ 1e-13 |y|, the first steps) that
@@ -217,7 +231,7 @@ def test_compiled_adaptive_pairs_take_the_generic_paths_steps(n, name):
             for field, expected in ref.states.items():
                 scale = max(1.0, float(np.max(np.abs(expected[-1]))))
                 err = float(np.max(np.abs(fast.states[field][-1] - expected[-1]))) / scale
-                assert err < 1e-10, (method, project, field, err)
+                assert err < 1e-10, (method, coordinates, project, field, err)
 
 
 @pytest.mark.parametrize("n", [4, 6])
@@ -233,5 +247,21 @@ def test_the_adaptive_pairs_of_the_n_dimensional_top_run_compiled(n):
         ref = lieint.integrate(top, y0, backend="numpy", **kw)
         assert f"Lie-group kernel on so({n}), adaptive" in fast.stats.backend_reason
         assert (fast.t.size, fast.stats.nrejected) == (ref.t.size, ref.stats.nrejected), method
+        for field, expected in ref.states.items():
+            np.testing.assert_allclose(fast.states[field][-1], expected[-1], rtol=0, atol=1e-11)
+
+
+@pytest.mark.parametrize("n", [3, 4])
+def test_cayley_coordinates_run_compiled_on_the_euler_top(n):
+    """The Euler top's own kernels have no Cayley form: its Cayley runs (fixed and adaptive)
+    go through the generic kernel and agree with the generic path."""
+    rng = np.random.default_rng(20 + n)
+    top = lieint.EulerTop(_spd(rng, n, 0.5, 1.5))
+    y0 = initial(top, rng)
+    for kw in (dict(h=0.02, method="rkmk4"), dict(method="rkmk45", rtol=1e-8, atol=1e-10)):
+        fast = lieint.integrate(top, y0, (0.0, 1.0), coordinates="cayley", backend="numba", **kw)
+        ref = lieint.integrate(top, y0, (0.0, 1.0), coordinates="cayley", backend="numpy", **kw)
+        assert f"Lie-group kernel on so({n})" in fast.stats.backend_reason and "Cayley" in fast.stats.backend_reason
+        assert fast.t.size == ref.t.size
         for field, expected in ref.states.items():
             np.testing.assert_allclose(fast.states[field][-1], expected[-1], rtol=0, atol=1e-11)

@@ -43,6 +43,11 @@ def kernel_for(system, method, y0, plan) -> tuple[object | None, str]:
             f"{method.name!r} has no compiled form (compiled: RKMK in exp coordinates with truncated dexp⁻¹, RK)",
         )
     kind = sys_decl.get("kind")
+    if meth_decl.get("coordinates") == "cayley" and kind != "lie":
+        # Cayley coordinates run in the generic kernel only: the tops carry its declaration
+        if "lie" not in sys_decl:
+            return None, f"no Cayley kernel for the compiled form {kind!r}"
+        sys_decl, kind = sys_decl["lie"], "lie"
     if kind not in ("top3", "topn", "lie"):
         return None, f"no kernel for the compiled form {kind!r}"
     if meth_decl["kind"] not in ("rkmk", "rk"):

@@ -24,11 +24,14 @@ def adaptive_kernel_for(system, method, y0) -> tuple[object | None, str]:
         if isinstance(getattr(system, "n", None), int):
             label += f" (n = {system.n})"
         return None, f"{label} declares no compiled form"
-    if sys_decl.get("kind") == "topn" and "lie" in sys_decl:  # the n-D top: through the generic kernel
-        sys_decl = sys_decl["lie"]
+    meth_decl = method.compiled()
+    cayley = meth_decl is not None and meth_decl.get("coordinates") == "cayley"
+    if (sys_decl.get("kind") == "topn" or cayley) and "lie" in sys_decl:
+        sys_decl = sys_decl["lie"]  # the n-D top, and Cayley coordinates: through the generic kernel
     if sys_decl.get("kind") not in ("top3", "lie"):
         return None, f"no adaptive kernel for the compiled form {sys_decl.get('kind')!r}"
-    meth_decl = method.compiled()
+    if cayley and sys_decl["kind"] != "lie":
+        return None, f"no adaptive Cayley kernel for the compiled form {sys_decl['kind']!r}"
     if meth_decl is None or meth_decl.get("kind") != "rkmk" or "b_hat" not in meth_decl:
         return None, (
             f"{method.name!r} has no compiled adaptive form (compiled: RKMK embedded pairs in exp "

@@ -40,7 +40,7 @@ from numba.core.types.function_type import CompileResultWAP
 
 from ..groups.base import bernoulli_dexpinv_coefficients
 from . import range_error, use_threads
-from .skew import _finite, exp_se3_into, expm_se, expm_skew, so_ad_radius_exceeds
+from .skew import _finite, cayley_se_into, exp_se3_into, expm_se, expm_skew, so_ad_radius_exceeds
 
 __all__ = ["ACTION", "FIELD", "GENERATOR", "CompiledPieces", "LieKernel", "integrate_lie"]
 
@@ -173,8 +173,61 @@ def _dexpinv(uW, uv, kW, kv, coeffs, tW, tv, P, nw):
 
 
 @njit(cache=True)
-def lie_step(gen, act, y, par, nv, tab, b, h, coeffs, KW, Kv, Ka, y_stage, y1):
-    """One RKMK step from y into ``y1``; False when a stage leaves the dexp⁻¹ radius."""
+def _dcayinv(uW, uv, kW, kv, tW, tv):
+    """``k ← dcay⁻¹_{−u}(k) = k + ½[u, k] − ¼ u k u`` in place (exact, no series), in the
+    homogeneous matrices of se(n): for ``u = (W, x)``, ``k = (U, v)``,
+    ``U ← U + ½(WU − UW) − ¼ WUW``, ``v ← v + ½(Wv − Ux) − ¼ WUx`` (the vector factor's
+    dcay⁻¹ is the identity)."""
+    n = uW.shape[0]
+    m = uv.shape[0]
+    for a in range(n):  # tW = W U
+        for c in range(n):
+            acc = 0.0
+            for e in range(n):
+                acc += uW[a, e] * kW[e, c]
+            tW[a, c] = acc
+    for a in range(m):  # tv = ½(Wv − Ux) − ¼ W(Ux), from the old U, v
+        ux = 0.0
+        wv = 0.0
+        for e in range(n):
+            ux += kW[a, e] * uv[e]
+            wv += uW[a, e] * kv[e]
+        tv[a] = 0.5 * (wv - ux)
+    for a in range(m):
+        acc = 0.0
+        for e in range(n):
+            ux_e = 0.0
+            for f in range(n):
+                ux_e += kW[e, f] * uv[f]
+            acc += uW[a, e] * ux_e
+        tv[a] -= 0.25 * acc
+    new = np.empty((n, n))
+    for a in range(n):  # U + ½(WU − UW) − ¼ (WU)W, UW from the old U
+        for c in range(n):
+            uw = 0.0
+            wuw = 0.0
+            for e in range(n):
+                uw += kW[a, e] * uW[e, c]
+                wuw += tW[a, e] * uW[e, c]
+            new[a, c] = kW[a, c] + 0.5 * (tW[a, c] - uw) - 0.25 * wuw
+    kW[:, :] = new
+    for a in range(m):
+        kv[a] += tv[a]
+
+
+@njit(cache=True)
+def _coordinate_map(uW, uv, nv, Q, t, cayley):
+    """φ(u) into Q and t: the exponential or the Cayley map."""
+    if cayley and _finite(uW) and _finite(uv):
+        cayley_se_into(uW, uv, Q, t)
+    else:
+        _exponential(uW, uv, nv, Q, t)
+
+
+@njit(cache=True)
+def lie_step(gen, act, y, par, nv, tab, b, h, coeffs, KW, Kv, Ka, y_stage, y1, cayley):
+    """One RKMK step from y into ``y1`` in exponential (dexp⁻¹ truncated at ``coeffs``) or
+    Cayley coordinates (exact dcay⁻¹); False when a stage leaves the dexp⁻¹ radius."""
     s = b.shape[0]
     n = KW.shape[1]
     uW, Q = np.empty((n, n)), np.empty((n, n))
@@ -188,19 +241,22 @@ def lie_step(gen, act, y, par, nv, tab, b, h, coeffs, KW, Kv, Ka, y_stage, y1):
         if not _combine(ua, Ka, tab[i], i, h):
             gen(y, par, KW[i], Kv[i], Ka[i])  # u = 0: k_i = ξ(y)
             continue
-        if _out_of_range(uW, nv):
+        if not cayley and _out_of_range(uW, nv):
             return False
-        _exponential(uW, uv, nv, Q, t)
+        _coordinate_map(uW, uv, nv, Q, t, cayley)
         act(Q, t, ua, y, par, y_stage)
         gen(y_stage, par, KW[i], Kv[i], Ka[i])
-        _dexpinv(uW, uv, KW[i], Kv[i], coeffs, tW, tv, P, nw)
-    move(act, y, par, nv, KW, Kv, Ka, b, h, y1)
+        if cayley:
+            _dcayinv(uW, uv, KW[i], Kv[i], tW, tv)
+        else:
+            _dexpinv(uW, uv, KW[i], Kv[i], coeffs, tW, tv, P, nw)
+    move(act, y, par, nv, KW, Kv, Ka, b, h, y1, cayley)
     return True
 
 
 @njit(cache=True)
-def move(act, y, par, nv, KW, Kv, Ka, w, h, out):
-    """``out = ρ(exp(h Σ_j w_j k_j), y)``: the step's new state (weights b) or an embedded
+def move(act, y, par, nv, KW, Kv, Ka, w, h, out, cayley):
+    """``out = ρ(φ(h Σ_j w_j k_j), y)``: the step's new state (weights b) or an embedded
     solution (weights b̂)."""
     n = KW.shape[1]
     uW, Q = np.empty((n, n)), np.empty((n, n))
@@ -210,7 +266,7 @@ def move(act, y, par, nv, KW, Kv, Ka, w, h, out):
     _combine(uW.reshape(n * n), KW.reshape(KW.shape[0], n * n), w, s, h)
     _combine(uv, Kv, w, s, h)
     _combine(ua, Ka, w, s, h)
-    _exponential(uW, uv, nv, Q, t)
+    _coordinate_map(uW, uv, nv, Q, t, cayley)
     act(Q, t, ua, y, par, out)
 
 
@@ -242,6 +298,7 @@ _RUN_SIGNATURE = types.void(
     _vec,  # tableau b
     _vec,  # dexp⁻¹ coefficients
     types.boolean,  # lie
+    types.boolean,  # cayley
     types.float64,  # h
     types.float64,  # h_last
     types.int64,  # k_from
@@ -257,8 +314,8 @@ _RUN_SIGNATURE = types.void(
 
 @njit(_RUN_SIGNATURE, cache=True, nogil=True)
 def _run_bodies(
-    gen, act, field, proj, lo, hi, Y0, par, n, nv, m, tab, b, coeffs, lie, h, h_last, k_from, k_to, nsteps,
-    save_steps, project, out, fin, status,
+    gen, act, field, proj, lo, hi, Y0, par, n, nv, m, tab, b, coeffs, lie, cayley, h, h_last, k_from, k_to,
+    nsteps, save_steps, project, out, fin, status,
 ):  # fmt: skip
     """Steps ``k_from < k ≤ k_to`` of the bodies ``lo ≤ m < hi`` (see :func:`integrate_lie`).
     Releases the GIL, so that threads can run disjoint ranges of bodies."""
@@ -277,7 +334,7 @@ def _run_bodies(
         for k in range(k_from, k_to):
             hk = h if k < nsteps - 1 else h_last
             if lie:
-                if not lie_step(gen, act, y, par, nv, tab, b, hk, coeffs, KW, Kv, Ka, y_stage, y1):
+                if not lie_step(gen, act, y, par, nv, tab, b, hk, coeffs, KW, Kv, Ka, y_stage, y1, cayley):
                     status[body] = k
                     break
             else:
@@ -311,6 +368,7 @@ def integrate_lie(
     save_steps,
     project: bool,
     threads: int = 1,
+    cayley: bool = False,
 ):
     """Run the compiled loop over steps ``k_from < k ≤ k_to`` of N bodies.
 
@@ -326,6 +384,8 @@ def integrate_lie(
         The group: SE(n) (``translation``) or SO(n), times ``Rᵐ``.
     tableau_A, tableau_b, coeffs, lie, h, h_last, k_from, k_to, nsteps, save_steps, project, threads
         As :func:`lieint.fast.topn.integrate_topn`.
+    cayley : bool
+        RKMK in Cayley coordinates (exact dcay⁻¹; ``coeffs`` unused).
 
     Returns
     -------
@@ -351,6 +411,7 @@ def integrate_lie(
         np.require(tableau_b, float, ["C", "W"]),
         np.require(coeffs, float, ["C", "W"]),
         bool(lie),
+        bool(cayley),
         float(h),
         float(h_last),
         int(k_from),
@@ -403,15 +464,17 @@ class LieKernel:
         self.group = sys_decl.get("group", f"{'se' if self.translation else 'so'}({self.n})")
         self.method = meth_decl
         self.lie = meth_decl["kind"] == "rkmk"
+        self.cayley = self.lie and meth_decl.get("coordinates") == "cayley"
         self.stages = int(np.asarray(meth_decl["b"]).size)
-        self.coeffs = np.array(bernoulli_dexpinv_coefficients(meth_decl["dexpinv_degree"]) if self.lie else (1.0,))
+        degree = meth_decl.get("dexpinv_degree") if self.lie and not self.cayley else 0
+        self.coeffs = np.array(bernoulli_dexpinv_coefficients(degree))
         self.batch = batch
         self.parallel, self.threads = use_threads(math.prod(batch))
 
     def describe(self) -> str:
         """Which kernel runs."""
         threads = f"{self.threads} threads" if self.parallel else "serial"
-        kind = "RKMK" if self.lie else "classical RK"
+        kind = ("RKMK (Cayley)" if self.cayley else "RKMK") if self.lie else "classical RK"
         return f"compiled Lie-group kernel on {self.group}, {kind}, per body, {threads}"
 
     def start(self, y: dict) -> dict:
@@ -439,6 +502,7 @@ class LieKernel:
             save_steps,
             project,
             self.threads,
+            self.cayley,
         )
         if bad >= 0:
             raise range_error(bad, plan, self.group)

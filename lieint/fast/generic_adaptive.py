@@ -73,6 +73,7 @@ _SIGNATURE = types.Tuple((types.int64, types.float64, types.float64) + (types.in
     types.int64,  # max_accept
     types.int64,  # save_every
     types.boolean,  # project
+    types.boolean,  # cayley
     _vec,  # out_t
     types.float64[:, :, ::1],  # out_Y (cap, N, d)
 )
@@ -81,7 +82,7 @@ _SIGNATURE = types.Tuple((types.int64, types.float64, types.float64) + (types.in
 @njit(_SIGNATURE, cache=True)
 def adaptive_lie(
     gen, act, proj, Y, par, nv, m, A, b, b_hat, b_low, has_low, coeffs, rtol, atol, q, safety, fmin, fmax, h_min,
-    t, t1, h, k, max_accept, save_every, project, out_t, out_Y,
+    t, t1, h, k, max_accept, save_every, project, cayley, out_t, out_Y,
 ):  # fmt: skip
     """Adaptive RKMK steps from ``t`` in place on the flattened states ``Y`` (N, d).
 
@@ -113,13 +114,13 @@ def adaptive_lie(
         s5 = 0.0
         s3 = 0.0
         for body in range(N):
-            if not lie_step(gen, act, Y[body], par, nv, A, b, h, coeffs, KW, Kv, Ka, y_stage, Y1[body]):
+            if not lie_step(gen, act, Y[body], par, nv, A, b, h, coeffs, KW, Kv, Ka, y_stage, Y1[body], cayley):
                 ok = False
                 break
-            move(act, Y[body], par, nv, KW, Kv, Ka, b_hat, h, yh)
+            move(act, Y[body], par, nv, KW, Kv, Ka, b_hat, h, yh, cayley)
             s5 += _scaled(Y[body], Y1[body], yh, rtol, atol)
             if has_low:
-                move(act, Y[body], par, nv, KW, Kv, Ka, b_low, h, yh)
+                move(act, Y[body], par, nv, KW, Kv, Ka, b_low, h, yh, cayley)
                 s3 += _scaled(Y[body], Y1[body], yh, rtol, atol)
         if ok:
             nfev += s
@@ -177,7 +178,8 @@ class LieAdaptiveKernel(LieKernel):
         self.tab_b = np.array(meth_decl["b"], dtype=float)
 
     def describe(self) -> str:
-        return f"compiled Lie-group kernel on {self.group}, adaptive RKMK (whole controller loop), per body, serial"
+        kind = "adaptive RKMK (Cayley)" if self.cayley else "adaptive RKMK"
+        return f"compiled Lie-group kernel on {self.group}, {kind} (whole controller loop), per body, serial"
 
     def advance_adaptive(self, internal: dict, t, t1, h, k, max_accept, save_every, project, controller, h_min):
         """Accepted steps from ``(t, h)`` at step ``k`` until ``t1``, ``max_accept`` accepted
@@ -215,6 +217,7 @@ class LieAdaptiveKernel(LieKernel):
             int(min(max_accept, np.iinfo(np.int64).max)),
             int(save_every),
             bool(project),
+            self.cayley,
             out_t,
             out_Y,
         )

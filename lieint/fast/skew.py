@@ -173,6 +173,49 @@ def exp_se3_into(W, v, Q, t):
 
 
 @njit(cache=True)
+def cayley_se_into(W, x, Q, t):
+    """The Cayley map of se(n) into Q and t: for ``X = [[W, x], [0, 0]]``,
+    ``cay X = (I − X/2)⁻¹(I + X/2) = [[M⁻¹(I + W/2), M⁻¹x], [0, 1]]`` with ``M = I − W/2`` (x of
+    length 0: the rotation alone). M is invertible for skew W (its eigenvalues are ``1 ∓ iθ_k/2``)
+    and well conditioned (singular values ≥ 1): Gaussian elimination with partial pivoting."""
+    n = W.shape[0]
+    m = x.shape[0]
+    aug = np.empty((n, n + 1 + n))
+    for i in range(n):
+        for j in range(n):
+            aug[i, j] = -0.5 * W[i, j]
+            aug[i, n + 1 + j] = 0.5 * W[i, j]
+        aug[i, i] += 1.0
+        aug[i, n + 1 + i] += 1.0
+        aug[i, n] = x[i] if m > 0 else 0.0
+    cols = aug.shape[1]
+    for c in range(n):
+        p = c
+        for r in range(c + 1, n):
+            if abs(aug[r, c]) > abs(aug[p, c]):
+                p = r
+        if p != c:
+            for j in range(cols):
+                aug[c, j], aug[p, j] = aug[p, j], aug[c, j]
+        for r in range(c + 1, n):
+            f = aug[r, c] / aug[c, c]
+            if f != 0.0:
+                for j in range(c, cols):
+                    aug[r, j] -= f * aug[c, j]
+    for r in range(n - 1, -1, -1):
+        for j in range(n, cols):
+            acc = aug[r, j]
+            for k in range(r + 1, n):
+                acc -= aug[r, k] * aug[k, j]
+            aug[r, j] = acc / aug[r, r]
+    for i in range(n):
+        for j in range(n):
+            Q[i, j] = aug[i, n + 1 + j]
+        if m > 0:
+            t[i] = aug[i, n]
+
+
+@njit(cache=True)
 def _scaled_taylor(u, u2, norm, thetas):
     """``exp(u)`` from u, ``u²`` and a bound ``norm`` of u's spectral norm: the least Taylor
     degree m with ``norm ≤ thetas[m]``, scaling by ``2⁻ˢ`` above the last, Paterson–Stockmeyer

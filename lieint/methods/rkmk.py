@@ -144,18 +144,20 @@ class RKMK(Method):
         return {name: y1[name] - y_hat[name] for name in y1}
 
     def compiled(self):
-        """RKMK in exponential coordinates with a truncated dexp⁻¹ has compiled kernels.
+        """RKMK in exponential coordinates with a truncated dexp⁻¹, or in Cayley coordinates
+        (the generic kernel, :mod:`lieint.fast.generic`), has compiled kernels.
 
         An embedded pair also declares its embedded weights ``b_hat`` (and DOP853's
         ``b_hat_low``) and the controller's ``error_order`` q, for the compiled adaptive loop
         (:mod:`lieint.fast.adaptive`).
         """
-        if self.coordinates != "exp" or self.dexpinv_degree is None:
+        if self.coordinates == "exp" and self.dexpinv_degree is None:
             return None
         if not self.steps_as(RKMK, ("step", "stage_increments", "_difference")):
             return None
         tab = self.butcher
         decl = {"kind": "rkmk", "A": tab.A, "b": tab.b, "c": tab.c, "dexpinv_degree": self.dexpinv_degree}
+        decl["coordinates"] = self.coordinates  # Cayley: the generic kernel only (lieint.fast.generic)
         if isinstance(self.tableau, EmbeddedPair):
             decl.update(b_hat=self.tableau.b_hat, b_hat_low=self.tableau.b_hat_low, error_order=self.error_order)
         return decl

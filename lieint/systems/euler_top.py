@@ -227,17 +227,19 @@ class EulerTop(LieGroupSystem):
         cls, own = type(self), getattr(self, "__dict__", {})
         if any(getattr(cls, name) is not getattr(EulerTop, name) or name in own for name in _DYNAMICS):
             return None
-        if self.n == 3:
-            return {"kind": "top3", "moments": self.principal_moments, "P": self.P, "orientation": self.orientation}
         if self.n < 3:
             return None
-        # the generic kernel's form too (lieint.fast.generic): it runs the adaptive pairs
+        # the generic kernel's form too (lieint.fast.generic): Cayley coordinates, and for
+        # n ≥ 4 the adaptive pairs
         M = self.inertia.minus_inv_pair.copy()
         np.fill_diagonal(M, 0.0)
         head = [self.n, self.field_offsets().get("R", -1), float(self.inertia.diagonal)]
         params = np.concatenate([head, self.inertia.P.ravel(), M.ravel()])
         lie = {"kind": "lie", "pieces": "euler_top", "params": params, "n": self.n}
         lie.update(translation=False, abelian=0, fields=self.fields)
+        if self.n == 3:
+            decl = {"kind": "top3", "moments": self.principal_moments, "P": self.P, "orientation": self.orientation}
+            return decl | {"lie": lie}
         return {"kind": "topn", "b": self.b, "P": self.P, "orientation": self.orientation, "lie": lie}
 
     @property
