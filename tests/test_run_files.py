@@ -4,6 +4,7 @@ Every scenario runs real processes (``python -m lieint``), as a user would.
 """
 
 import os
+import re
 import resource
 import subprocess
 import sys
@@ -32,8 +33,7 @@ type = "fixed_point"
 omega = [[0.0, -0.3, 0.5, -0.2], [0.3, 0.0, -0.4, 0.6], [-0.5, 0.4, 0.0, -0.1], [0.2, -0.6, 0.1, 0.0]]
 
 [integrator]
-method = "rkmk4"
-coordinates = "cayley"  # the generic path (no compiled kernel): slow enough to be caught live
+method = "cg4a"  # Crouch–Grossman: the generic path (no compiled kernel), slow enough to be caught live
 step = 0.002
 t_end = {t_end}
 save_every = 1
@@ -500,7 +500,7 @@ def test_small_refusals_are_clear(tmp_path, capsys):
     # a step far too large (exponential coordinates: beyond the dexp⁻¹ radius), held in memory:
     # the failure is a message, not a traceback
     big = tmp_path / "big.toml"
-    text = "\n".join(line for line in scene.read_text().splitlines() if not line.startswith("coordinates"))
+    text = re.sub(r'method = "cg4a".*', 'method = "rkmk4"', scene.read_text())
     big.write_text(text.replace("step = 0.002", "step = 50.0").replace("t_end = 0.1", "t_end = 1000.0"))
     code = main(["run", str(big)])
     err = capsys.readouterr().err

@@ -173,6 +173,24 @@ def exp_se3_into(W, v, Q, t):
 
 
 @njit(cache=True)
+def _cayley_se3_into(W, x, Q, t):
+    """The Cayley map of se(3) in closed form: with ``w = vee(W)`` and ``s = 1 + |w|²/4``,
+    ``cay W = I + (ŵ + ŵ²/2)/s`` and ``M⁻¹x = (x + ŵx/2 + w⟨w, x⟩/4)/s`` — orthogonal to
+    round-off at any step, where an elimination on ``I − W/2`` loses ``‖W‖ε``."""
+    w0, w1, w2 = W[2, 1], W[0, 2], W[1, 0]
+    s = 1.0 + 0.25 * (w0 * w0 + w1 * w1 + w2 * w2)
+    for i in range(3):
+        for j in range(3):
+            w2ij = W[i, 0] * W[0, j] + W[i, 1] * W[1, j] + W[i, 2] * W[2, j]
+            Q[i, j] = (1.0 if i == j else 0.0) + (W[i, j] + 0.5 * w2ij) / s
+    if x.shape[0] == 3:
+        wx = 0.25 * (w0 * x[0] + w1 * x[1] + w2 * x[2])
+        t[0] = (x[0] + 0.5 * (W[0, 1] * x[1] + W[0, 2] * x[2]) + w0 * wx) / s
+        t[1] = (x[1] + 0.5 * (W[1, 0] * x[0] + W[1, 2] * x[2]) + w1 * wx) / s
+        t[2] = (x[2] + 0.5 * (W[2, 0] * x[0] + W[2, 1] * x[1]) + w2 * wx) / s
+
+
+@njit(cache=True)
 def cayley_se_into(W, x, Q, t):
     """The Cayley map of se(n) into Q and t: for ``X = [[W, x], [0, 0]]``,
     ``cay X = (I − X/2)⁻¹(I + X/2) = [[M⁻¹(I + W/2), M⁻¹x], [0, 1]]`` with ``M = I − W/2`` (x of
@@ -180,6 +198,9 @@ def cayley_se_into(W, x, Q, t):
     and well conditioned (singular values ≥ 1): Gaussian elimination with partial pivoting."""
     n = W.shape[0]
     m = x.shape[0]
+    if n == 3:
+        _cayley_se3_into(W, x, Q, t)
+        return
     aug = np.empty((n, n + 1 + n))
     for i in range(n):
         for j in range(n):
@@ -194,6 +215,10 @@ def cayley_se_into(W, x, Q, t):
         for r in range(c + 1, n):
             if abs(aug[r, c]) > abs(aug[p, c]):
                 p = r
+        if aug[p, c] == 0.0:  # only for a step so large that the elimination cancels: reported
+            Q[:, :] = np.nan
+            t[:] = np.nan
+            return
         if p != c:
             for j in range(cols):
                 aug[c, j], aug[p, j] = aug[p, j], aug[c, j]
