@@ -36,34 +36,56 @@ __all__ = ["PIECES"]
 
 @njit(cache=True)
 def _mat(x, off, n):
-    """``x[off : off + n²]`` as a C-contiguous n×n copy."""
-    return x[off : off + n * n].copy().reshape(n, n)
+    """``x[off : off + n²]`` as a C-contiguous n×n copy (loops: lean to compile)."""
+    X = np.empty((n, n))
+    for i in range(n):
+        for j in range(n):
+            X[i, j] = x[off + i * n + j]
+    return X
 
 
 @njit(cache=True)
 def _vec(x, off, n):
     """``x[off : off + n]`` as a copy."""
-    return x[off : off + n].copy()
+    v = np.empty(n)
+    for i in range(n):
+        v[i] = x[off + i]
+    return v
 
 
 @njit(cache=True)
 def _put(out, off, X):
-    """``out[off : off + X.size] = X`` (row-major)."""
-    flat = X.reshape(X.size)
-    for i in range(flat.size):
-        out[off + i] = flat[i]
+    """``out[off : off + X.size] = X`` (row-major; X a vector or a matrix)."""
+    if X.ndim == 1:
+        for i in range(X.shape[0]):
+            out[off + i] = X[i]
+    else:
+        n, m = X.shape[0], X.shape[-1]
+        for i in range(n):
+            for j in range(m):
+                out[off + i * m + j] = X[i, j]
 
 
 @njit(cache=True)
 def _skew(X):
     """``(X − Xᵀ)/2``, exactly skew."""
-    return 0.5 * (X - X.T)
+    n = X.shape[0]
+    out = np.empty((n, n))
+    for i in range(n):
+        for j in range(n):
+            out[i, j] = 0.5 * (X[i, j] - X[j, i])
+    return out
 
 
 @njit(cache=True)
 def _wedge(u, v):
     """``u ∧ v = u vᵀ − v uᵀ``."""
-    return np.outer(u, v) - np.outer(v, u)
+    n = u.shape[0]
+    out = np.empty((n, n))
+    for i in range(n):
+        for j in range(n):
+            out[i, j] = u[i] * v[j] - v[i] * u[j]
+    return out
 
 
 @njit(cache=True)
@@ -162,7 +184,10 @@ def _times_into(y, off, Q, out):
 @njit(cache=True)
 def _normalized(x, norm):
     """x scaled to length ``norm``."""
-    return x * (norm / np.sqrt(np.sum(x * x)))
+    ss = 0.0
+    for i in range(x.shape[0]):
+        ss += x[i] * x[i]
+    return x * (norm / np.sqrt(ss))
 
 
 @njit(cache=True)
@@ -209,12 +234,41 @@ def _copy(y, out):
 
 @njit(cache=True)
 def _top_omega(A, par, n):
-    """Ω(A): ``Ω_ij = −Ã_ij/(b_i + b_j)`` in the eigenbasis P of B, made exactly skew."""
+    """Ω(A): ``Ω_ij = −Ã_ij/(b_i + b_j)`` in the eigenbasis P of B (``Ã = PᵀAP``,
+    ``Ω = P Ω̃ Pᵀ``), made exactly skew; loops (lean to compile)."""
     M = _mat(par, 3 + n * n, n)
     if par[2] != 0.0:
-        return _skew(A * M)
+        X = np.empty((n, n))
+        for i in range(n):
+            for j in range(n):
+                X[i, j] = A[i, j] * M[i, j]
+        return _skew(X)
     P = _mat(par, 3, n)
-    return _skew(mm(mm(P, mm(mm(P.T, A), P) * M), P.T))
+    AP = np.zeros((n, n))
+    for i in range(n):
+        for k in range(n):
+            for j in range(n):
+                AP[i, j] += A[i, k] * P[k, j]
+    W = np.zeros((n, n))  # (PᵀAP) ∘ M
+    for i in range(n):
+        for j in range(n):
+            acc = 0.0
+            for k in range(n):
+                acc += P[k, i] * AP[k, j]
+            W[i, j] = acc * M[i, j]
+    WP = np.zeros((n, n))  # W Pᵀ
+    for i in range(n):
+        for j in range(n):
+            acc = 0.0
+            for k in range(n):
+                acc += W[i, k] * P[j, k]
+            WP[i, j] = acc
+    X = np.zeros((n, n))
+    for i in range(n):
+        for k in range(n):
+            for j in range(n):
+                X[i, j] += P[i, k] * WP[k, j]
+    return _skew(X)
 
 
 @njit(cache=True)
@@ -371,7 +425,10 @@ def _free_projection(y, par, out):
 def _chaplygin_omega(y, par, n):
     """Ω from ``A_K = −(B_K Ω + Ω B_K)``, ``B_K = B_C + M r² ΓΓᵀ``."""
     G = _vec(y, n * n, n)
-    BK = _mat(par, 5, n) + par[3] * np.outer(G, G)
+    BK = _mat(par, 5, n)
+    for i in range(n):
+        for j in range(n):
+            BK[i, j] += par[3] * G[i] * G[j]
     return _lyapunov(BK, -_mat(y, 0, n)), G
 
 
@@ -423,7 +480,10 @@ def _ball_acceleration(y, par, n):
     M, r = par[4], par[5]
     k = r * _vec(y, n * n, n)
     XG = _vec(par, 9 + n * n, n)
-    BK = _mat(par, 9, n) + M * np.outer(k, k) + M * (np.outer(XG, k) + np.outer(k, XG))
+    BK = _mat(par, 9, n)
+    for i in range(n):
+        for j in range(n):
+            BK[i, j] += M * (k[i] * k[j] + XG[i] * k[j] + k[i] * XG[j])
     Om2 = mm(Om, Om)
     force = mv(Om2, k)
     mode = par[6]
