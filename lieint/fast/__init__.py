@@ -5,7 +5,8 @@ lanes of :mod:`lieint.fast.lanes`), the Euler top of any dimension n ≥ 4
 (:class:`lieint.fast.topn.TopNKernel`), and one generic loop for every system on SO(n) or SE(n)
 times a vector space that declares compiled pieces (:class:`lieint.fast.generic.LieKernel`:
 heavy top, free body, rolling and Chaplygin ball, :mod:`lieint.fast.bodies`), each for
-fixed-step RKMK in exponential coordinates with a truncated dexp⁻¹ and for classical RK.
+fixed-step RKMK in exponential coordinates with a truncated dexp⁻¹ and for classical RK; RKMK in
+Cayley coordinates runs in the generic kernel (the tops carry its declaration under ``"lie"``).
 
 Only imported when first used, so ``import lieint`` stays light; numba compiles on the first
 call in a fresh environment and caches the machine code on disk for later processes.
@@ -40,7 +41,8 @@ def kernel_for(system, method, y0, plan) -> tuple[object | None, str]:
     if meth_decl is None:
         return (
             None,
-            f"{method.name!r} has no compiled form (compiled: RKMK in exp coordinates with truncated dexp⁻¹, RK)",
+            f"{method.name!r} has no compiled form (compiled: RKMK in exp coordinates with truncated dexp⁻¹ or "
+            "in Cayley coordinates, classical RK)",
         )
     kind = sys_decl.get("kind")
     if meth_decl.get("coordinates") == "cayley" and kind != "lie":

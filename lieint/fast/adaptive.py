@@ -1,10 +1,11 @@
 """The compiled adaptive path: which runs it covers and the kernel object the driver steps.
 
-Chosen, like the fixed-step kernels, by declaration: the system declares the 3D top
-(``system.compiled()["kind"] == "top3"``) and the method an RKMK embedded pair in exponential
-coordinates with truncated dexp⁻¹ (``method.compiled()`` with ``"b_hat"``, ``"error_order"``
-and, for DOP853's combined estimate, ``"b_hat_low"``). The numba code is
-:mod:`lieint.fast.top3_adaptive`, imported on the first step.
+Chosen, like the fixed-step kernels, by declaration: the method declares an RKMK embedded pair
+(``method.compiled()`` with ``"b_hat"``, ``"error_order"`` and, for DOP853's combined estimate,
+``"b_hat_low"``), and the system either the 3D top (``"top3"``: its own kernel,
+:mod:`lieint.fast.top3_adaptive`, for exponential coordinates) or compiled pieces (``"lie"``, or
+a top's declaration under ``"lie"``: :mod:`lieint.fast.generic_adaptive`, exponential and Cayley
+coordinates). The numba code is imported on the first step.
 """
 
 from __future__ import annotations
@@ -35,7 +36,7 @@ def adaptive_kernel_for(system, method, y0) -> tuple[object | None, str]:
     if meth_decl is None or meth_decl.get("kind") != "rkmk" or "b_hat" not in meth_decl:
         return None, (
             f"{method.name!r} has no compiled adaptive form (compiled: RKMK embedded pairs in exp "
-            "coordinates with truncated dexp⁻¹)"
+            "coordinates with truncated dexp⁻¹ or in Cayley coordinates)"
         )
     batch = system.batch_shape(y0)
     if 0 in batch:

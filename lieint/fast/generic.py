@@ -24,7 +24,11 @@ the generic path (:mod:`lieint.methods.rkmk`)::
 with the bracket of ``se(n) ⊕ Rᵐ``, ``[(W₁, v₁, a₁), (W₂, v₂, a₂)] = ([W₁, W₂], W₁v₂ − W₂v₁, 0)``
 (the vector factor is abelian: its dexp⁻¹ is the identity) and ``exp(W, v) = (exp W, φ₁(W) v)``
 (:func:`lieint.fast.skew.expm_se`). A stage whose rotation part reaches the dexp⁻¹ radius
-(``θ₁ + θ₂ ≥ 2π``, the same test as the generic path's) stops the body there.
+(``θ₁ + θ₂ ≥ 2π``, the same test as the generic path's) stops the body there. In Cayley
+coordinates ``k_i = dcay⁻¹_{−u_i}(ξ(ρ(cay u_i, y)))`` with the exact
+``dcay⁻¹_{−u}(k) = k + ½[u, k] − ¼ uku`` (homogeneous matrices of se(n)) and
+``cay(W, x) = (M⁻¹(I + W/2), M⁻¹x)``, ``M = I − W/2`` (:func:`lieint.fast.skew.cayley_se_into`):
+no range limit.
 """
 
 from __future__ import annotations
