@@ -14,7 +14,7 @@ import math
 import numpy as np
 from numba import njit
 
-__all__ = ["expm_se", "expm_skew", "mm", "mm_loops", "mv", "so_ad_radius_exceeds"]
+__all__ = ["expm_se", "expm_skew", "expm_skew_into", "mm", "mm_into", "mm_loops", "mtm_into", "mv", "so_ad_radius_exceeds"]
 
 _TWO_PI = 2.0 * np.pi
 
@@ -69,6 +69,43 @@ def mm_loops(A, B):
 
 
 @njit(cache=True)
+def mm_into(A, B, out):
+    """``out = A B``: loops up to :data:`_SMALL`, BLAS above (out must not share memory with
+    A or B)."""
+    n, k = A.shape
+    m = B.shape[1]
+    if n > _SMALL or k > _SMALL or m > _SMALL:
+        out[:, :] = np.ascontiguousarray(A) @ np.ascontiguousarray(B)
+        return
+    for i in range(n):
+        for c in range(m):
+            out[i, c] = 0.0
+        for j in range(k):
+            a = A[i, j]
+            for c in range(m):
+                out[i, c] += a * B[j, c]
+
+
+@njit(cache=True)
+def mtm_into(A, B, out):
+    """``out = Aᵀ B``: loops up to :data:`_SMALL`, BLAS above (out must not share memory with
+    A or B)."""
+    k, n = A.shape
+    m = B.shape[1]
+    if n > _SMALL or k > _SMALL or m > _SMALL:
+        out[:, :] = np.ascontiguousarray(A.T) @ np.ascontiguousarray(B)
+        return
+    for i in range(n):
+        for c in range(m):
+            out[i, c] = 0.0
+    for j in range(k):
+        for i in range(n):
+            a = A[j, i]
+            for c in range(m):
+                out[i, c] += a * B[j, c]
+
+
+@njit(cache=True)
 def mv(A, x):
     """``A x`` by loops."""
     n, k = A.shape
@@ -109,9 +146,20 @@ def expm_skew(u):
     ``T_m = Σ_j (u^p)^j B_j(u)``, ``B_j = Σ_{i<p} u^i/(jp + i)!``, in ``p + q − 2`` products
     (m = pq); no linear solve.
     """
-    u2 = mm(u, u)
+    n = u.shape[0]
+    out = np.empty((n, n))
+    expm_skew_into(u, out, np.empty((5, n, n)))
+    return out
+
+
+@njit(cache=True)
+def expm_skew_into(u, out, work):
+    """:func:`expm_skew` written into ``out`` (n, n), with ``work`` (5, n, n) as scratch: no
+    allocation."""
+    u2 = work[0]
+    mm_into(u, u, u2)
     # θ₁ = ‖u‖₂ ≤ min(‖u‖₁, ‖u²‖₁^{1/2}); the second is often several times tighter for large n
-    return _scaled_taylor(u, u2, min(_onenorm(u), np.sqrt(_onenorm(u2))), _THETAS)
+    _scaled_taylor_into(u, min(_onenorm(u), np.sqrt(_onenorm(u2))), _THETAS, out, work)
 
 
 @njit(cache=True)
@@ -242,9 +290,21 @@ def cayley_se_into(W, x, Q, t):
 
 @njit(cache=True)
 def _scaled_taylor(u, u2, norm, thetas):
-    """``exp(u)`` from u, ``u²`` and a bound ``norm`` of u's spectral norm: the least Taylor
-    degree m with ``norm ≤ thetas[m]``, scaling by ``2⁻ˢ`` above the last, Paterson–Stockmeyer
-    (see :func:`expm_skew`)."""
+    """:func:`_scaled_taylor_into` into a new array (u2 is not modified)."""
+    n = u.shape[0]
+    out = np.empty((n, n))
+    work = np.empty((5, n, n))
+    work[0] = u2
+    _scaled_taylor_into(u, norm, thetas, out, work)
+    return out
+
+
+@njit(cache=True)
+def _scaled_taylor_into(u, norm, thetas, out, work):
+    """``exp(u)`` into ``out`` from u, ``u²`` (in ``work[0]``, overwritten) and a bound
+    ``norm`` of u's spectral norm: the least Taylor degree m with ``norm ≤ thetas[m]``, scaling
+    by ``2⁻ˢ`` above the last, Paterson–Stockmeyer (see :func:`expm_skew`). ``work`` is scratch
+    of shape ``(5, n, n)``: no allocation (a stage of a kernel calls this several times)."""
     n = u.shape[0]
     last = _SHAPES.shape[0] - 1
     pick = last
@@ -257,18 +317,28 @@ def _scaled_taylor(u, u2, norm, thetas):
         s = int(np.ceil(np.log2(norm / thetas[last])))
     p, q = _SHAPES[pick, 0], _SHAPES[pick, 1]
     scale = 2.0 ** (-s)  # exact: a power of two
-    x = u * scale
-    x2 = u2 * (scale * scale)
-    x3 = x2
+    x2, x, x3, x4, T = work[0], work[1], work[2], work[3], work[4]
+    scale2 = scale * scale
+    for a in range(n):
+        for b in range(n):
+            x[a, b] = u[a, b] * scale
+            x2[a, b] *= scale2
     if p >= 3:
-        x3 = mm(x2, x)
-    top = x2 if p == 2 else (x3 if p == 3 else mm(x2, x2))
+        mm_into(x2, x, x3)
+    if p == 4:
+        mm_into(x2, x2, x4)
+    top = x2 if p == 2 else (x3 if p == 3 else x4)
     c = _INV_FACTORIAL
     # Horner in x^p: S = c_m x^p + B_{q−1}, then S ← S x^p + B_j for j = q − 2 … 0
-    S = c[p * q] * top
+    S = out
+    cm = c[p * q]
+    for a in range(n):
+        for b in range(n):
+            S[a, b] = cm * top[a, b]
     for j in range(q - 1, -1, -1):
         if j < q - 1:
-            S = mm(S, top)
+            mm_into(S, top, T)
+            S[:, :] = T
         c0, c1, c2 = c[j * p], c[j * p + 1], c[j * p + 2] if p >= 3 else 0.0
         c3 = c[j * p + 3] if p == 4 else 0.0
         for a in range(n):
@@ -280,8 +350,8 @@ def _scaled_taylor(u, u2, norm, thetas):
                 if p == 4:
                     S[a, b] += c3 * x3[a, b]
     for _ in range(s):
-        S = mm(S, S)
-    return S
+        mm_into(S, S, T)
+        S[:, :] = T
 
 
 @njit(cache=True)

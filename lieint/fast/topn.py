@@ -52,26 +52,45 @@ from numba import njit
 
 from ..groups.base import bernoulli_dexpinv_coefficients
 from . import range_error, use_threads
-from .skew import _bracket, _exp_or_nan, _project, expm_skew, so_ad_radius_exceeds
+from .skew import _bracket, _finite, _project, expm_skew, expm_skew_into, mm_into, mtm_into, so_ad_radius_exceeds
 
 __all__ = ["TopNKernel", "expm_skew", "integrate_topn", "so_ad_radius_exceeds"]
 
 
 @njit(cache=True)
-def _act(Q, A, M):
-    """``(Ã', Ω̃') = (skew(QᵀAQ), Ã' ∘ M)``: the action on the momentum, made exactly skew as
-    the generic action does (``skew_part``), and the inertia operator ``Ω̃_ij = M_ij Ã'_ij``
-    (M symmetric, so Ω̃' is exactly skew too)."""
-    C = Q.T @ (A @ Q)
+def _act_into(Q, A, M, A1, Om, C, tmp):
+    """``(Ã', Ω̃') = (skew(QᵀAQ), Ã' ∘ M)`` into ``A1`` and ``Om``: the action on the momentum,
+    made exactly skew as the generic action does (``skew_part``), and the inertia operator
+    ``Ω̃_ij = M_ij Ã'_ij`` (M symmetric, so Ω̃' is exactly skew too). ``C`` and ``tmp`` are
+    scratch; A1 may be A (A is read before A1 is written)."""
+    mm_into(A, Q, tmp)
+    mtm_into(Q, tmp, C)
     n = C.shape[0]
-    A1 = np.empty((n, n))
-    Om = np.empty((n, n))
     for a in range(n):
         for c in range(n):
             d = 0.5 * (C[a, c] - C[c, a])
             A1[a, c] = d
             Om[a, c] = d * M[a, c]
-    return A1, Om
+
+
+@njit(cache=True)
+def _bracket_into(X, Y, out, tmp):
+    """``out = [X, Y] = W − Wᵀ`` with ``W = XY`` (tmp), for skew X, Y: one product, exactly
+    skew."""
+    mm_into(X, Y, tmp)
+    n = out.shape[0]
+    for a in range(n):
+        for c in range(n):
+            out[a, c] = tmp[a, c] - tmp[c, a]
+
+
+@njit(cache=True)
+def _exp_into(u, Q, work):
+    """``Q = exp(u)``, or NaN when u is not finite (the driver reports the state)."""
+    if _finite(u):
+        expm_skew_into(u, Q, work)
+    else:
+        Q[:, :] = np.nan
 
 
 @njit(cache=True)
@@ -99,33 +118,49 @@ def _store(K, i, X):
 
 
 @njit(cache=True)
-def _lie_step(A, R, orient, M, tab, b, h, coeffs, K):
-    """One RKMK step (right action, exp coordinates) from ``(A, R)``; returns
-    ``(ok, A₁, R₁)``. ``ok`` is False when a stage increment reaches the dexp⁻¹ radius."""
+def _lie_step(A, R, orient, M, tab, b, h, coeffs, K, W, E):
+    """One RKMK step (right action, exp coordinates) of ``(A, R)`` in place; returns False,
+    leaving A and R as they were, when a stage increment reaches the dexp⁻¹ radius.
+
+    ``K`` (stages, n, n) holds the stage slopes, ``W`` (8, n, n) and ``E`` (5, n, n) are
+    scratch (the exponential's): a step allocates nothing."""
     s = b.shape[0]
     n = A.shape[0]
     degree = coeffs.shape[0] - 1
+    u, Q, C, tmp, acc, term, other, minus_u = W[0], W[1], W[2], W[3], W[4], W[5], W[6], W[7]
     for i in range(s):
-        u = np.zeros((n, n))
+        u[:, :] = 0.0
         if not _accumulate(u, K, tab[i], i, h):
-            _store(K, i, A * M)  # u = 0: ξ = Ω̃(Ã)
+            for a in range(n):  # u = 0: ξ = Ω̃(Ã)
+                for c in range(n):
+                    K[i, a, c] = A[a, c] * M[a, c]
             continue
         if so_ad_radius_exceeds(u) == 1:
-            return False, A, R
-        _, xi = _act(_exp_or_nan(u), A, M)
-        k = xi.copy()
-        term = xi
-        minus_u = -u
+            return False
+        _exp_into(u, Q, E)
+        _act_into(Q, A, M, other, acc, C, tmp)  # acc = Ω̃(QᵀÃQ) = ξ
+        # k = Σ_d (B_d/d!) ad_{−u}^d ξ, the terms by repeated brackets
+        for a in range(n):
+            for c in range(n):
+                term[a, c] = acc[a, c]
+                minus_u[a, c] = -u[a, c]
         for d in range(1, degree + 1):
-            term = _bracket(minus_u, term)
+            _bracket_into(minus_u, term, other, tmp)
+            term, other = other, term
             if coeffs[d] != 0.0:
-                k += coeffs[d] * term
-        _store(K, i, k)
-    u = np.zeros((n, n))
+                w = coeffs[d]
+                for a in range(n):
+                    for c in range(n):
+                        acc[a, c] += w * term[a, c]
+        _store(K, i, acc)
+    u[:, :] = 0.0
     _accumulate(u, K, b, s, h)
-    Q = _exp_or_nan(u)
-    A1, _ = _act(Q, A, M)
-    return True, A1, (R @ Q if orient else R)
+    _exp_into(u, Q, E)
+    _act_into(Q, A, M, A, acc, C, tmp)
+    if orient:
+        mm_into(R, Q, C)
+        R[:, :] = C
+    return True
 
 
 @njit(cache=True)
@@ -180,6 +215,8 @@ def _run_bodies(
     r = R0.shape[1]
     K = np.zeros((s, n, n))
     KR = np.zeros((s, r, r))
+    W = np.zeros((8, n, n))
+    E = np.zeros((5, n, n))
     for m in range(lo, hi):
         A = np.empty((n, n))
         R = np.empty((r, r))
@@ -190,8 +227,7 @@ def _run_bodies(
         for k in range(k_from, k_to):
             hk = h if k < nsteps - 1 else h_last
             if lie:
-                ok, A, R = _lie_step(A, R, orient, M, tab, b, hk, coeffs, K)
-                if not ok:
+                if not _lie_step(A, R, orient, M, tab, b, hk, coeffs, K, W, E):
                     status[m] = k
                     break
             else:
