@@ -30,6 +30,8 @@ fast path can replace them. A system that another package installs under the ent
 
 from __future__ import annotations
 
+import math
+
 from abc import ABC, abstractmethod
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
@@ -211,7 +213,7 @@ class LieGroupSystem(ABC):
         offsets, start = {}, 0
         for name, shape in self.fields.items():
             offsets[name] = start
-            start += int(np.prod(shape, dtype=int))
+            start += math.prod(shape)
         return offsets
 
     def dynamics_as(self, cls: type, names: tuple[str, ...]) -> bool:

@@ -231,10 +231,8 @@ class EulerTop(LieGroupSystem):
             return None
         # the generic kernel's form too (lieint.fast.generic): Cayley coordinates, and for
         # n ≥ 4 the adaptive pairs
-        M = self.inertia.minus_inv_pair.copy()
-        np.fill_diagonal(M, 0.0)
         head = [self.n, self.field_offsets().get("R", -1), float(self.inertia.diagonal)]
-        params = np.concatenate([head, self.inertia.P.ravel(), M.ravel()])
+        params = np.concatenate([head, self.inertia.kernel_params])
         lie = {"kind": "lie", "pieces": "euler_top", "params": params, "n": self.n}
         lie.update(translation=False, abelian=0, fields=self.fields)
         if self.n == 3:

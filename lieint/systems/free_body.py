@@ -96,10 +96,8 @@ class FreeBody(LieGroupSystem):
         inertia, n = self.inertia, self.n
         offset = self.field_offsets()
         g = np.zeros(n) if self.gravity is None else self.gravity
-        M = inertia.minus_inv_pair.copy()
-        np.fill_diagonal(M, 0.0)
         head = [n, offset.get("R", -1), float(inertia.diagonal)]
-        params = np.concatenate([head, inertia.P.ravel(), M.ravel(), [offset["center"]], g])
+        params = np.concatenate([head, inertia.kernel_params, [offset["center"]], g])
         return {
             "kind": "lie",
             "pieces": "free_body",

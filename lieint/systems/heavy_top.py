@@ -22,13 +22,6 @@ _DYNAMICS = ("generator", "act", "infinitesimal_action", "vector_field", "projec
 _TOP = ("angular_velocity",)
 
 
-def _off_diagonal(M: np.ndarray) -> np.ndarray:
-    """M with a zero diagonal, flattened (the diagonal of a bivector is zero anyway)."""
-    M = M.copy()
-    np.fill_diagonal(M, 0.0)
-    return M.ravel()
-
-
 class HeavyTop(LieGroupSystem):
     """A rigid body with a fixed point and centre of mass ``X_G`` under gravity g, any n ≥ 2.
 
@@ -165,7 +158,7 @@ class HeavyTop(LieGroupSystem):
         inertia, n = self.inertia, self.n
         head = [n, self.field_offsets().get("R", -1), float(inertia.diagonal)]
         params = np.concatenate(
-            [head, inertia.P.ravel(), _off_diagonal(inertia.minus_inv_pair), self._MXG, [np.linalg.norm(self.gravity)]]
+            [head, inertia.kernel_params, self._MXG, [np.linalg.norm(self.gravity)]]
         )
         return {
             "kind": "lie",

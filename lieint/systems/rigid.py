@@ -56,11 +56,17 @@ class InertiaOperator:
         np.fill_diagonal(pair, 1.0)  # the diagonal of a bivector is zero anyway
         self.minus_inv_pair = -1.0 / pair
         self.B2 = self.B @ self.B
+        # what the compiled kernels read (lieint.fast.bodies): P, then M = −1/(b_i + b_j) with a
+        # zero diagonal, row by row; built once, not on every call of a system's compiled()
+        off_diagonal = self.minus_inv_pair.copy()
+        np.fill_diagonal(off_diagonal, 0.0)
+        self.kernel_params = np.concatenate([self.P.ravel(), off_diagonal.ravel()])
+        self._principal_moments = self.b.sum() - self.b
 
     @property
     def principal_moments(self) -> np.ndarray:
         """n = 3: ``I = tr(B) − b`` in the order of the eigenvalues ``b``."""
-        return self.b.sum() - self.b
+        return self._principal_moments.copy()
 
     def momentum(self, Omega: np.ndarray) -> np.ndarray:
         """Body angular momentum ``A = −(BΩ + ΩB)``."""
