@@ -14,7 +14,17 @@ import math
 import numpy as np
 from numba import njit
 
-__all__ = ["expm_se", "expm_skew", "expm_skew_into", "mm", "mm_into", "mm_loops", "mtm_into", "mv", "so_ad_radius_exceeds"]
+__all__ = [
+    "expm_se",
+    "expm_skew",
+    "expm_skew_into",
+    "mm",
+    "mm_into",
+    "mm_loops",
+    "mtm_into",
+    "mv",
+    "so_ad_radius_exceeds",
+]
 
 _TWO_PI = 2.0 * np.pi
 

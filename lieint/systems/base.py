@@ -31,7 +31,6 @@ fast path can replace them. A system that another package installs under the ent
 from __future__ import annotations
 
 import math
-
 from abc import ABC, abstractmethod
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass

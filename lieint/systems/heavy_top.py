@@ -157,9 +157,7 @@ class HeavyTop(LieGroupSystem):
             return None
         inertia, n = self.inertia, self.n
         head = [n, self.field_offsets().get("R", -1), float(inertia.diagonal)]
-        params = np.concatenate(
-            [head, inertia.kernel_params, self._MXG, [np.linalg.norm(self.gravity)]]
-        )
+        params = np.concatenate([head, inertia.kernel_params, self._MXG, [np.linalg.norm(self.gravity)]])
         return {
             "kind": "lie",
             "pieces": "heavy_top",
