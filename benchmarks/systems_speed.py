@@ -22,7 +22,9 @@ process CPU time of the whole call, the minimum over repeats, side by side in th
 
 Ensembles (``--ensembles``): 1,000 bodies of each system (initial momenta spread by 1 %), 200
 RKMK4 steps in one batched call, compiled, on numba's default threads: body-steps per second of
-wall time and per CPU-second (process time, all threads), the best of three calls.
+wall time and per CPU-second (process time, all threads), the best of three calls; then the 3D
+top's SIMD-lanes ensemble against an FMA-loop ceiling measured in the same run
+(``benchmarks/flop_ceiling.py``).
 """
 
 from __future__ import annotations
@@ -242,3 +244,6 @@ if __name__ == "__main__":
         main(args.quick, args.busy)
     if args.ensembles or args.ensembles_only:
         ensembles(args.quick)
+        from flop_ceiling import report  # the 3D ensemble against this machine's ceiling
+
+        report()
