@@ -24,20 +24,13 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
+from .top3 import rodrigues_coefficients as _coefficients
+
 __all__ = ["matrix_to_quaternion", "quaternion_to_matrix", "run_lanes"]
 
 _BLOCK = 64
 # (2π)²: the dexp⁻¹ series of so(3) converges for |u| < 2π
 _RADIUS2 = (2.0 * np.pi) ** 2
-
-
-@njit(cache=True, inline="always")
-def _coefficients(t2):
-    # sin θ/θ and (1 − cos θ)/θ² as even polynomials (Horner, multiplications only: a vector
-    # division costs several multiplications)
-    a = 1.0 + t2 * (-1.0 / 6 + t2 * (1.0 / 120 + t2 * (-1.0 / 5040 + t2 * (1.0 / 362880 + t2 * (-1.0 / 39916800)))))
-    b = 0.5 + t2 * (-1.0 / 24 + t2 * (1.0 / 720 + t2 * (-1.0 / 40320 + t2 * (1.0 / 3628800 + t2 * (-1.0 / 479001600)))))
-    return a, b
 
 
 @njit(cache=True, inline="always")
