@@ -44,7 +44,7 @@ from numba.core.types.function_type import CompileResultWAP
 
 from ..groups.base import bernoulli_dexpinv_coefficients
 from . import range_error, use_threads
-from .skew import _finite, cayley_se_into, exp_se3_into, expm_se, expm_skew, so_ad_radius_exceeds
+from .se_algebra import coordinate_map, dcayinv, dexpinv, out_of_range
 
 __all__ = ["ACTION", "FIELD", "GENERATOR", "CompiledPieces", "LieKernel", "integrate_lie"]
 
@@ -116,119 +116,6 @@ def _combine(out, K, weights, upto, h):
 
 
 @njit(cache=True)
-def _exponential(uW, uv, nv, Q, t):
-    """``(Q, t) = exp(uW, uv)`` on SE(n) (``nv = n``) or ``Q = exp uW`` on SO(n), written into
-    Q and t; NaN when u is not finite (the driver reports the non-finite state)."""
-    n = uW.shape[0]
-    if not (_finite(uW) and _finite(uv)):
-        Q[:, :] = np.nan
-        t[:] = np.nan
-    elif n == 3:
-        exp_se3_into(uW, uv, Q, t)  # closed forms (uv of length 0 on SO(3))
-    elif nv == 0:
-        Q[:, :] = expm_skew(uW)
-    else:
-        Q1, t1 = expm_se(uW, uv)
-        Q[:, :] = Q1
-        t[:] = t1
-
-
-@njit(cache=True)
-def _out_of_range(uW, nv):
-    """The generic path's dexp⁻¹ range test on the rotation part (``θ₁ + θ₂ ≥ 2π``; on se(2)
-    the spectral radius of ad is ``|θ|``)."""
-    if uW.shape[0] == 2:
-        return nv > 0 and abs(uW[1, 0]) >= 2.0 * np.pi
-    return so_ad_radius_exceeds(uW) == 1
-
-
-@njit(cache=True)
-def _dexpinv(uW, uv, kW, kv, coeffs, tW, tv, P, nw):
-    """``k ← Σ_{d ≤ degree} (B_d/d!) ad_{−u}^d k`` in place, with
-    ``ad_{−u}(W, v) = ([−uW, W], −uW v + W uv)`` and ``[−uW, W] = Pᵀ − P``, ``P = uW W`` (both
-    skew); tW, tv, P, nw are work arrays."""
-    n = uW.shape[0]
-    m = uv.shape[0]
-    tW[:, :] = kW
-    tv[:] = kv
-    for d in range(1, coeffs.shape[0]):
-        for a in range(n):
-            for c in range(n):
-                acc = 0.0
-                for e in range(n):
-                    acc += uW[a, e] * tW[e, c]
-                P[a, c] = acc
-        for a in range(m):  # −uW tv + tW uv, from the old tW
-            acc = 0.0
-            for e in range(n):
-                acc += tW[a, e] * uv[e] - uW[a, e] * tv[e]
-            nw[a] = acc
-        for a in range(n):
-            for c in range(n):
-                tW[a, c] = P[c, a] - P[a, c]
-        tv[:] = nw
-        coeff = coeffs[d]
-        if coeff != 0.0:
-            for a in range(n):
-                for c in range(n):
-                    kW[a, c] += coeff * tW[a, c]
-            for a in range(m):
-                kv[a] += coeff * tv[a]
-
-
-@njit(cache=True)
-def _dcayinv(uW, uv, kW, kv, tW, tv):
-    """``k ← dcay⁻¹_{−u}(k) = k + ½[u, k] − ¼ u k u`` in place (exact, no series), in the
-    homogeneous matrices of se(n): for ``u = (W, x)``, ``k = (U, v)``,
-    ``U ← U + ½(WU − UW) − ¼ WUW``, ``v ← v + ½(Wv − Ux) − ¼ WUx`` (the vector factor's
-    dcay⁻¹ is the identity)."""
-    n = uW.shape[0]
-    m = uv.shape[0]
-    for a in range(n):  # tW = W U
-        for c in range(n):
-            acc = 0.0
-            for e in range(n):
-                acc += uW[a, e] * kW[e, c]
-            tW[a, c] = acc
-    for a in range(m):  # tv = ½(Wv − Ux) − ¼ W(Ux), from the old U, v
-        ux = 0.0
-        wv = 0.0
-        for e in range(n):
-            ux += kW[a, e] * uv[e]
-            wv += uW[a, e] * kv[e]
-        tv[a] = 0.5 * (wv - ux)
-    for a in range(m):
-        acc = 0.0
-        for e in range(n):
-            ux_e = 0.0
-            for f in range(n):
-                ux_e += kW[e, f] * uv[f]
-            acc += uW[a, e] * ux_e
-        tv[a] -= 0.25 * acc
-    new = np.empty((n, n))
-    for a in range(n):  # U + ½(WU − UW) − ¼ (WU)W, UW from the old U
-        for c in range(n):
-            uw = 0.0
-            wuw = 0.0
-            for e in range(n):
-                uw += kW[a, e] * uW[e, c]
-                wuw += tW[a, e] * uW[e, c]
-            new[a, c] = kW[a, c] + 0.5 * (tW[a, c] - uw) - 0.25 * wuw
-    kW[:, :] = new
-    for a in range(m):
-        kv[a] += tv[a]
-
-
-@njit(cache=True)
-def _coordinate_map(uW, uv, nv, Q, t, cayley):
-    """φ(u) into Q and t: the exponential or the Cayley map."""
-    if cayley and _finite(uW) and _finite(uv):
-        cayley_se_into(uW, uv, Q, t)
-    else:
-        _exponential(uW, uv, nv, Q, t)
-
-
-@njit(cache=True)
 def lie_step(gen, act, y, par, nv, tab, b, h, coeffs, KW, Kv, Ka, y_stage, y1, cayley):
     """One RKMK step from y into ``y1`` in exponential (dexp⁻¹ truncated at ``coeffs``) or
     Cayley coordinates (exact dcay⁻¹); False when a stage leaves the dexp⁻¹ radius."""
@@ -245,15 +132,15 @@ def lie_step(gen, act, y, par, nv, tab, b, h, coeffs, KW, Kv, Ka, y_stage, y1, c
         if not _combine(ua, Ka, tab[i], i, h):
             gen(y, par, KW[i], Kv[i], Ka[i])  # u = 0: k_i = ξ(y)
             continue
-        if not cayley and _out_of_range(uW, nv):
+        if not cayley and out_of_range(uW, nv):
             return False
-        _coordinate_map(uW, uv, nv, Q, t, cayley)
+        coordinate_map(uW, uv, nv, Q, t, cayley)
         act(Q, t, ua, y, par, y_stage)
         gen(y_stage, par, KW[i], Kv[i], Ka[i])
         if cayley:
-            _dcayinv(uW, uv, KW[i], Kv[i], tW, tv)
+            dcayinv(uW, uv, KW[i], Kv[i], tW, tv)
         else:
-            _dexpinv(uW, uv, KW[i], Kv[i], coeffs, tW, tv, P, nw)
+            dexpinv(uW, uv, KW[i], Kv[i], coeffs, tW, tv, P, nw)
     move(act, y, par, nv, KW, Kv, Ka, b, h, y1, cayley)
     return True
 
@@ -270,7 +157,7 @@ def move(act, y, par, nv, KW, Kv, Ka, w, h, out, cayley):
     _combine(uW.reshape(n * n), KW.reshape(KW.shape[0], n * n), w, s, h)
     _combine(uv, Kv, w, s, h)
     _combine(ua, Ka, w, s, h)
-    _coordinate_map(uW, uv, nv, Q, t, cayley)
+    coordinate_map(uW, uv, nv, Q, t, cayley)
     act(Q, t, ua, y, par, out)
 
 

@@ -1,0 +1,135 @@
+"""The algebra ``se(n) ⊕ Rᵐ`` (or ``so(n) ⊕ Rᵐ``) the generic compiled kernel steps in
+(:mod:`lieint.fast.generic`), on the flat views of its work arrays (numba, cached on disk).
+
+An element is ``(W, v, a)``: W ∈ so(n), v ∈ Rⁿ the translation (length 0 on SO(n)), a ∈ Rᵐ
+(abelian: its exponential is the identity map and its dexp⁻¹ and dcay⁻¹ the identity), so the
+functions here take the rotation and translation parts ``(uW, uv)``:
+
+* :func:`exponential` and :func:`coordinate_map` (exp or Cayley) into preallocated ``(Q, t)``;
+* :func:`out_of_range`, the generic path's dexp⁻¹ range test on the rotation part;
+* :func:`dexpinv`, the truncated series ``Σ_d (B_d/d!) ad_{−u}^d k`` with
+  ``ad_{−u}(W, v) = ([−uW, W], −uW v + W uv)``, and :func:`dcayinv`, the exact
+  ``dcay⁻¹_{−u}(k) = k + ½[u, k] − ¼ uku`` in homogeneous matrices.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from .skew import _finite, cayley_se_into, exp_se3_into, expm_se, expm_skew, so_ad_radius_exceeds
+
+__all__ = ["coordinate_map", "dcayinv", "dexpinv", "exponential", "out_of_range"]
+
+
+@njit(cache=True)
+def exponential(uW, uv, nv, Q, t):
+    """``(Q, t) = exp(uW, uv)`` on SE(n) (``nv = n``) or ``Q = exp uW`` on SO(n), written into
+    Q and t; NaN when u is not finite (the driver reports the non-finite state)."""
+    n = uW.shape[0]
+    if not (_finite(uW) and _finite(uv)):
+        Q[:, :] = np.nan
+        t[:] = np.nan
+    elif n == 3:
+        exp_se3_into(uW, uv, Q, t)  # closed forms (uv of length 0 on SO(3))
+    elif nv == 0:
+        Q[:, :] = expm_skew(uW)
+    else:
+        Q1, t1 = expm_se(uW, uv)
+        Q[:, :] = Q1
+        t[:] = t1
+
+
+@njit(cache=True)
+def out_of_range(uW, nv):
+    """The generic path's dexp⁻¹ range test on the rotation part (``θ₁ + θ₂ ≥ 2π``; on se(2)
+    the spectral radius of ad is ``|θ|``)."""
+    if uW.shape[0] == 2:
+        return nv > 0 and abs(uW[1, 0]) >= 2.0 * np.pi
+    return so_ad_radius_exceeds(uW) == 1
+
+
+@njit(cache=True)
+def dexpinv(uW, uv, kW, kv, coeffs, tW, tv, P, nw):
+    """``k ← Σ_{d ≤ degree} (B_d/d!) ad_{−u}^d k`` in place, with
+    ``ad_{−u}(W, v) = ([−uW, W], −uW v + W uv)`` and ``[−uW, W] = Pᵀ − P``, ``P = uW W`` (both
+    skew); tW, tv, P, nw are work arrays."""
+    n = uW.shape[0]
+    m = uv.shape[0]
+    tW[:, :] = kW
+    tv[:] = kv
+    for d in range(1, coeffs.shape[0]):
+        for a in range(n):
+            for c in range(n):
+                acc = 0.0
+                for e in range(n):
+                    acc += uW[a, e] * tW[e, c]
+                P[a, c] = acc
+        for a in range(m):  # −uW tv + tW uv, from the old tW
+            acc = 0.0
+            for e in range(n):
+                acc += tW[a, e] * uv[e] - uW[a, e] * tv[e]
+            nw[a] = acc
+        for a in range(n):
+            for c in range(n):
+                tW[a, c] = P[c, a] - P[a, c]
+        tv[:] = nw
+        coeff = coeffs[d]
+        if coeff != 0.0:
+            for a in range(n):
+                for c in range(n):
+                    kW[a, c] += coeff * tW[a, c]
+            for a in range(m):
+                kv[a] += coeff * tv[a]
+
+
+@njit(cache=True)
+def dcayinv(uW, uv, kW, kv, tW, tv):
+    """``k ← dcay⁻¹_{−u}(k) = k + ½[u, k] − ¼ u k u`` in place (exact, no series), in the
+    homogeneous matrices of se(n): for ``u = (W, x)``, ``k = (U, v)``,
+    ``U ← U + ½(WU − UW) − ¼ WUW``, ``v ← v + ½(Wv − Ux) − ¼ WUx`` (the vector factor's
+    dcay⁻¹ is the identity)."""
+    n = uW.shape[0]
+    m = uv.shape[0]
+    for a in range(n):  # tW = W U
+        for c in range(n):
+            acc = 0.0
+            for e in range(n):
+                acc += uW[a, e] * kW[e, c]
+            tW[a, c] = acc
+    for a in range(m):  # tv = ½(Wv − Ux) − ¼ W(Ux), from the old U, v
+        ux = 0.0
+        wv = 0.0
+        for e in range(n):
+            ux += kW[a, e] * uv[e]
+            wv += uW[a, e] * kv[e]
+        tv[a] = 0.5 * (wv - ux)
+    for a in range(m):
+        acc = 0.0
+        for e in range(n):
+            ux_e = 0.0
+            for f in range(n):
+                ux_e += kW[e, f] * uv[f]
+            acc += uW[a, e] * ux_e
+        tv[a] -= 0.25 * acc
+    new = np.empty((n, n))
+    for a in range(n):  # U + ½(WU − UW) − ¼ (WU)W, UW from the old U
+        for c in range(n):
+            uw = 0.0
+            wuw = 0.0
+            for e in range(n):
+                uw += kW[a, e] * uW[e, c]
+                wuw += tW[a, e] * uW[e, c]
+            new[a, c] = kW[a, c] + 0.5 * (tW[a, c] - uw) - 0.25 * wuw
+    kW[:, :] = new
+    for a in range(m):
+        kv[a] += tv[a]
+
+
+@njit(cache=True)
+def coordinate_map(uW, uv, nv, Q, t, cayley):
+    """φ(u) into Q and t: the exponential or the Cayley map."""
+    if cayley and _finite(uW) and _finite(uv):
+        cayley_se_into(uW, uv, Q, t)
+    else:
+        exponential(uW, uv, nv, Q, t)
