@@ -1,0 +1,442 @@
+"""The loops a :class:`~lieint.driver.Driver` runs, one per way of choosing steps and back end.
+
+* :class:`_FixedLoop` — fixed steps on the global grid, the generic numpy path (any system,
+  any method);
+* :class:`_KernelLoop` — a compiled kernel (:mod:`lieint.fast`) stepping whole segments of the
+  grid;
+* :class:`_AdaptiveLoop`, :class:`_AdaptiveKernelLoop` — accepted and rejected steps under the
+  step-size controller, generic or compiled;
+* :class:`ScipyLoop` — scipy's solvers, which choose their own steps.
+
+Each has ``start(y0) -> Carry``, ``first_row(carry)``, ``user_state(carry)`` and
+``advance(carry, max_steps) -> Segment``; :func:`fixed_loop` and :func:`adaptive_loop` pick
+the compiled loop where a kernel covers the run. A :class:`Carry` is the exact state of a run
+between steps, so a run split into segments gives the bits of one that is not.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from .groups.base import DexpinvRangeError
+
+if TYPE_CHECKING:
+    from .driver import Driver
+
+__all__ = ["Carry", "ScipyLoop", "Segment", "adaptive_loop", "fixed_loop"]
+
+# How often (in steps) a long stretch between saves is checked for non-finite values.
+_FINITE_CHECK_EVERY = 256
+
+
+@dataclass
+class Carry:
+    """The exact state of a run between two steps.
+
+    ``state`` is the loop's own representation of the system state (the state dict on the
+    generic path, a compiled kernel's arrays otherwise); ``method_state`` is what the method
+    carries between steps.
+    """
+
+    k: int
+    t: float
+    state: dict
+    h: float | None = None
+    method_state: Any = None
+    nfev: int = 0
+    nrejected: int = 0
+
+
+@dataclass
+class Segment:
+    """What one :meth:`Driver.advance` produced: saved times ``(m,)``, saved states
+    ``(m, *batch, ...)`` per field, and a failure message when the run cannot go on."""
+
+    t: np.ndarray
+    states: dict[str, np.ndarray]
+    failure: str | None = None
+
+    @property
+    def rows(self) -> int:
+        return int(self.t.size)
+
+
+def fixed_loop(driver: Driver, y0: dict):
+    """The compiled kernel where one covers system, method and step, else the generic loop."""
+    if driver.backend_request == "numpy":
+        return _FixedLoop(driver, "backend='numpy' asked for the generic path")
+    if driver.observer is not None:
+        if driver.backend_request == "numba":
+            raise ValueError("`backend='numba'`: dense output, events and `t_eval` need the generic path; use 'auto'.")
+        return _FixedLoop(driver, "dense output, events or t_eval watch every step")
+    from . import fast
+
+    kernel, reason = fast.kernel_for(driver.system, driver.method, y0, driver.plan)
+    if kernel is not None:
+        return _KernelLoop(driver, kernel)
+    if driver.backend_request == "numba":
+        raise ValueError(f"`backend='numba'`: no compiled kernel covers this run: {reason}. Use 'auto' or 'numpy'.")
+    return _FixedLoop(driver, reason)
+
+
+class _FixedLoop:
+    """Fixed steps on the global grid, generic numpy path (any system, any method)."""
+
+    name = "numpy"
+
+    def __init__(self, driver: Driver, reason: str):
+        self.d, self.reason = driver, reason
+
+    def start(self, y0: dict) -> Carry:
+        d = self.d
+        return Carry(0, d.t0, dict(y0), d.plan.h, d.method.init(d.system, d.t0, y0, d.plan.h))
+
+    def first_row(self, carry: Carry) -> Segment:
+        return Segment(np.array([self.d.t0]), {k: v[None] for k, v in carry.state.items()})
+
+    def user_state(self, carry: Carry) -> dict:
+        return carry.state
+
+    def advance(self, carry: Carry, max_steps: int | None) -> Segment:
+        d = self.d
+        system, method, plan = d.system, d.method, d.plan
+        k_to = plan.nsteps if max_steps is None else min(plan.nsteps, carry.k + max_steps)
+        saves = plan.saves_between(d.save_every, carry.k, k_to)
+        y = carry.state
+        saved = {name: np.empty((saves.size, *arr.shape)) for name, arr in y.items()}
+        slot, failure = 0, None
+        mstate = carry.method_state
+        with np.errstate(over="ignore", invalid="ignore"):  # overflow is reported as a failure
+            for k in range(carry.k, k_to):
+                tk, hk = plan.t0 + k * plan.h, plan.step_size(k)
+                try:
+                    result = method.step(system, tk, y, hk, mstate)
+                except np.linalg.LinAlgError as exc:  # a linear solve met a non-finite stage
+                    failure = (
+                        f"Step {k + 1} (t = {tk:.6g}) failed in a linear solve ({exc}): the stages became "
+                        f"non-finite, the step `h` = {plan.h:g} is far too large for this motion. Reduce `h`."
+                    )
+                    break
+                carry.nfev += result.nfev
+                try:
+                    y_new = system.project(result.y) if d.project else result.y
+                except np.linalg.LinAlgError:  # the SVD of a non-finite R
+                    failure = _nonfinite(k + 1, plan.time(k + 1), f"Reduce the step `h` = {plan.h:g}")
+                    break
+                saving = slot < saves.size and saves[slot] == k + 1
+                if (saving or (k + 1) % _FINITE_CHECK_EVERY == 0) and not _all_finite(y_new):
+                    failure = _nonfinite(k + 1, plan.time(k + 1), f"Reduce the step `h` = {plan.h:g}")
+                    break
+                y_prev, y, mstate = y, y_new, result.state
+                carry.k = k + 1
+                if d.observer is not None and d.observer.step(tk, y_prev, plan.time(k + 1), y, result):
+                    break
+                if saving:
+                    for name, arr in y.items():
+                        saved[name][slot] = arr
+                    slot += 1
+        carry.state, carry.method_state, carry.t = y, mstate, plan.time(carry.k)
+        return _stopped(
+            d,
+            carry,
+            Segment(plan.times(saves[:slot]), {k: v[:slot] for k, v in saved.items()}, failure),
+        )
+
+
+class _KernelLoop:
+    """A compiled kernel (:mod:`lieint.fast`) stepping whole segments of the grid."""
+
+    name = "numba"
+
+    def __init__(self, driver: Driver, kernel):
+        self.d, self.kernel = driver, kernel
+        self.reason = kernel.describe()
+        self.threads = kernel.threads
+
+    def start(self, y0: dict) -> Carry:
+        return Carry(0, self.d.t0, self.kernel.start(y0), self.d.plan.h)
+
+    def first_row(self, carry: Carry) -> Segment:
+        y = self.kernel.user_state(carry.state)
+        return Segment(np.array([self.d.t0]), {k: v[None] for k, v in y.items()})
+
+    def user_state(self, carry: Carry) -> dict:
+        return self.kernel.user_state(carry.state)
+
+    def advance(self, carry: Carry, max_steps: int | None) -> Segment:
+        d, plan = self.d, self.d.plan
+        k_to = plan.nsteps if max_steps is None else min(plan.nsteps, carry.k + max_steps)
+        saves = plan.saves_between(d.save_every, carry.k, k_to)
+        new, states = self.kernel.advance(carry.state, carry.k, k_to, plan, saves, d.project)
+        m = saves.size
+        failure = None
+        if all(_finite(v) for v in states.values()) and all(_finite(v) for v in new.values()):
+            carry.state, done = new, k_to
+        else:
+            finite = np.ones(m, dtype=bool)
+            for v in states.values():
+                finite &= np.isfinite(v).all(axis=tuple(range(1, v.ndim)))  # also for m = 0 saved rows
+            bad = int(np.argmin(finite)) if not finite.all() else m
+            states = {k: v[:bad] for k, v in states.items()}
+            saves = saves[:bad]
+            done = int(saves[-1]) if bad > 0 else carry.k
+            # the run stops here (a failed run is not resumed: the failure would recur)
+            failure = _nonfinite(done, plan.time(done), f"Reduce the step `h` = {plan.h:g}", until=k_to)
+        carry.nfev += self.kernel.stages * (done - carry.k)
+        carry.k, carry.t = done, plan.time(done)
+        return Segment(plan.times(saves), states, failure)
+
+
+class _AdaptiveLoop:
+    """Accepted and rejected steps under the step-size controller (generic numpy path)."""
+
+    name = "numpy"
+
+    def __init__(self, driver: Driver, reason: str = "adaptive steps run on the generic path"):
+        self.d, self.reason = driver, reason
+        self.h_min = 1e-14 * max(1.0, abs(driver.t0), abs(driver.t1))
+
+    def start(self, y0: dict) -> Carry:
+        d = self.d
+        h = d.h if d.h is not None else d.controller.initial_step(d.system, d.t0, y0, d.t1, d.method.error_order)
+        return Carry(0, d.t0, dict(y0), min(h, d.t1 - d.t0), d.method.init(d.system, d.t0, y0, h))
+
+    def first_row(self, carry: Carry) -> Segment:
+        return Segment(np.array([self.d.t0]), {k: v[None] for k, v in carry.state.items()})
+
+    def user_state(self, carry: Carry) -> dict:
+        return carry.state
+
+    def advance(self, carry: Carry, max_steps: int | None) -> Segment:
+        d = self.d
+        system, method, ctrl = d.system, d.method, d.controller
+        q = method.error_order
+        t, y, h, mstate = carry.t, carry.state, carry.h, carry.method_state
+        times, rows = [], []
+        taken, failure = 0, None
+        rejected = False  # the current step was rejected at least once (scipy: no growth then)
+        while t < d.t1 and (max_steps is None or taken < max_steps):
+            h = min(h, d.t1 - t)
+            try:
+                with np.errstate(over="ignore", invalid="ignore"):
+                    result = method.step(system, t, y, h, mstate)
+                carry.nfev += result.nfev
+                err = ctrl.error_norm(y, result.y, result.error)
+            except DexpinvRangeError:
+                err = math.inf
+            if not math.isfinite(err) or err >= 1.0:
+                carry.nrejected += 1
+                rejected = True
+                h *= ctrl.factor(err, q)
+                if h < self.h_min:
+                    failure = self._too_small(t)
+                    break
+                continue
+            t_prev, y_prev = t, y
+            t = d.t1 if d.t1 - (t + h) <= self.h_min else t + h
+            y = system.project(result.y) if d.project else result.y
+            mstate = result.state
+            carry.k += 1
+            taken += 1
+            if d.observer is not None and d.observer.step(t_prev, y_prev, t, y, result):
+                break
+            if carry.k % d.save_every == 0 or t == d.t1:
+                times.append(t)
+                rows.append(y)
+            h *= ctrl.factor(err, q, after_rejection=rejected)
+            rejected = False
+        carry.t, carry.state, carry.h, carry.method_state = t, y, h, mstate
+        return _stopped(d, carry, Segment(np.array(times), _stack(rows, y), failure))
+
+    def _too_small(self, t: float) -> str:
+        d = self.d
+        return (
+            f"the step size fell below {self.h_min:.3g} at t = {t:.6g} without meeting rtol = "
+            f"{d.rtol:g}, atol = {d.atol:g}; loosen the tolerances or check the model"
+        )
+
+
+def adaptive_loop(driver: Driver, y0: dict):
+    """The compiled adaptive kernel where one covers system and method, else the generic loop."""
+    if driver.backend_request == "numpy":
+        return _AdaptiveLoop(driver, "backend='numpy' asked for the generic path")
+    if driver.observer is not None:
+        if driver.backend_request == "numba":
+            raise ValueError("`backend='numba'`: dense output, events and `t_eval` need the generic path; use 'auto'.")
+        return _AdaptiveLoop(driver, "dense output, events or t_eval watch every step")
+    from .fast.adaptive import adaptive_kernel_for
+
+    kernel, reason = adaptive_kernel_for(driver.system, driver.method, y0)
+    if kernel is not None:
+        return _AdaptiveKernelLoop(driver, kernel)
+    if driver.backend_request == "numba":
+        raise ValueError(f"`backend='numba'`: no compiled kernel covers this run: {reason}. Use 'auto' or 'numpy'.")
+    return _AdaptiveLoop(driver, reason)
+
+
+class _AdaptiveKernelLoop(_AdaptiveLoop):
+    """The compiled adaptive kernel (:mod:`lieint.fast.adaptive`): the whole controller loop in
+    machine code; the carry holds the kernel's state, ``t`` and the next trial step ``h``."""
+
+    name = "numba"
+
+    def __init__(self, driver: Driver, kernel):
+        super().__init__(driver, kernel.describe())
+        self.kernel, self.threads = kernel, kernel.threads
+
+    def start(self, y0: dict) -> Carry:
+        carry = super().start(y0)
+        carry.state, carry.method_state = self.kernel.start(y0), None
+        return carry
+
+    def first_row(self, carry: Carry) -> Segment:
+        y = self.kernel.user_state(carry.state)
+        return Segment(np.array([self.d.t0]), {k: v[None] for k, v in y.items()})
+
+    def user_state(self, carry: Carry) -> dict:
+        return self.kernel.user_state(carry.state)
+
+    def advance(self, carry: Carry, max_steps: int | None) -> Segment:
+        d = self.d
+        left = np.iinfo(np.int64).max if max_steps is None else max_steps
+        times, parts, failure = [], [], None
+        while carry.t < d.t1 and left > 0:
+            state, (t, h, k), (acc, rej, nfev), t_saved, saved, small = self.kernel.advance_adaptive(
+                carry.state, carry.t, d.t1, carry.h, carry.k, left, d.save_every, d.project, d.controller, self.h_min
+            )
+            carry.state, carry.t, carry.h, carry.k = state, t, h, k
+            carry.nrejected += rej
+            carry.nfev += nfev
+            left -= acc
+            times.append(t_saved)
+            parts.append(saved)
+            if small:
+                failure = self._too_small(t)
+                break
+        states = {name: np.concatenate([p[name] for p in parts]) for name in parts[0]} if parts else {}
+        if not parts:
+            states = {name: np.empty((0, *np.shape(v))) for name, v in self.user_state(carry).items()}
+        return Segment(np.concatenate(times) if times else np.empty(0), states, failure)
+
+
+class ScipyLoop:
+    """scipy's ``OdeSolver`` stepping itself; rows saved at accepted steps or, through its dense
+    output, at the requested save times (projected copies when the run projects)."""
+
+    name = "scipy"
+    reason = "scipy's solve_ivp solver"
+
+    def __init__(self, driver: Driver):
+        self.d = driver
+
+    def start(self, y0: dict) -> Carry:
+        d = self.d
+        solver, layout = d.method.start(d.system, d.t0, y0, d.t1, d.rtol, d.atol, first_step=None)
+        self.layout = layout
+        self.next_save = 1  # index into save_times (0 is t0)
+        return Carry(0, d.t0, {"solver": solver}, None)
+
+    def first_row(self, carry: Carry) -> Segment:
+        y0 = self.user_state(carry)
+        return Segment(np.array([self.d.t0]), {k: np.asarray(v)[None] for k, v in y0.items()})
+
+    def user_state(self, carry: Carry) -> dict:
+        return self.layout.unpack(carry.state["solver"].y.copy())
+
+    def _row(self, z: np.ndarray) -> dict:
+        y = self.layout.unpack(z)
+        return self.d.system.project(y) if self.d.project else y
+
+    def advance(self, carry: Carry, max_steps: int | None) -> Segment:
+        d = self.d
+        solver = carry.state["solver"]
+        times, rows = [], []
+        taken, failure = 0, None
+        nfev0 = solver.nfev
+        while solver.status == "running" and (max_steps is None or taken < max_steps):
+            t_old = solver.t
+            message = solver.step()
+            if solver.status == "failed":
+                failure = f"scipy's {d.method.name} failed at t = {t_old:.6g}: {message}"
+                break
+            taken += 1
+            carry.k += 1
+            t_reach, stopped = solver.t, False
+            if d.observer is not None:
+                y_new = self.layout.unpack(solver.y.copy())
+                stopped = d.observer.step_with(t_old, solver.t, y_new, self._dense(solver))
+                t_reach = d.observer.stop[0] if stopped else t_reach
+            if stopped and d.save_times is None:
+                break
+            if d.save_times is None:
+                if carry.k % d.save_every == 0 or solver.status == "finished":
+                    times.append(solver.t)
+                    rows.append(self._row(solver.y.copy()))
+                continue
+            st = d.save_times
+            stop = int(np.searchsorted(st, t_reach, side="right"))
+            if stop > self.next_save:
+                dense = solver.dense_output()
+                for j in range(self.next_save, stop):
+                    z = solver.y.copy() if st[j] == solver.t else dense(st[j])
+                    times.append(float(st[j]))
+                    rows.append(self._row(z))
+                self.next_save = stop
+            if stopped:
+                break
+        carry.nfev += solver.nfev - nfev0
+        carry.t = d.t1 if solver.status == "finished" else solver.t
+        return _stopped(d, carry, Segment(np.array(times), _stack(rows, self.user_state(carry)), failure))
+
+    def _dense(self, solver):
+        """scipy's interpolant of the last step, as states."""
+        dense, unpack = solver.dense_output(), self.layout.unpack
+        return lambda t: unpack(dense(t))
+
+
+# -- helpers ---------------------------------------------------------------------------------------
+
+
+def _stopped(d: Driver, carry: Carry, segment: Segment) -> Segment:
+    """After a terminal event: the run ends at the event (its state is the last row)."""
+    stop = d.observer.stop if d.observer is not None else None
+    if stop is None or (carry.t == stop[0] and segment.rows and segment.t[-1] == stop[0]):
+        return segment
+    t_stop, y_stop = stop
+    if d.kind != "scipy":
+        carry.state = y_stop
+    carry.t = t_stop
+    keep = segment.t < t_stop
+    return Segment(
+        np.append(segment.t[keep], t_stop),
+        {k: np.concatenate([v[keep], np.asarray(y_stop[k])[None]]) for k, v in segment.states.items()},
+        segment.failure,
+    )
+
+
+def _stack(rows: list[dict], like: dict) -> dict:
+    if rows:
+        return {name: np.stack([r[name] for r in rows]) for name in rows[0]}
+    return {name: np.empty((0, *np.shape(v))) for name, v in like.items()}
+
+
+def _finite(arr: np.ndarray) -> bool:
+    return bool(np.logical_and.reduce(np.isfinite(arr), axis=None))
+
+
+def _all_finite(y: dict) -> bool:
+    return all(_finite(arr) for arr in y.values())
+
+
+def _nonfinite(k: int, t: float, advice: str, until: int | None = None) -> str:
+    """The message of a run whose state became non-finite by step k, or (a compiled segment,
+    which reports only its saved rows) after step k and by step ``until``."""
+    where = f"by step {k}" if until is None else f"after step {k} and by step {until}"
+    return (
+        f"The state became non-finite (NaN or inf) {where} (t = {t:.6g}); the run stopped there. "
+        f"{advice} or check the initial state."
+    )
