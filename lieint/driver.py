@@ -158,6 +158,9 @@ class Driver:
             self.kind = "fixed"
             self.plan = Plan.make(self.t0, self.t1, h)
         self.loop = None
+        #: after :meth:`run`: the largest ad spectral radius of ξ(y) over the saved rows when the
+        #: back end computed it (a compiled kernel's ``generator_radius``), else None
+        self.xi_radius: float | None = None
 
     # -- the run -----------------------------------------------------------------------------
     def start(self, y0: dict) -> Carry:
@@ -259,6 +262,9 @@ class Driver:
         first = self.loop.first_row(carry)
         segment = self.advance(carry)
         cpu, wall = time.process_time() - cpu0, time.perf_counter() - wall0
+        # the largest ad radius of ξ over every saved row, when the back end computed it
+        radii = (first.xi_radius, segment.xi_radius)
+        self.xi_radius = None if None in radii else max(radii)
         return self.solution(first, [segment], carry, cpu, wall)
 
     def solution(self, first: Segment, segments: list[Segment], carry: Carry, cpu: float, wall: float):

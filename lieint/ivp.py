@@ -149,7 +149,7 @@ def integrate(
     )
     sol = driver.run(y)
     if driver.kind == "fixed" and not getattr(stepper, "any_step", False):  # exact flows take any step
-        _warn_if_unresolved(system, sol, h)
+        _warn_if_unresolved(system, sol, h, driver.xi_radius)
     return sol
 
 
@@ -197,9 +197,16 @@ def _check_t_eval(t_eval, t0: float, t1: float) -> np.ndarray:
 _WARN_SAMPLES = 200
 
 
-def _warn_if_unresolved(system, sol: Solution, h: float) -> None:
-    """Warn when ``h ξ`` at the saved states exceeds π in ad spectral radius (see LieStepWarning)."""
+def _warn_if_unresolved(system, sol: Solution, h: float, radius: float | None = None) -> None:
+    """Warn when ``h ξ`` at the saved states exceeds π in ad spectral radius (see LieStepWarning).
+
+    ``radius``: the largest ad spectral radius of ξ over every saved state when the back end
+    computed it (a compiled kernel's ``generator_radius``); None evaluates ξ at the saved
+    states (at most :data:`_WARN_SAMPLES` of them)."""
     if sol.t.size == 0:
+        return
+    if radius is not None:
+        _warn(h * radius, h)
         return
     if sol.t.size <= _WARN_SAMPLES:  # every saved state (views: no copy, no index arithmetic)
         picks, sampled = range(sol.t.size), sol.states
@@ -224,7 +231,11 @@ def _warn_if_unresolved(system, sol: Solution, h: float) -> None:
                     r = system.group.ad_spectral_radius(scaled)
                 worst_rho.append(_finite_max(r))
             rho = np.array(worst_rho)
-    worst = _finite_max(rho)
+    _warn(_finite_max(rho), h)
+
+
+def _warn(worst: float, h: float) -> None:
+    """The :class:`LieStepWarning` when the largest radius of ``h ξ`` reaches π."""
     if worst >= np.pi:
         warnings.warn(
             LieStepWarning(
@@ -232,7 +243,7 @@ def _warn_if_unresolved(system, sol: Solution, h: float) -> None:
                 "saved states, fewer than two steps per turn of the fastest rotation: the result is not an accurate "
                 "solution (a Lie-group method still keeps it on its manifold); reduce `h`."
             ),
-            stacklevel=3,
+            stacklevel=4,  # integrate → _warn_if_unresolved → _warn: the caller of integrate
         )
 
 

@@ -54,11 +54,16 @@ class Carry:
 @dataclass
 class Segment:
     """What one :meth:`Driver.advance` produced: saved times ``(m,)``, saved states
-    ``(m, *batch, ...)`` per field, and a failure message when the run cannot go on."""
+    ``(m, *batch, ...)`` per field, and a failure message when the run cannot go on.
+
+    ``xi_radius``: the largest ad spectral radius of the generator ``ξ(y)`` over the saved rows,
+    when the back end computes it cheaply (a compiled kernel that declares
+    ``generator_radius``), else None (:func:`lieint.integrate`'s step check evaluates ξ)."""
 
     t: np.ndarray
     states: dict[str, np.ndarray]
     failure: str | None = None
+    xi_radius: float | None = None
 
     @property
     def rows(self) -> int:
@@ -162,10 +167,16 @@ class _KernelLoop:
 
     def first_row(self, carry: Carry) -> Segment:
         y = self.kernel.user_state(carry.state)
-        return Segment(np.array([self.d.t0]), {k: v[None] for k, v in y.items()})
+        rows = {k: v[None] for k, v in y.items()}
+        return Segment(np.array([self.d.t0]), rows, xi_radius=self._radius(rows))
 
     def user_state(self, carry: Carry) -> dict:
         return self.kernel.user_state(carry.state)
+
+    def _radius(self, rows: dict) -> float | None:
+        """The kernel's own ``generator_radius`` of the rows, when it has one."""
+        radius = getattr(self.kernel, "generator_radius", None)
+        return radius(rows) if radius is not None else None
 
     def advance(self, carry: Carry, max_steps: int | None) -> Segment:
         d, plan = self.d, self.d.plan
@@ -188,7 +199,7 @@ class _KernelLoop:
             failure = _nonfinite(done, plan.time(done), f"Reduce the step `h` = {plan.h:g}", until=k_to)
         carry.nfev += self.kernel.stages * (done - carry.k)
         carry.k, carry.t = done, plan.time(done)
-        return Segment(plan.times(saves), states, failure)
+        return Segment(plan.times(saves), states, failure, None if failure else self._radius(states))
 
 
 class _AdaptiveLoop:
@@ -295,10 +306,16 @@ class _AdaptiveKernelLoop(_AdaptiveLoop):
 
     def first_row(self, carry: Carry) -> Segment:
         y = self.kernel.user_state(carry.state)
-        return Segment(np.array([self.d.t0]), {k: v[None] for k, v in y.items()})
+        rows = {k: v[None] for k, v in y.items()}
+        return Segment(np.array([self.d.t0]), rows, xi_radius=self._radius(rows))
 
     def user_state(self, carry: Carry) -> dict:
         return self.kernel.user_state(carry.state)
+
+    def _radius(self, rows: dict) -> float | None:
+        """The kernel's own ``generator_radius`` of the rows, when it has one."""
+        radius = getattr(self.kernel, "generator_radius", None)
+        return radius(rows) if radius is not None else None
 
     def advance(self, carry: Carry, max_steps: int | None) -> Segment:
         d = self.d

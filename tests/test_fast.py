@@ -85,3 +85,47 @@ def test_ensemble_lanes_match_the_generic_path(rng, method, project):
     scale = np.abs(ref.states["A"]).max()
     np.testing.assert_allclose(fast.states["A"], ref.states["A"], atol=1e-13 * scale)
     np.testing.assert_allclose(fast.states["R"], ref.states["R"], atol=1e-13)
+
+
+@pytest.mark.parametrize("diagonal", [True, False])
+@pytest.mark.parametrize("batch", [(), (3,)])
+def test_the_kernels_step_check_radius_is_the_generic_one(rng, diagonal, batch):
+    # the 3D kernel computes max |ω| over the saved rows for integrate's LieStepWarning check;
+    # the generic check evaluates ξ = Ω at the saved states and takes so(3)'s ad radius |ω|
+    from lieint.driver import Driver
+    from lieint.groups.so import so_ad_spectral_radius
+    from lieint.methods.registry import get_method
+
+    top = well_conditioned_top(rng, diagonal)  # an improper eigenbasis when not diagonal
+    y0 = top.validate_state(top.initial_state(angular_velocity=rng.normal(size=batch + (3,))))
+    driver = Driver(top, get_method("rkmk4"), (0.0, 3.0), h=0.01, save_every=7)
+    sol = driver.run(y0)
+    assert driver.backend == "numba" and driver.xi_radius is not None
+    generic = float(np.max(so_ad_spectral_radius(top.generator(0.0, sol.states))))
+    assert driver.xi_radius == pytest.approx(generic, rel=1e-13)
+    # the generic path leaves it to the step check
+    numpy_driver = Driver(top, get_method("rkmk4"), (0.0, 3.0), h=0.01, save_every=7, backend="numpy")
+    numpy_driver.run(y0)
+    assert numpy_driver.xi_radius is None
+
+
+def test_both_paths_warn_alike_at_the_edge_of_resolution(rng):
+    # near h |ω| = π the numerical orbits of coarse steps differ from the exact one, so the
+    # decision is taken on each run's own saved states: both paths must take the same one
+    import warnings
+
+    top = well_conditioned_top(rng, diagonal=False)
+    y0 = top.initial_state(angular_velocity=[0.2, 2.0, 0.3])
+    w = top.angular_velocity(top.exact_solution(np.linspace(0, 20, 2001), y0)["A"])
+    h_edge = np.pi / float(np.max(np.sqrt(np.sum(w * w, axis=(-2, -1)) / 2)))  # |ω| = ‖Ω‖_F/√2
+    decisions = []
+    for factor in (0.5, 0.8, 0.95, 1.05, 1.1):
+        warned = {}
+        for backend in ("numba", "numpy"):
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always")
+                lieint.integrate(top, y0, (0.0, 20.0), h=factor * h_edge, method="rkmk4", backend=backend)
+            warned[backend] = any(issubclass(c.category, lieint.LieStepWarning) for c in caught)
+        assert warned["numba"] == warned["numpy"], factor
+        decisions.append(warned["numba"])
+    assert decisions[0] is False and decisions[-1] is True

@@ -219,6 +219,14 @@ class Top3Kernel:
             states["R"] = (R @ self.P.T).reshape(shape)
         return states
 
+    def generator_radius(self, states: dict) -> float | None:
+        """The largest ad spectral radius of ``ξ(y) = Ω`` over the rows ``states`` (the user's
+        frame): ``|ω|`` on so(3), what ``lieint.integrate``'s step check needs, in one compiled
+        pass instead of the generic evaluation of ξ; None when a row is not finite (the generic
+        check then handles it)."""
+        radius = _top3().largest_rate(states["A"], self.P, self.moments)
+        return radius if math.isfinite(radius) else None
+
     def user_state(self, internal: dict) -> dict:
         if self.lanes:
             from .lanes import quaternion_to_matrix

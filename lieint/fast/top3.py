@@ -22,7 +22,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-__all__ = ["integrate_top3", "minus_hat", "minus_vee"]
+__all__ = ["integrate_top3", "largest_rate", "minus_hat", "minus_vee"]
 
 # (2π)²: the dexp⁻¹ series of so(3) converges for |u| < 2π (the spectral radius of ad_u is |u|)
 _RADIUS2 = (2.0 * np.pi) ** 2
@@ -389,6 +389,34 @@ def _minus_vee_rows(X, out):
         out[r, 0] = -0.5 * (X[r, 2, 1] - X[r, 1, 2])
         out[r, 1] = -0.5 * (X[r, 0, 2] - X[r, 2, 0])
         out[r, 2] = -0.5 * (X[r, 1, 0] - X[r, 0, 1])
+
+
+@njit(cache=True)
+def _largest_rate(A, P, Iinv):
+    """``max |ω|`` over the rows of A (``(m, 3, 3)``, the user's frame), ``ω = I⁻¹ Pᵀ(−vee A)``
+    (the principal-frame Π of a proper P is ``Pᵀ(−vee A)``); NaN when a row is not finite."""
+    best = 0.0
+    for r in range(A.shape[0]):
+        v0 = -0.5 * (A[r, 2, 1] - A[r, 1, 2])
+        v1 = -0.5 * (A[r, 0, 2] - A[r, 2, 0])
+        v2 = -0.5 * (A[r, 1, 0] - A[r, 0, 1])
+        acc = 0.0
+        for c in range(3):
+            w = Iinv[c] * (P[0, c] * v0 + P[1, c] * v1 + P[2, c] * v2)
+            acc += w * w
+        if not np.isfinite(acc):
+            return np.nan
+        if acc > best:
+            best = acc
+    return np.sqrt(best)
+
+
+def largest_rate(A: np.ndarray, P: np.ndarray, moments: np.ndarray) -> float:
+    """The largest angular speed ``|ω|`` over the momenta ``A`` (``(..., 3, 3)``) of a top with
+    principal moments ``moments`` in the proper frame P — the ad spectral radius of ``ξ = ŵ``
+    on so(3) — in one compiled pass; NaN when a row is not finite."""
+    rows = np.ascontiguousarray(A, dtype=np.float64).reshape(-1, 3, 3)
+    return float(_largest_rate(rows, np.ascontiguousarray(P, dtype=np.float64), 1.0 / moments))
 
 
 def minus_vee(X: np.ndarray) -> np.ndarray:
