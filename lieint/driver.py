@@ -158,9 +158,6 @@ class Driver:
             self.kind = "fixed"
             self.plan = Plan.make(self.t0, self.t1, h)
         self.loop = None
-        #: after :meth:`run`: the largest ad spectral radius of ξ(y) over the saved rows when the
-        #: back end computed it (a compiled kernel's ``generator_radius``), else None
-        self.xi_radius: float | None = None
 
     # -- the run -----------------------------------------------------------------------------
     def start(self, y0: dict) -> Carry:
@@ -198,6 +195,13 @@ class Driver:
     def user_state(self, carry: Carry) -> dict:
         """The state dict of the carry."""
         return self.loop.user_state(carry)
+
+    def generator_radius(self, states: dict) -> float | None:
+        """The largest ad spectral radius of the generator ξ(y) over the rows ``states`` when the
+        run's back end computes it in one pass (a compiled kernel's ``generator_radius``: the
+        3D top's ``max |ω|``), else None (the caller evaluates ξ)."""
+        radius = getattr(self.loop, "generator_radius", None)
+        return radius(states) if radius is not None else None
 
     @property
     def backend(self) -> str:
@@ -262,9 +266,6 @@ class Driver:
         first = self.loop.first_row(carry)
         segment = self.advance(carry)
         cpu, wall = time.process_time() - cpu0, time.perf_counter() - wall0
-        # the largest ad radius of ξ over every saved row, when the back end computed it
-        radii = (first.xi_radius, segment.xi_radius)
-        self.xi_radius = None if None in radii else max(radii)
         return self.solution(first, [segment], carry, cpu, wall)
 
     def solution(self, first: Segment, segments: list[Segment], carry: Carry, cpu: float, wall: float):

@@ -149,7 +149,7 @@ def integrate(
     )
     sol = driver.run(y)
     if driver.kind == "fixed" and not getattr(stepper, "any_step", False):  # exact flows take any step
-        _warn_if_unresolved(system, sol, h, driver.xi_radius)
+        _warn_if_unresolved(system, sol, h, driver.generator_radius(sol.states))
     return sol
 
 

@@ -54,16 +54,11 @@ class Carry:
 @dataclass
 class Segment:
     """What one :meth:`Driver.advance` produced: saved times ``(m,)``, saved states
-    ``(m, *batch, ...)`` per field, and a failure message when the run cannot go on.
-
-    ``xi_radius``: the largest ad spectral radius of the generator ``ξ(y)`` over the saved rows,
-    when the back end computes it cheaply (a compiled kernel that declares
-    ``generator_radius``), else None (:func:`lieint.integrate`'s step check evaluates ξ)."""
+    ``(m, *batch, ...)`` per field, and a failure message when the run cannot go on."""
 
     t: np.ndarray
     states: dict[str, np.ndarray]
     failure: str | None = None
-    xi_radius: float | None = None
 
     @property
     def rows(self) -> int:
@@ -167,16 +162,16 @@ class _KernelLoop:
 
     def first_row(self, carry: Carry) -> Segment:
         y = self.kernel.user_state(carry.state)
-        rows = {k: v[None] for k, v in y.items()}
-        return Segment(np.array([self.d.t0]), rows, xi_radius=self._radius(rows))
+        return Segment(np.array([self.d.t0]), {k: v[None] for k, v in y.items()})
 
     def user_state(self, carry: Carry) -> dict:
         return self.kernel.user_state(carry.state)
 
-    def _radius(self, rows: dict) -> float | None:
-        """The kernel's own ``generator_radius`` of the rows, when it has one."""
+    def generator_radius(self, states: dict) -> float | None:
+        """The largest ad spectral radius of ξ(y) over the rows ``states`` (the user's frame),
+        when the kernel computes it (``generator_radius``), else None."""
         radius = getattr(self.kernel, "generator_radius", None)
-        return radius(rows) if radius is not None else None
+        return radius(states) if radius is not None else None
 
     def advance(self, carry: Carry, max_steps: int | None) -> Segment:
         d, plan = self.d, self.d.plan
@@ -199,7 +194,7 @@ class _KernelLoop:
             failure = _nonfinite(done, plan.time(done), f"Reduce the step `h` = {plan.h:g}", until=k_to)
         carry.nfev += self.kernel.stages * (done - carry.k)
         carry.k, carry.t = done, plan.time(done)
-        return Segment(plan.times(saves), states, failure, None if failure else self._radius(states))
+        return Segment(plan.times(saves), states, failure)
 
 
 class _AdaptiveLoop:
@@ -306,16 +301,16 @@ class _AdaptiveKernelLoop(_AdaptiveLoop):
 
     def first_row(self, carry: Carry) -> Segment:
         y = self.kernel.user_state(carry.state)
-        rows = {k: v[None] for k, v in y.items()}
-        return Segment(np.array([self.d.t0]), rows, xi_radius=self._radius(rows))
+        return Segment(np.array([self.d.t0]), {k: v[None] for k, v in y.items()})
 
     def user_state(self, carry: Carry) -> dict:
         return self.kernel.user_state(carry.state)
 
-    def _radius(self, rows: dict) -> float | None:
-        """The kernel's own ``generator_radius`` of the rows, when it has one."""
+    def generator_radius(self, states: dict) -> float | None:
+        """The largest ad spectral radius of ξ(y) over the rows ``states`` (the user's frame),
+        when the kernel computes it (``generator_radius``), else None."""
         radius = getattr(self.kernel, "generator_radius", None)
-        return radius(rows) if radius is not None else None
+        return radius(states) if radius is not None else None
 
     def advance(self, carry: Carry, max_steps: int | None) -> Segment:
         d = self.d
