@@ -27,7 +27,6 @@ Every number may be written as a string in a small safe grammar (``"pi/4"``), se
 
 from __future__ import annotations
 
-import re
 import sys
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -35,7 +34,7 @@ from typing import Any
 
 import numpy as np
 
-from .expressions import ExpressionError, evaluate
+from .reader import SceneError, TableReader, load_members, max_nesting, read_regular
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -71,10 +70,6 @@ _TABLES: dict[str, set[str]] = {
     "events": {"name", "output", "component", "value", "direction", "terminal"},
 }
 _REQUIRED_TABLES = ("scene", "body", "initial", "integrator", "output")
-
-
-class SceneError(ValueError):
-    """A scene that cannot be used; the message names the file, table, key and line."""
 
 
 @dataclass(frozen=True)
@@ -127,7 +122,7 @@ def load_scene(path) -> Scene:
 
     path = Path(path)
     try:
-        data = _read_regular(path, limit("LIEINT_MAX_SCENE_BYTES") + 1)
+        data = read_regular(path, limit("LIEINT_MAX_SCENE_BYTES") + 1)
         check("LIEINT_MAX_SCENE_BYTES", len(data), f"the size of the scene file {str(path)!r} (bytes)")
         text = data.decode("utf-8")
     except (OSError, LimitError) as exc:
@@ -135,29 +130,6 @@ def load_scene(path) -> Scene:
     except UnicodeDecodeError as exc:
         raise SceneError(f"cannot read scene file {str(path)!r}: not UTF-8 text ({exc.reason})") from None
     return parse_scene(text, source=str(path))
-
-
-def _read_regular(path: Path, at_most: int) -> bytes:
-    """At most ``at_most`` bytes of a regular file; OSError (with a reason) for anything else."""
-    import os
-    import stat
-
-    fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK | os.O_CLOEXEC)  # a FIFO must not block the open
-    try:
-        st = os.fstat(fd)
-        if not stat.S_ISREG(st.st_mode):
-            kind = "a directory" if stat.S_ISDIR(st.st_mode) else "a device, FIFO or socket"
-            raise OSError(f"it is {kind}, not a regular file (scenes and ensemble files are read from files)")
-        chunks, total = [], 0
-        while total < at_most:
-            chunk = os.read(fd, min(1 << 20, at_most - total))
-            if not chunk:
-                break
-            chunks.append(chunk)
-            total += len(chunk)
-        return b"".join(chunks)
-    finally:
-        os.close(fd)
 
 
 def parse_scene(text_or_dict, source: str | None = None) -> Scene:
@@ -171,7 +143,7 @@ def parse_scene(text_or_dict, source: str | None = None) -> Scene:
         except RecursionError:
             raise SceneError(
                 f"{source or '<scene>'}: arrays or tables nested too deeply to read (scenes need at most "
-                f"{_max_nesting()} levels)"
+                f"{max_nesting()} levels)"
             ) from None
     elif isinstance(text_or_dict, dict):
         text, data = None, text_or_dict
@@ -180,102 +152,11 @@ def parse_scene(text_or_dict, source: str | None = None) -> Scene:
     return _Reader(data, text, source).scene()
 
 
-class _Reader:
+class _Reader(TableReader):
+    """The scene schema on top of the typed readers: one method per table."""
+
     def __init__(self, data: dict, text: str | None, source: str | None):
-        self.data, self.text, self.source = data, text, source or "<scene>"
-        self.n: int | None = None
-
-    # -- error reporting ---------------------------------------------------------------
-    def line_of(self, table: str, key: str | None = None) -> int | None:
-        """1-based line of ``key`` in ``[table]`` (or of the table header) in the TOML text."""
-        if self.text is None:
-            return None
-        current = None
-        for number, raw in enumerate(self.text.splitlines(), start=1):
-            line = raw.strip()
-            header = re.match(r"^\[\s*([A-Za-z0-9_.\-]+)\s*\]", line)
-            if header:
-                current = header.group(1).split(".")[0]
-                if key is None and current == table:
-                    return number
-                continue
-            if current == table and key is not None and re.match(rf"^{re.escape(key)}\s*[=.]", line):
-                return number
-        return None
-
-    def fail(self, table: str, key: str | None, message: str) -> SceneError:
-        where = f"[{table}]" + (f" {key}" if key else "")
-        line = self.line_of(table, key)
-        at = f" (line {line})" if line else ""
-        return SceneError(f"{self.source}: {where}{at}: {message}")
-
-    # -- typed readers -----------------------------------------------------------------
-    def table(self, name: str, check_keys: bool = True) -> dict:
-        value = self.data.get(name, {})
-        if not isinstance(value, dict):
-            raise self.fail(name, None, f"must be a table; got {type(value).__name__}")
-        if check_keys:
-            self.check_keys(name, value)
-        return value
-
-    def check_keys(self, name: str, value: dict) -> None:
-        unknown = sorted(set(value) - _TABLES[name])
-        if unknown:
-            raise self.fail(name, unknown[0], f"unknown key {unknown[0]!r}; allowed keys are {sorted(_TABLES[name])}")
-
-    def number(self, table: str, key: str, value: Any) -> float:
-        if isinstance(value, bool):
-            raise self.fail(table, key, f"expected a number; got {value!r}")
-        if isinstance(value, (int, float)):
-            v = float(value)
-            if not np.isfinite(v):
-                raise self.fail(table, key, f"expected a finite number; got {value!r}")
-            return v
-        if isinstance(value, str):
-            try:
-                return evaluate(value)
-            except ExpressionError as exc:
-                raise self.fail(table, key, str(exc)) from None
-        raise self.fail(table, key, f'expected a number or an expression string such as "pi/4"; got {value!r}')
-
-    def nested(self, table: str, key: str, value: Any) -> Any:
-        """Nested lists of numbers (each checked, at most :data:`lieint.limits.MAX_NESTING` deep)."""
-
-        def convert(v, depth):
-            if isinstance(v, list):
-                if depth >= _max_nesting():
-                    raise self.fail(table, key, f"arrays nested more than {_max_nesting()} levels deep")
-                return [convert(x, depth + 1) for x in v]
-            return self.number(table, key, v)
-
-        return convert(value, 0)
-
-    def array(self, table: str, key: str, value: Any, shape: tuple[int, ...]) -> np.ndarray:
-        if not isinstance(value, list):
-            raise self.fail(table, key, f"expected an array of shape {shape}; got {value!r}")
-        numbers = self.nested(table, key, value)  # a NaN or a bad entry is reported as such
-        try:
-            arr = np.array(numbers, dtype=float)
-        except ValueError:
-            raise self.fail(table, key, f"expected an array of shape {shape}; got a ragged array") from None
-        if arr.shape != shape:
-            raise self.fail(
-                table, key, f"expected an array of shape {shape} (dimension n = {self.n}); got shape {arr.shape}"
-            )
-        return arr
-
-    def string(self, table: str, key: str, value: Any, choices=None) -> str:
-        if not isinstance(value, str):
-            raise self.fail(table, key, f"expected a string; got {value!r}")
-        if choices is not None and value not in choices:
-            raise self.fail(table, key, f"must be one of {list(choices)}; got {value!r}")
-        return value
-
-    def positive(self, table: str, key: str, value: Any) -> float:
-        v = self.number(table, key, value)
-        if v <= 0:
-            raise self.fail(table, key, f"must be > 0; got {v:g}")
-        return v
+        super().__init__(data, text, source or "<scene>", _TABLES)
 
     # -- the scene ---------------------------------------------------------------------
     def scene(self) -> Scene:
@@ -410,18 +291,6 @@ class _Reader:
             **self.integrator(integ),
         )
 
-    def plain_value(self, table: str, key: str, value: Any):
-        """A number, an (n-dimensional) array of numbers, a boolean or a string, as data."""
-        if isinstance(value, (bool, str)) and not (isinstance(value, str) and _looks_numeric(value)):
-            return value
-        if isinstance(value, list):
-            numbers = self.nested(table, key, value)
-            try:
-                return np.array(numbers, dtype=float)
-            except ValueError:
-                raise self.fail(table, key, "expected a rectangular array of numbers; got a ragged array") from None
-        return self.number(table, key, value)
-
     def integrator(self, integ: dict) -> dict:
         from ..methods.registry import method_specs
 
@@ -484,7 +353,7 @@ class _Reader:
             name = self.string("ensemble", "file", ens["file"])
             path = Path(name) if self.source in (None, "<scene>") else Path(self.source).parent / name
             try:
-                members = _load_members(path)  # plain arrays only: never code; sizes checked first
+                members = load_members(path)  # plain arrays only: never code; sizes checked first
             except (OSError, ValueError) as exc:
                 raise self.fail("ensemble", "file", f"cannot read {str(path)!r} as a .npy array ({exc})") from None
             if members.ndim != base.ndim + 1 or members.shape[1:] != base.shape or not np.all(np.isfinite(members)):
@@ -519,20 +388,6 @@ class _Reader:
         if key == "omega":
             noise = 0.5 * (noise - np.swapaxes(noise, -1, -2))
         return {"key": key, "members": base + noise}
-
-    def within(self, name: str, value: int, table: str, key: str, what: str) -> None:
-        """Refuse a size above a limit of :mod:`lieint.limits` (before anything is allocated)."""
-        from ..limits import LimitError, check
-
-        try:
-            check(name, value, what)
-        except LimitError as exc:
-            raise self.fail(table, key, str(exc)) from None
-
-    def required(self, table_data: dict, table: str, key: str):
-        if key not in table_data:
-            raise self.fail(table, None, f"missing required key {key!r}")
-        return table_data[key]
 
     def mass_tensor(self, body: dict, mass, radius) -> np.ndarray:
         given = [k for k in ("mass_tensor", "principal_moments", "uniform") if k in body]
@@ -619,48 +474,3 @@ class _Reader:
         if "momentum" in initial and kind == "rolling":
             raise self.fail("initial", "momentum", "a rolling ball starts from 'omega' or 'angular_velocity'")
         return out
-
-
-def _max_nesting() -> int:
-    from ..limits import MAX_NESTING
-
-    return MAX_NESTING
-
-
-def _load_members(path: Path) -> np.ndarray:
-    """An ensemble's members from a ``.npy`` file, its header checked before any allocation:
-    a regular file, one plain numeric array (not a ``.npz`` archive), a shape the file's size
-    can hold, at most ``LIEINT_MAX_ENSEMBLE`` members."""
-    import io
-
-    from ..limits import check
-
-    head = _read_regular(path, 1 << 16)
-    if head[:2] == b"PK":
-        raise ValueError("it is a .npz archive (several arrays); save one array with numpy.save to a .npy file")
-    try:
-        fh = io.BytesIO(head)
-        version = np.lib.format.read_magic(fh)
-        shape, _, dtype = (
-            np.lib.format.read_array_header_1_0(fh) if version == (1, 0) else np.lib.format.read_array_header_2_0(fh)
-        )
-    except (ValueError, EOFError) as exc:
-        raise ValueError(f"not a .npy file: {exc}") from None
-    if dtype.hasobject or dtype.kind not in "fiub":
-        raise ValueError(f"expected an array of real numbers; got dtype {dtype}")
-    if shape:
-        check("LIEINT_MAX_ENSEMBLE", int(shape[0]), "the number of members in the file")
-    need = fh.tell() + int(np.prod(shape, dtype=object)) * dtype.itemsize
-    size = path.stat().st_size
-    if need != size:
-        raise ValueError(f"its header claims shape {shape} ({need} bytes) but the file has {size} bytes")
-    return np.load(path, allow_pickle=False)
-
-
-def _looks_numeric(text: str) -> bool:
-    """Strings of the expression grammar ("pi/4") are numbers; other strings stay strings."""
-    try:
-        evaluate(text)
-    except ExpressionError:
-        return False
-    return True
