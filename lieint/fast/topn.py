@@ -16,10 +16,13 @@ is Python overhead, not arithmetic. This module runs the whole fixed-step loop i
       (Ã, R̃) ← (QᵀÃQ, R̃Q),  Q = exp(h Σ_j b_j k_j),
 
   or classical RK on the embedded equations ``Ã' = [Ã, Ω̃]``, ``R̃' = R̃Ω̃``;
-* ``exp`` of a skew matrix (:mod:`lieint.fast.skew`) by scaling and squaring with a Taylor polynomial of degree
-  4, 6, 9, 12 or 16 chosen so that the truncation error is below the unit round-off
-  (:func:`expm_skew`): only matrix products (BLAS), no linear solve — numba's
-  ``np.linalg.solve`` alone would add about 5 s to the one-time compilation;
+* ``exp`` of a skew matrix (:mod:`lieint.fast.skew`) by scaling and squaring with a Taylor
+  polynomial of degree 4, 6, 9, 12 or 16 chosen so that the truncation error is below the unit
+  round-off (:func:`lieint.fast.skew.expm_skew_into`): only matrix products, no linear solve —
+  numba's ``np.linalg.solve`` alone would add about 5 s to the one-time compilation;
+* a step allocates nothing: the stage slopes and the scratch of the exponential, the action and
+  the brackets are held per body for the whole run, and the products are loops into them up to
+  n = 8 (BLAS above, where the arithmetic outweighs a call);
 * brackets of skew matrices cost one product, ``[X, Y] = XY − (XY)ᵀ``;
 * the dexp⁻¹ series converges only while the spectral radius of ``ad_u`` on so(n),
   ``θ₁ + θ₂`` (the two largest rotation angles of u), is below 2π; the Frobenius norm settles
