@@ -26,8 +26,8 @@ import math
 import numpy as np
 from numba import njit, types
 
+from .controller import advanced_time, error_norm, step_factor
 from .generic import ACTION, FIELD, GENERATOR, LieKernel, lie_step, move
-from .top3_adaptive import _factor
 
 __all__ = ["LieAdaptiveKernel", "adaptive_lie"]
 
@@ -124,23 +124,16 @@ def adaptive_lie(
                 s3 += _scaled(Y[body], Y1[body], yh, rtol, atol)
         if ok:
             nfev += s
-            if not has_low:
-                err = math.sqrt(s5 / count)
-            elif s5 == 0.0 and s3 == 0.0:
-                err = 0.0
-            else:
-                err = s5 / math.sqrt((s5 + 0.01 * s3) * count)
-        else:
-            err = math.inf
+        err = error_norm(ok, s5, s3, has_low, count)
         if not math.isfinite(err) or err >= 1.0:
             rejected += 1
             after_rejection = True
-            h *= _factor(err, q, safety, fmin, fmax, False)
+            h *= step_factor(err, q, safety, fmin, fmax, False)
             if h < h_min:
                 status = 1
                 break
             continue
-        t = t1 if t1 - (t + h) <= h_min else t + h
+        t = advanced_time(t, h, t1, h_min)
         for body in range(N):
             if project:
                 proj(Y1[body], par, Y[body])
@@ -152,7 +145,7 @@ def adaptive_lie(
             out_t[rows] = t
             out_Y[rows] = Y
             rows += 1
-        h *= _factor(err, q, safety, fmin, fmax, after_rejection)
+        h *= step_factor(err, q, safety, fmin, fmax, after_rejection)
         after_rejection = False
     return status, t, h, k, accepted, rejected, nfev, rows
 

@@ -19,7 +19,8 @@ controller (:class:`lieint.control.StepSizeController`) constant for constant:
   step and retries with ``h·max(f_min, safety·err^{−1/(q+1)})``; an accepted step moves the
   state (projected by one Newton–Schulz step when asked), saves every ``save_every``-th step
   and the last one, and proposes ``h·min(f_max, safety·err^{−1/(q+1)})``, capped at ``h`` right
-  after a rejection.
+  after a rejection (the controller's arithmetic, shared with the generic kernel's loop:
+  :mod:`lieint.fast.controller`).
 
 The loop stops at ``t1``, after ``max_accept`` accepted steps or when the row buffer is full,
 and hands back ``(t, h)``: the controller's whole state between accepted steps (the
@@ -34,25 +35,10 @@ import math
 import numpy as np
 from numba import njit
 
+from .controller import advanced_time, error_norm, step_factor
 from .top3 import _lie_step, _newton_schulz, _rodrigues
 
 __all__ = ["adaptive_top3"]
-
-
-@njit(cache=True)
-def _factor(err, q, safety, fmin, fmax, after_rejection):
-    """:meth:`lieint.control.StepSizeController.factor`, the same operations."""
-    if not math.isfinite(err):
-        return fmin
-    if err >= 1.0:
-        return max(fmin, safety * err ** (-1.0 / (q + 1)))
-    if err == 0.0:
-        grow = fmax
-    else:
-        grow = min(fmax, safety * err ** (-1.0 / (q + 1)))
-    if after_rejection:
-        return min(1.0, grow)
-    return grow
 
 
 @njit(cache=True)
@@ -209,23 +195,16 @@ def adaptive_top3(
                 s3 += _scaled(pi[n], R[n], pi1[n], R1[n], pih, Rh, P, orientation, rtol, atol, U0, U1, Uh)
         if ok:
             nfev += s
-            if not has_low:
-                err = math.sqrt(s5 / count)
-            elif s5 == 0.0 and s3 == 0.0:
-                err = 0.0
-            else:
-                err = s5 / math.sqrt((s5 + 0.01 * s3) * count)
-        else:
-            err = math.inf
+        err = error_norm(ok, s5, s3, has_low, count)
         if not math.isfinite(err) or err >= 1.0:
             rejected += 1
             after_rejection = True
-            h *= _factor(err, q, safety, fmin, fmax, False)
+            h *= step_factor(err, q, safety, fmin, fmax, False)
             if h < h_min:
                 status = 1
                 break
             continue
-        t = t1 if t1 - (t + h) <= h_min else t + h
+        t = advanced_time(t, h, t1, h_min)
         for n in range(N):
             for r in range(3):
                 pi[n, r] = pi1[n, r]
@@ -243,6 +222,6 @@ def adaptive_top3(
                     for c2 in range(3):
                         out_R[rows, n, r, c2] = R[n, r, c2]
             rows += 1
-        h *= _factor(err, q, safety, fmin, fmax, after_rejection)
+        h *= step_factor(err, q, safety, fmin, fmax, after_rejection)
         after_rejection = False
     return status, t, h, k, accepted, rejected, nfev, rows
