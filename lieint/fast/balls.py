@@ -1,0 +1,172 @@
+"""Compiled pieces of the rolling balls for :mod:`lieint.fast.generic` (numba, cached on disk).
+
+The equations are the generic path's, in the lecture's notation (MATH.md §4–§5):
+
+* Chaplygin ball, ``(Q, v)·(A_K, Γ, R, q) = (QᵀA_KQ, QᵀΓ, RQ, q + Rv)``,
+  ``ξ = (Ω, rΩΓ)`` with ``A_K = −(B_K Ω + Ω B_K)``, ``B_K = B_C + M r² ΓΓᵀ``;
+* rolling ball, ``((Q, v), δ)·(Ω, Γ, G, R, q) = (Ω + δ, QᵀΓ, QᵀG, RQ, q + Rv)``,
+  ``ξ = ((Ω, rΩΓ), Ω̇)`` with Ω̇ from the rolling equation (a Lyapunov solve in the eigenbasis
+  of ``B_K(Γ)``).
+
+Parameters and state layouts are described above each system's pieces; the registry of every
+built-in system's pieces is :data:`lieint.fast.bodies.PIECES`. The Lyapunov equation
+``B X + X B = C`` is solved by the inertia tensor for n = 3 and in the eigenbasis of B otherwise
+(:func:`lieint.fast.flat.lyapunov`), and every Ω is made exactly skew.
+"""
+
+from __future__ import annotations
+
+from numba import njit
+
+from .flat import (
+    conj_into,
+    copy_into,
+    lyapunov,
+    mat,
+    move_pose,
+    normalized,
+    pose_rate,
+    project_pose,
+    put,
+    rotate_back_into,
+    skew_part,
+    vec,
+    wedge,
+)
+from .generic import CompiledPieces
+from .skew import mm_loops as mm
+from .skew import mv
+
+__all__ = ["BALL_PIECES"]
+
+
+# -- the balls ---------------------------------------------------------------------------------
+# Chaplygin: fields A, Gamma, [R], [center]; params n, oR, oC, M r², r, B_C (n²), ν (n)
+
+
+@njit(cache=True)
+def _chaplygin_omega(y, par, n):
+    """Ω from ``A_K = −(B_K Ω + Ω B_K)``, ``B_K = B_C + M r² ΓΓᵀ``."""
+    G = vec(y, n * n, n)
+    BK = mat(par, 5, n)
+    for i in range(n):
+        for j in range(n):
+            BK[i, j] += par[3] * G[i] * G[j]
+    return lyapunov(BK, -mat(y, 0, n)), G
+
+
+@njit(cache=True)
+def _chaplygin_generator(y, par, W, v, a):
+    n = W.shape[0]
+    Om, G = _chaplygin_omega(y, par, n)
+    W[:, :] = Om
+    if v.size:
+        v[:] = par[4] * mv(Om, G)
+
+
+@njit(cache=True)
+def _chaplygin_action(Q, t, a, y, par, out):
+    n = Q.shape[0]
+    conj_into(Q, mat(y, 0, n), out, 0)
+    rotate_back_into(Q, y, n * n, out, n * n)
+    move_pose(Q, t, y, out, int(par[1]), int(par[2]), n)
+
+
+@njit(cache=True)
+def _chaplygin_field(y, par, out):
+    n = int(par[0])
+    Om, G = _chaplygin_omega(y, par, n)
+    A = mat(y, 0, n)
+    put(out, 0, mm(A, Om) - mm(Om, A))
+    put(out, n * n, -mv(Om, G))
+    pose_rate(Om, par[4] * mv(Om, G), y, out, int(par[1]), int(par[2]), n)
+
+
+@njit(cache=True)
+def _chaplygin_projection(y, par, out):
+    n = int(par[0])
+    copy_into(y, out)
+    put(out, 0, skew_part(mat(y, 0, n)))
+    put(out, n * n, normalized(vec(y, n * n, n), 1.0))
+    project_pose(y, out, int(par[1]), int(par[2]), n, vec(par, 5 + n * n, n), par[4])
+
+
+# rolling ball: fields Omega, Gamma, [G], [R], [center]; params n, oR, oC, oG, M, r, gravity mode
+# (0: none, 1: along ν, c = ⟨g, ν⟩; 2: tilted, G a field), c, |g|, B_C (n²), X_G (n), ν (n)
+
+
+@njit(cache=True)
+def _ball_acceleration(y, par, n):
+    """Ω̇ of the rolling equation: ``B_K Ω̇ + Ω̇ B_K = [B_K, Ω²] − M (κ + X_G) ∧ (Ω²κ + G)``,
+    ``κ = rΓ``, ``B_K = B_C + M(X_G κᵀ + κ X_Gᵀ) + M κκᵀ``."""
+    Om = mat(y, 0, n)
+    M, r = par[4], par[5]
+    k = r * vec(y, n * n, n)
+    XG = vec(par, 9 + n * n, n)
+    BK = mat(par, 9, n)
+    for i in range(n):
+        for j in range(n):
+            BK[i, j] += M * (k[i] * k[j] + XG[i] * k[j] + k[i] * XG[j])
+    Om2 = mm(Om, Om)
+    force = mv(Om2, k)
+    mode = par[6]
+    if mode == 1.0:
+        force = force + par[7] * vec(y, n * n, n)
+    elif mode == 2.0:
+        force = force + vec(y, int(par[3]), n)
+    C = mm(BK, Om2) - mm(Om2, BK) - M * wedge(k + XG, force)
+    return lyapunov(BK, C)
+
+
+@njit(cache=True)
+def _ball_generator(y, par, W, v, a):
+    n = W.shape[0]
+    Om = mat(y, 0, n)
+    W[:, :] = Om
+    if v.size:
+        v[:] = par[5] * mv(Om, vec(y, n * n, n))
+    put(a, 0, _ball_acceleration(y, par, n))
+
+
+@njit(cache=True)
+def _ball_action(Q, t, a, y, par, out):
+    n = Q.shape[0]
+    for i in range(n * n):
+        out[i] = y[i] + a[i]
+    rotate_back_into(Q, y, n * n, out, n * n)
+    oG = int(par[3])
+    if oG >= 0:
+        rotate_back_into(Q, y, oG, out, oG)
+    move_pose(Q, t, y, out, int(par[1]), int(par[2]), n)
+
+
+@njit(cache=True)
+def _ball_field(y, par, out):
+    n = int(par[0])
+    Om = mat(y, 0, n)
+    put(out, 0, _ball_acceleration(y, par, n))
+    G = vec(y, n * n, n)
+    put(out, n * n, -mv(Om, G))
+    oG = int(par[3])
+    if oG >= 0:
+        put(out, oG, -mv(Om, vec(y, oG, n)))
+    pose_rate(Om, par[5] * mv(Om, G), y, out, int(par[1]), int(par[2]), n)
+
+
+@njit(cache=True)
+def _ball_projection(y, par, out):
+    n = int(par[0])
+    copy_into(y, out)
+    put(out, 0, skew_part(mat(y, 0, n)))
+    put(out, n * n, normalized(vec(y, n * n, n), 1.0))
+    oG = int(par[3])
+    if oG >= 0:
+        put(out, oG, normalized(vec(y, oG, n), par[8]))
+    project_pose(y, out, int(par[1]), int(par[2]), n, vec(par, 9 + n * n + n, n), par[5])
+
+
+#: the balls' pieces, by the name their systems' ``compiled()`` declares
+BALL_PIECES = {
+    "chaplygin_ball": CompiledPieces(_chaplygin_generator, _chaplygin_action, _chaplygin_field, _chaplygin_projection),
+    "rolling_ball": CompiledPieces(_ball_generator, _ball_action, _ball_field, _ball_projection),
+}
