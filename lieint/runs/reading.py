@@ -60,9 +60,9 @@ class Superblock:
 
 
 def _lookup3(data: bytes) -> int:
-    from .store import _lookup3
+    from .superblock import lookup3
 
-    return _lookup3(data)
+    return lookup3(data)
 
 
 def read_superblock(path) -> tuple[Superblock | None, str | None]:
