@@ -14,6 +14,9 @@ A key names one number of a scene's TOML data::
 Keys of ``[initial]`` change the initial state only; every other key changes the system. The
 ``[integrator]``, ``[output]`` and ``[ensemble]`` tables are part of the sweep's definition and
 cannot be varied (every member must share one time grid and one set of outputs).
+
+A varied key and its values are written ``KEY=START:STOP:NUM`` or ``KEY=V1,V2,...``
+(:func:`parse_vary`, the command line's ``--vary``).
 """
 
 from __future__ import annotations
@@ -22,14 +25,20 @@ import copy
 import re
 from dataclasses import dataclass
 
+import numpy as np
+
 from ..scenes.schema import _TABLES
 
-__all__ = ["VARIABLE_TABLES", "SceneKey", "SweepKeyError", "parse_key"]
+__all__ = ["VARIABLE_TABLES", "SceneKey", "SweepError", "SweepKeyError", "parse_key", "parse_vary"]
 
 #: the tables whose numbers a sweep may vary
 VARIABLE_TABLES = ("body", "support", "forces", "initial")
 
 _KEY = re.compile(r"^(?P<path>[A-Za-z_][A-Za-z0-9_]*(?:\.[A-Za-z_][A-Za-z0-9_]*)*)(?P<index>(?:\[\d+\])*)$")
+
+
+class SweepError(ValueError):
+    """A sweep that cannot run as asked; the message says what was expected and what was given."""
 
 
 class SweepKeyError(ValueError):
@@ -170,3 +179,49 @@ def _resolve(data: dict, key: SceneKey, create: bool):
         parent, node = node, node[i]
     del parent
     raise AssertionError("unreachable")  # pragma: no cover
+
+
+def parse_vary(text: str) -> tuple[str, np.ndarray]:
+    """Parse ``KEY=START:STOP:NUM`` (``NUM`` values, ends included) or ``KEY=v1,v2,...``.
+
+    Examples
+    --------
+    >>> key, values = parse_vary("body.principal_moments[0]=1:1.5:3")
+    >>> key, values.tolist()
+    ('body.principal_moments[0]', [1.0, 1.25, 1.5])
+    """
+    from ..scenes.expressions import ExpressionError, evaluate
+
+    key, sep, spec = str(text).partition("=")
+    if not sep or not key.strip() or not spec.strip():
+        raise SweepError(f"--vary expects KEY=START:STOP:NUM or KEY=V1,V2,...; got {text!r}")
+
+    def number(s: str) -> float:
+        try:
+            return float(s) if _plain_float(s) else evaluate(s.strip())
+        except (ExpressionError, ValueError):
+            raise SweepError(f"--vary {key.strip()}: {s.strip()!r} is not a number or expression") from None
+
+    parts = spec.split(":")
+    if len(parts) == 3:
+        start, stop = number(parts[0]), number(parts[1])
+        try:
+            num = int(parts[2])
+        except ValueError:
+            num = 0
+        if num < 1:
+            raise SweepError(f"--vary {key.strip()}: NUM must be a positive integer; got {parts[2]!r}")
+        values = np.linspace(start, stop, num)
+    elif len(parts) == 1:
+        values = np.array([number(s) for s in spec.split(",")])
+    else:
+        raise SweepError(f"--vary {key.strip()}: expected START:STOP:NUM or V1,V2,...; got {spec!r}")
+    return key.strip(), values
+
+
+def _plain_float(s: str) -> bool:
+    try:
+        float(s)
+    except ValueError:
+        return False
+    return True

@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from .keys import SceneKey, SweepKeyError, parse_key
+from .keys import SceneKey, SweepError, SweepKeyError, parse_key, parse_vary
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -35,56 +35,6 @@ __all__ = ["SweepError", "SweepPlan", "parse_vary", "plan_from_scene", "plan_fro
 #: the default chunk gives about this many chunks (whatever the number of workers, so that the
 #: result does not depend on where it ran)
 DEFAULT_CHUNKS = 32
-
-
-class SweepError(ValueError):
-    """A sweep that cannot run as asked; the message says what was expected and what was given."""
-
-
-def parse_vary(text: str) -> tuple[str, np.ndarray]:
-    """Parse ``KEY=START:STOP:NUM`` (``NUM`` values, ends included) or ``KEY=v1,v2,...``.
-
-    Examples
-    --------
-    >>> key, values = parse_vary("body.principal_moments[0]=1:1.5:3")
-    >>> key, values.tolist()
-    ('body.principal_moments[0]', [1.0, 1.25, 1.5])
-    """
-    from ..scenes.expressions import ExpressionError, evaluate
-
-    key, sep, spec = str(text).partition("=")
-    if not sep or not key.strip() or not spec.strip():
-        raise SweepError(f"--vary expects KEY=START:STOP:NUM or KEY=V1,V2,...; got {text!r}")
-
-    def number(s: str) -> float:
-        try:
-            return float(s) if _plain_float(s) else evaluate(s.strip())
-        except (ExpressionError, ValueError):
-            raise SweepError(f"--vary {key.strip()}: {s.strip()!r} is not a number or expression") from None
-
-    parts = spec.split(":")
-    if len(parts) == 3:
-        start, stop = number(parts[0]), number(parts[1])
-        try:
-            num = int(parts[2])
-        except ValueError:
-            num = 0
-        if num < 1:
-            raise SweepError(f"--vary {key.strip()}: NUM must be a positive integer; got {parts[2]!r}")
-        values = np.linspace(start, stop, num)
-    elif len(parts) == 1:
-        values = np.array([number(s) for s in spec.split(",")])
-    else:
-        raise SweepError(f"--vary {key.strip()}: expected START:STOP:NUM or V1,V2,...; got {spec!r}")
-    return key.strip(), values
-
-
-def _plain_float(s: str) -> bool:
-    try:
-        float(s)
-    except ValueError:
-        return False
-    return True
 
 
 @dataclass(frozen=True)
