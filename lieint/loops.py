@@ -147,18 +147,12 @@ class _FixedLoop:
         )
 
 
-class _KernelLoop:
-    """A compiled kernel (:mod:`lieint.fast`) stepping whole segments of the grid."""
+class _CompiledRows:
+    """What the compiled loops share: the kernel holds the state in its own representation, and
+    turns it into the user's rows; it may also know the step check's radius of ξ."""
 
-    name = "numba"
-
-    def __init__(self, driver: Driver, kernel):
-        self.d, self.kernel = driver, kernel
-        self.reason = kernel.describe()
-        self.threads = kernel.threads
-
-    def start(self, y0: dict) -> Carry:
-        return Carry(0, self.d.t0, self.kernel.start(y0), self.d.plan.h)
+    kernel: Any
+    d: Driver
 
     def first_row(self, carry: Carry) -> Segment:
         y = self.kernel.user_state(carry.state)
@@ -172,6 +166,20 @@ class _KernelLoop:
         when the kernel computes it (``generator_radius``), else None."""
         radius = getattr(self.kernel, "generator_radius", None)
         return radius(states) if radius is not None else None
+
+
+class _KernelLoop(_CompiledRows):
+    """A compiled kernel (:mod:`lieint.fast`) stepping whole segments of the grid."""
+
+    name = "numba"
+
+    def __init__(self, driver: Driver, kernel):
+        self.d, self.kernel = driver, kernel
+        self.reason = kernel.describe()
+        self.threads = kernel.threads
+
+    def start(self, y0: dict) -> Carry:
+        return Carry(0, self.d.t0, self.kernel.start(y0), self.d.plan.h)
 
     def advance(self, carry: Carry, max_steps: int | None) -> Segment:
         d, plan = self.d, self.d.plan
@@ -284,7 +292,7 @@ def adaptive_loop(driver: Driver, y0: dict):
     return _AdaptiveLoop(driver, reason)
 
 
-class _AdaptiveKernelLoop(_AdaptiveLoop):
+class _AdaptiveKernelLoop(_CompiledRows, _AdaptiveLoop):
     """The compiled adaptive kernel (:mod:`lieint.fast.adaptive`): the whole controller loop in
     machine code; the carry holds the kernel's state, ``t`` and the next trial step ``h``."""
 
@@ -298,19 +306,6 @@ class _AdaptiveKernelLoop(_AdaptiveLoop):
         carry = super().start(y0)
         carry.state, carry.method_state = self.kernel.start(y0), None
         return carry
-
-    def first_row(self, carry: Carry) -> Segment:
-        y = self.kernel.user_state(carry.state)
-        return Segment(np.array([self.d.t0]), {k: v[None] for k, v in y.items()})
-
-    def user_state(self, carry: Carry) -> dict:
-        return self.kernel.user_state(carry.state)
-
-    def generator_radius(self, states: dict) -> float | None:
-        """The largest ad spectral radius of ξ(y) over the rows ``states`` (the user's frame),
-        when the kernel computes it (``generator_radius``), else None."""
-        radius = getattr(self.kernel, "generator_radius", None)
-        return radius(states) if radius is not None else None
 
     def advance(self, carry: Carry, max_steps: int | None) -> Segment:
         d = self.d
