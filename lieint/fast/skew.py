@@ -21,7 +21,6 @@ __all__ = [
     "mm",
     "mm_into",
     "mm_loops",
-    "mtm_into",
     "mv",
     "so_ad_radius_exceeds",
 ]
@@ -67,50 +66,33 @@ def mm(A, B):
 def mm_loops(A, B):
     """``A B`` by loops only (no BLAS: the small matrices of the generic kernel's pieces, and
     much less to compile)."""
-    n, k = A.shape
-    m = B.shape[1]
-    out = np.zeros((n, m))
-    for i in range(n):
-        for j in range(k):
-            a = A[i, j]
-            for c in range(m):
-                out[i, c] += a * B[j, c]
+    out = np.empty((A.shape[0], B.shape[1]))
+    _loops_into(A, B, out)
     return out
 
 
 @njit(cache=True)
 def mm_into(A, B, out):
     """``out = A B``: loops up to :data:`_SMALL`, BLAS above (out must not share memory with
-    A or B)."""
+    A or B; ``A`` may be a transposed view, ``mm_into(Q.T, X, out)`` for ``QᵀX``)."""
     n, k = A.shape
     m = B.shape[1]
     if n > _SMALL or k > _SMALL or m > _SMALL:
         out[:, :] = np.ascontiguousarray(A) @ np.ascontiguousarray(B)
-        return
+    else:
+        _loops_into(A, B, out)
+
+
+@njit(cache=True)
+def _loops_into(A, B, out):
+    """``out = A B`` by loops, row by row, each entry summed over j in order."""
+    n, k = A.shape
+    m = B.shape[1]
     for i in range(n):
         for c in range(m):
             out[i, c] = 0.0
         for j in range(k):
             a = A[i, j]
-            for c in range(m):
-                out[i, c] += a * B[j, c]
-
-
-@njit(cache=True)
-def mtm_into(A, B, out):
-    """``out = Aᵀ B``: loops up to :data:`_SMALL`, BLAS above (out must not share memory with
-    A or B)."""
-    k, n = A.shape
-    m = B.shape[1]
-    if n > _SMALL or k > _SMALL or m > _SMALL:
-        out[:, :] = np.ascontiguousarray(A.T) @ np.ascontiguousarray(B)
-        return
-    for i in range(n):
-        for c in range(m):
-            out[i, c] = 0.0
-    for j in range(k):
-        for i in range(n):
-            a = A[j, i]
             for c in range(m):
                 out[i, c] += a * B[j, c]
 

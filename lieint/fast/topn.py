@@ -55,7 +55,7 @@ from numba import njit
 
 from ..groups.base import bernoulli_dexpinv_coefficients
 from . import range_error, use_threads
-from .skew import _bracket, _finite, _project, expm_skew, expm_skew_into, mm_into, mtm_into, so_ad_radius_exceeds
+from .skew import _bracket, _finite, _project, expm_skew, expm_skew_into, mm_into, so_ad_radius_exceeds
 
 __all__ = ["TopNKernel", "expm_skew", "integrate_topn", "so_ad_radius_exceeds"]
 
@@ -67,7 +67,7 @@ def _act_into(Q, A, M, A1, Om, C, tmp):
     ``Ω̃_ij = M_ij Ã'_ij`` (M symmetric, so Ω̃' is exactly skew too). ``C`` and ``tmp`` are
     scratch; A1 may be A (A is read before A1 is written)."""
     mm_into(A, Q, tmp)
-    mtm_into(Q, tmp, C)
+    mm_into(Q.T, tmp, C)
     n = C.shape[0]
     for a in range(n):
         for c in range(n):
