@@ -42,28 +42,26 @@ LANES = 64
 UPDATES = 4
 
 
-@njit(parallel=True, fastmath={"contract"})
-def _fused(x, a, b, reps):
-    for r in prange(x.shape[0]):
-        row = x[r]
-        for _ in range(reps):
-            for lane in range(LANES):
-                v = row[lane]
-                for _k in range(UPDATES):
-                    v = a * v + b
-                row[lane] = v
+def _update_loop(fastmath):
+    """The loop ``x ← a x + b`` over the rows of x, compiled with ``fastmath`` (contraction into
+    fused multiply-adds, or strict IEEE)."""
+
+    @njit(parallel=True, fastmath=fastmath)
+    def loop(x, a, b, reps):
+        for r in prange(x.shape[0]):
+            row = x[r]
+            for _ in range(reps):
+                for lane in range(LANES):
+                    v = row[lane]
+                    for _k in range(UPDATES):
+                        v = a * v + b
+                    row[lane] = v
+
+    return loop
 
 
-@njit(parallel=True)
-def _strict(x, a, b, reps):
-    for r in prange(x.shape[0]):
-        row = x[r]
-        for _ in range(reps):
-            for lane in range(LANES):
-                v = row[lane]
-                for _k in range(UPDATES):
-                    v = a * v + b
-                row[lane] = v
+_fused = _update_loop({"contract"})
+_strict = _update_loop(False)
 
 
 def _best_rate(call, flops: float, repeats: int = 5) -> tuple[float, float]:
