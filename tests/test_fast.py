@@ -109,9 +109,11 @@ def test_the_kernels_step_check_radius_is_the_generic_one(rng, diagonal, batch):
     assert numpy_driver.generator_radius(numpy_driver.run(y0).states) is None
 
 
-def test_both_paths_warn_alike_at_the_edge_of_resolution(rng):
+@pytest.mark.parametrize("method", COMPILED)
+def test_both_paths_warn_alike_at_the_edge_of_resolution(rng, method):
     # near h |ω| = π the numerical orbits of coarse steps differ from the exact one, so the
     # decision is taken on each run's own saved states: both paths must take the same one
+    # (or refuse the step alike, beyond the dexp⁻¹ radius)
     import warnings
 
     top = well_conditioned_top(rng, diagonal=False)
@@ -120,12 +122,16 @@ def test_both_paths_warn_alike_at_the_edge_of_resolution(rng):
     h_edge = np.pi / float(np.max(np.sqrt(np.sum(w * w, axis=(-2, -1)) / 2)))  # |ω| = ‖Ω‖_F/√2
     decisions = []
     for factor in (0.5, 0.8, 0.95, 1.05, 1.1):
-        warned = {}
+        outcome = {}
         for backend in ("numba", "numpy"):
             with warnings.catch_warnings(record=True) as caught:
                 warnings.simplefilter("always")
-                lieint.integrate(top, y0, (0.0, 20.0), h=factor * h_edge, method="rkmk4", backend=backend)
-            warned[backend] = any(issubclass(c.category, lieint.LieStepWarning) for c in caught)
-        assert warned["numba"] == warned["numpy"], factor
-        decisions.append(warned["numba"])
-    assert decisions[0] is False and decisions[-1] is True
+                try:
+                    lieint.integrate(top, y0, (0.0, 20.0), h=factor * h_edge, method=method, backend=backend)
+                except lieint.DexpinvRangeError:
+                    outcome[backend] = "refused"
+                    continue
+            outcome[backend] = any(issubclass(c.category, lieint.LieStepWarning) for c in caught)
+        assert outcome["numba"] == outcome["numpy"], (factor, outcome)
+        decisions.append(outcome["numba"])
+    assert decisions[0] is False and any(d is True or d == "refused" for d in decisions[1:])
