@@ -15,8 +15,18 @@ The arithmetic is strict IEEE (no ``fastmath``): with reassociation and contract
 the compiled code of the parallel and the serial driver could round differently depending on
 where and in which process each was compiled, and an ensemble cut into chunks (a dask sweep)
 stopped matching one call on all its members bit for bit (1.6e-15 in R, seen with a numba
-cache filled by the test suite's order of compilation). Strict arithmetic costs about 20% of
-the throughput (15.2 → 12.2 million body-steps per CPU-second, 4096 bodies, RKMK4).
+cache filled by the test suite's order of compilation). Multiply-adds are written as explicit
+fused multiply-adds (:func:`lieint.fast.fused.fma`: rounded once by definition, alike in a
+SIMD lane and in scalar code), so the strictness costs no throughput.
+
+Why the passes look as they do (each measured, RKMK4, 4,096 bodies; see
+``benchmarks/flop_ceiling.py``): one pass per operation, writing one or two arrays of locals, is
+what the compiler vectorises (a fused pass writing five arrays stayed scalar: 5 → 20 GFLOP per
+CPU-second); the Horner chains of the coefficients get their own pass, so that their latency
+does not sit inside the chain of the increment (+15 %); the multiply-adds are fused (+20 %);
+the block's arrays are private, padded rows of 128 + 8 doubles, and the shared parameters are
+copied per block (a view of an array shared between threads counts references on one cache
+line that then bounced between the cores: two threads were 20–30 % slower per thread).
 """
 
 from __future__ import annotations
@@ -24,86 +34,207 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from .top3 import rodrigues_coefficients as _coefficients
+from .fused import fma
 
-__all__ = ["matrix_to_quaternion", "quaternion_to_matrix", "run_lanes"]
+__all__ = ["run_lanes"]
 
-_BLOCK = 64
+_BLOCK = 128
+#: the row length of the block's arrays: the block and 8 doubles (64 bytes) of padding
+_ROW = _BLOCK + 8
 # (2π)²: the dexp⁻¹ series of so(3) converges for |u| < 2π
 _RADIUS2 = (2.0 * np.pi) ** 2
 
 
 @njit(cache=True, inline="always")
-def _rotate_back(u, P, a, b, l):
-    """``exp(−û)Π = Π − a u×Π + b u×(u×Π)`` of lane l (a, b: Rodrigues' coefficients)."""
-    c0_ = u[1, l] * P[2, l] - u[2, l] * P[1, l]
-    c1_ = u[2, l] * P[0, l] - u[0, l] * P[2, l]
-    c2_ = u[0, l] * P[1, l] - u[1, l] * P[0, l]
-    e0 = u[1, l] * c2_ - u[2, l] * c1_
-    e1 = u[2, l] * c0_ - u[0, l] * c2_
-    e2 = u[0, l] * c1_ - u[1, l] * c0_
-    return P[0, l] - a * c0_ + b * e0, P[1, l] - a * c1_ + b * e1, P[2, l] - a * c2_ + b * e2
+def _cross(a0, a1, a2, b0, b1, b2):
+    """``a × b``, each component one product and one fused multiply-subtract."""
+    return fma(a1, b2, -(a2 * b1)), fma(a2, b0, -(a0 * b2)), fma(a0, b1, -(a1 * b0))
 
 
 @njit(cache=True, inline="always")
-def _stage_lane(u, P, Iinv, a, b, c1, c2, degree, K, st, l):
-    """Stage increment of lane l: ξ = I⁻¹ exp(−û)Π, then the degree-2 dexp⁻¹ terms when
-    degree == 2 (other degrees add theirs in separate passes)."""
-    p0, p1, p2 = _rotate_back(u, P, a, b, l)
-    x0, x1, x2 = Iinv[0] * p0, Iinv[1] * p1, Iinv[2] * p2
-    if degree == 2:
-        n0 = -(u[1, l] * x2 - u[2, l] * x1)
-        n1 = -(u[2, l] * x0 - u[0, l] * x2)
-        n2 = -(u[0, l] * x1 - u[1, l] * x0)
-        m0 = -(u[1, l] * n2 - u[2, l] * n1)
-        m1 = -(u[2, l] * n0 - u[0, l] * n2)
-        m2 = -(u[0, l] * n1 - u[1, l] * n0)
-        x0 += c1 * n0 + c2 * m0
-        x1 += c1 * n1 + c2 * m1
-        x2 += c1 * n2 + c2 * m2
-    K[st, 0, l] = x0
-    K[st, 1, l] = x1
-    K[st, 2, l] = x2
+def _norm2(u, l):
+    """``θ² = |u|²`` of lane l."""
+    return fma(u[2, l], u[2, l], fma(u[1, l], u[1, l], u[0, l] * u[0, l]))
+
+
+@njit(cache=True, inline="always")
+def _rodrigues(t2):
+    """``sin θ/θ`` and ``(1 − cos θ)/θ²`` as even polynomials of degree 10 in θ (Horner's scheme
+    in fused multiply-adds), exact to round-off for θ < 0.1 (the first omitted terms, θ¹²/13!
+    and θ¹²/14!, are below 2e-22 there)."""
+    a = fma(t2, -1.0 / 39916800, 1.0 / 362880)
+    a = fma(t2, a, -1.0 / 5040)
+    a = fma(t2, a, 1.0 / 120)
+    a = fma(t2, a, -1.0 / 6)
+    a = fma(t2, a, 1.0)
+    b = fma(t2, -1.0 / 479001600, 1.0 / 3628800)
+    b = fma(t2, b, -1.0 / 40320)
+    b = fma(t2, b, 1.0 / 720)
+    b = fma(t2, b, -1.0 / 24)
+    b = fma(t2, b, 0.5)
+    return a, b
 
 
 @njit(cache=True, inline="always")
 def _half_angle(t2):
     """``cos(θ/2)`` and ``sin(θ/2)/θ`` as polynomials in ``s = θ²/4`` (exact to round-off below θ = 0.1)."""
     s = 0.25 * t2
-    ch = 1.0 + s * (-1.0 / 2 + s * (1.0 / 24 + s * (-1.0 / 720 + s * (1.0 / 40320 + s * (-1.0 / 3628800)))))
-    sh = 0.5 + s * (-1.0 / 12 + s * (1.0 / 240 + s * (-1.0 / 10080 + s * (1.0 / 725760 + s * (-1.0 / 79833600)))))
+    ch = fma(s, -1.0 / 3628800, 1.0 / 40320)
+    ch = fma(s, ch, -1.0 / 720)
+    ch = fma(s, ch, 1.0 / 24)
+    ch = fma(s, ch, -1.0 / 2)
+    ch = fma(s, ch, 1.0)
+    sh = fma(s, -1.0 / 79833600, 1.0 / 725760)
+    sh = fma(s, sh, -1.0 / 10080)
+    sh = fma(s, sh, 1.0 / 240)
+    sh = fma(s, sh, -1.0 / 12)
+    sh = fma(s, sh, 0.5)
     return ch, sh
 
 
 @njit(cache=True, inline="always")
-def _fix_large(t2, a, b, lanes):
-    for l in range(lanes):
-        if t2[l] >= 1e-2:
-            th = np.sqrt(t2[l])
-            a[l] = np.sin(th) / th
-            b[l] = (1.0 - np.cos(th)) / t2[l]
+def _rotate_back(u, P, a, b, l):
+    """``exp(−û)Π = Π − a u×Π + b u×(u×Π)`` of lane l (a, b: Rodrigues' coefficients)."""
+    u0, u1, u2 = u[0, l], u[1, l], u[2, l]
+    p0, p1, p2 = P[0, l], P[1, l], P[2, l]
+    c0, c1, c2 = _cross(u0, u1, u2, p0, p1, p2)
+    e0, e1, e2 = _cross(u0, u1, u2, c0, c1, c2)
+    return fma(b, e0, fma(-a, c0, p0)), fma(b, e1, fma(-a, c1, p1)), fma(b, e2, fma(-a, c2, p2))
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
+def _stage_lane(u, P, Iinv, a, b, K, st, l):
+    """``ξ = I⁻¹ exp(−û)Π`` of lane l into K[st] (the dexp⁻¹ terms follow in their own pass)."""
+    p0, p1, p2 = _rotate_back(u, P, a, b, l)
+    K[st, 0, l] = Iinv[0] * p0
+    K[st, 1, l] = Iinv[1] * p1
+    K[st, 2, l] = Iinv[2] * p2
+
+
+@njit(cache=True, inline="always")
+def _dexpinv2_lane(u, c1, c2, K, st, l):
+    """``k ← ξ + c₁(−u)×ξ + c₂(−u)×((−u)×ξ)`` of lane l, ξ = K[st] (dexp⁻¹ of degree 2, RKMK4);
+    ``(−u)×ξ`` is written ``ξ×u``."""
+    u0, u1, u2 = u[0, l], u[1, l], u[2, l]
+    x0, x1, x2 = K[st, 0, l], K[st, 1, l], K[st, 2, l]
+    n0, n1, n2 = _cross(x0, x1, x2, u0, u1, u2)
+    m0, m1, m2 = _cross(n0, n1, n2, u0, u1, u2)
+    K[st, 0, l] = fma(c2, m0, fma(c1, n0, x0))
+    K[st, 1, l] = fma(c2, m1, fma(c1, n1, x1))
+    K[st, 2, l] = fma(c2, m2, fma(c1, n2, x2))
+
+
+@njit(cache=True, inline="always")
+def _combine(u, K, weights, row, hk, m, L):
+    """``u = Σ_{j<m} (hk w_j) K_j`` over the non-zero weights ``w_j = weights[row, j]``,
+    accumulated in the order of j; returns whether any weight was non-zero (u is left unset
+    otherwise)."""
+    first = True
+    for j in range(m):
+        w = hk * weights[row, j]
+        if w == 0.0:
+            continue
+        if first:
+            for d in range(3):
+                for l in range(L):
+                    u[d, l] = w * K[j, d, l]
+            first = False
+        else:
+            for d in range(3):
+                for l in range(L):
+                    u[d, l] = fma(w, K[j, d, l], u[d, l])
+    return not first
+
+
+@njit(cache=True, inline="always")
+def _stage_pass(u, P, Iinv, c1, c2, degree, K, st, ca, cb, L):
+    """Stage increments of every lane with the polynomial coefficients; returns how many lanes
+    need trigonometric ones (``θ ≥ 0.1``), which the caller recomputes.
+
+    Three loops the compiler vectorises (locals only, one or two arrays written): the
+    coefficients, ``ξ = I⁻¹ exp(−û)Π``, and for degree 2 the dexp⁻¹ terms. Kept apart, the
+    long dependency chains of Horner's scheme and of the two cross products do not sit in one
+    chain, and the processor overlaps the lanes."""
+    nlarge = 0
+    for l in range(L):
+        t2 = _norm2(u, l)
+        if t2 >= 1e-2:
+            nlarge += 1
+        ca[l], cb[l] = _rodrigues(t2)
+    for l in range(L):
+        _stage_lane(u, P, Iinv, ca[l], cb[l], K, st, l)
+    if degree == 2:
+        for l in range(L):
+            _dexpinv2_lane(u, c1, c2, K, st, l)
+    return nlarge
+
+
+@njit(cache=True, inline="always")
+def _finish_coefficients(u, ca, cb, ch, sh, trig, l):
+    """Rodrigues' coefficients and ``cos(θ/2)``, ``sin(θ/2)/θ`` of the step's increment in lane l;
+    trigonometric beyond θ = 0.1 only when ``trig`` (the scalar pass). Returns 1 for a lane
+    beyond θ = 0.1, else 0."""
+    t2 = _norm2(u, l)
+    ca[l], cb[l] = _rodrigues(t2)
+    ch[l], sh[l] = _half_angle(t2)
+    if t2 < 1e-2:
+        return 0
+    if trig:
+        th = np.sqrt(t2)
+        ca[l] = np.sin(th) / th
+        cb[l] = (1.0 - np.cos(th)) / t2
+        ch[l] = np.cos(0.5 * th)
+        sh[l] = np.sin(0.5 * th) / th
+    return 1
+
+
+@njit(cache=True, inline="always")
+def _finish_lane(u, P, qb, ca, cb, ch, sh, project, l):
+    """``Π ← exp(−Û)Π``, ``q ← q ⊗ (cos(θ/2), sin(θ/2) U/θ)`` (normalised when ``project``) of lane l."""
+    P[0, l], P[1, l], P[2, l] = _rotate_back(u, P, ca[l], cb[l], l)
+    c, t = ch[l], sh[l]
+    w0, w1, w2 = t * u[0, l], t * u[1, l], t * u[2, l]
+    q0, q1, q2, q3 = qb[0, l], qb[1, l], qb[2, l], qb[3, l]
+    r0 = fma(-q3, w2, fma(-q2, w1, fma(-q1, w0, q0 * c)))
+    r1 = fma(-q3, w1, fma(q2, w2, fma(q1, c, q0 * w0)))
+    r2 = fma(q3, w0, fma(q2, c, fma(-q1, w2, q0 * w1)))
+    r3 = fma(q3, c, fma(-q2, w0, fma(q1, w1, q0 * w2)))
+    if project:  # the unit sphere of quaternions is the exact projection for rotations
+        n = 1.0 / np.sqrt(fma(r3, r3, fma(r2, r2, fma(r1, r1, r0 * r0))))
+        r0, r1, r2, r3 = r0 * n, r1 * n, r2 * n, r3 * n
+    qb[0, l], qb[1, l], qb[2, l], qb[3, l] = r0, r1, r2, r3
+
+
+@njit(cache=True, error_model="numpy")  # no Python division checks: they would stop the SIMD passes
 def _lanes_block(
     blk, pi, q, Iinv, A, b, c, coeffs, h, h_last, k_from, k_to, nsteps, save_steps, project, out_pi, out_q
 ):
     """Block ``blk`` of lanes over steps k_from < k ≤ k_to; returns -1 or the step at which a
-    stage increment reached the dexp⁻¹ radius ``|u| = 2π`` (the block stops there)."""
+    stage increment reached the dexp⁻¹ radius ``|u| = 2π`` (the block stops there).
+
+    Each pass over the lanes is a loop of local arithmetic writing one or two arrays, so that
+    it compiles to SIMD instructions; lanes beyond θ = 0.1 (rare: coarse steps) are redone in
+    scalar passes with trigonometric coefficients. Every lane's arithmetic is the same in both
+    (strict IEEE, same expressions), so a body's result does not depend on its neighbours."""
+    # private copies of the shared parameters (b as one row): the views and calls below count
+    # references on their arrays, and counts on arrays shared between threads would bounce one
+    # cache line between the cores at every stage (measured: 20-30 % of a two-thread run)
+    Iinv, A, b, coeffs = Iinv.copy(), A.copy(), b.reshape((1, b.shape[0])).copy(), coeffs.copy()
     N = pi.shape[1]
-    s = b.shape[0]
+    s = b.shape[1]
     degree = coeffs.shape[0] - 1
     status = -1
     l0 = blk * _BLOCK
     L = min(_BLOCK, N - l0)
-    K = np.zeros((s, 3, _BLOCK))
-    u = np.zeros((3, _BLOCK))
-    t2 = np.zeros(_BLOCK)
-    ca = np.zeros(_BLOCK)
-    cb = np.zeros(_BLOCK)
-    tt = np.zeros((3, _BLOCK))
-    P = np.zeros((3, _BLOCK))
-    qb = np.zeros((4, _BLOCK))
+    K = np.zeros((s, 3, _ROW))
+    u = np.zeros((3, _ROW))
+    tt = np.zeros((3, _ROW))
+    ca = np.zeros(_ROW)
+    cb = np.zeros(_ROW)
+    ch = np.zeros(_ROW)
+    sh = np.zeros(_ROW)
+    P = np.zeros((3, _ROW))
+    qb = np.zeros((4, _ROW))
     for i in range(3):
         for l in range(L):
             P[i, l] = pi[i, l0 + l]
@@ -115,17 +246,7 @@ def _lanes_block(
     for k in range(k_from, k_to):
         hk = h if k < nsteps - 1 else h_last
         for st in range(s):
-            for d in range(3):
-                for l in range(L):
-                    u[d, l] = 0.0
-            nonzero = False
-            for j in range(st):
-                w = hk * A[st, j]
-                if w != 0.0:
-                    nonzero = True
-                    for d in range(3):
-                        for l in range(L):
-                            u[d, l] += w * K[j, d, l]
+            nonzero = _combine(u, K, A, st, hk, st, L)
             if not nonzero:
                 for d in range(3):
                     for l in range(L):
@@ -133,25 +254,23 @@ def _lanes_block(
                 continue
             # one fused pass: Rodrigues' coefficients, Π_i = exp(−û)Π = Π − a u×Π + b u×(u×Π),
             # ξ = I⁻¹Π_i and, for degree 2 (RKMK4), k = ξ + c₁(−u)×ξ + c₂(−u)×((−u)×ξ)
-            c1, c2 = (coeffs[1], coeffs[2]) if degree == 2 else (0.0, 0.0)
-            large = False
-            for l in range(L):
-                t2[l] = u[0, l] * u[0, l] + u[1, l] * u[1, l] + u[2, l] * u[2, l]
-                large |= t2[l] >= 1e-2
-                a_, b_ = _coefficients(t2[l])
-                ca[l], cb[l] = a_, b_
-                _stage_lane(u, P, Iinv, a_, b_, c1, c2, degree, K, st, l)
-            if large:  # rare: lanes beyond θ = 0.1 get trigonometric coefficients
+            if degree == 2:
+                nlarge = _stage_pass(u, P, Iinv, coeffs[1], coeffs[2], 2, K, st, ca, cb, L)
+            else:
+                nlarge = _stage_pass(u, P, Iinv, 0.0, 0.0, 0, K, st, ca, cb, L)
+            if nlarge:  # rare: lanes beyond θ = 0.1 get trigonometric coefficients
+                c1, c2 = (coeffs[1], coeffs[2]) if degree == 2 else (0.0, 0.0)
                 for l in range(L):
-                    bad |= t2[l] >= _RADIUS2
+                    bad |= _norm2(u, l) >= _RADIUS2
                 if bad:  # a stage left the dexp⁻¹ radius: the run stops here (as the generic path)
                     break
                 for l in range(L):
-                    if t2[l] >= 1e-2:
-                        th = np.sqrt(t2[l])
-                        ca[l] = np.sin(th) / th
-                        cb[l] = (1.0 - np.cos(th)) / t2[l]
-                        _stage_lane(u, P, Iinv, ca[l], cb[l], c1, c2, degree, K, st, l)
+                    t2 = _norm2(u, l)
+                    if t2 >= 1e-2:
+                        th = np.sqrt(t2)
+                        _stage_lane(u, P, Iinv, np.sin(th) / th, (1.0 - np.cos(th)) / t2, K, st, l)
+                        if degree == 2:
+                            _dexpinv2_lane(u, c1, c2, K, st, l)
             if degree != 2:
                 for d in range(3):
                     for l in range(L):
@@ -159,56 +278,29 @@ def _lanes_block(
                 for dd in range(1, degree + 1):
                     cf = coeffs[dd]
                     for l in range(L):
-                        # ad_{−u} t = (−u) × t
-                        n0 = -(u[1, l] * tt[2, l] - u[2, l] * tt[1, l])
-                        n1 = -(u[2, l] * tt[0, l] - u[0, l] * tt[2, l])
-                        n2 = -(u[0, l] * tt[1, l] - u[1, l] * tt[0, l])
+                        # ad_{−u} t = (−u) × t = t × u
+                        n0, n1, n2 = _cross(tt[0, l], tt[1, l], tt[2, l], u[0, l], u[1, l], u[2, l])
                         tt[0, l], tt[1, l], tt[2, l] = n0, n1, n2
-                        K[st, 0, l] += cf * n0
-                        K[st, 1, l] += cf * n1
-                        K[st, 2, l] += cf * n2
+                        K[st, 0, l] = fma(cf, n0, K[st, 0, l])
+                        K[st, 1, l] = fma(cf, n1, K[st, 1, l])
+                        K[st, 2, l] = fma(cf, n2, K[st, 2, l])
         if bad:
             status = k
             break
-        # U = h Σ b_j K_j; Q = exp(Û); Π ← QᵀΠ; R ← R Q
-        for d in range(3):
+        # U = h Σ b_j K_j; Π ← exp(−Û)Π; q ← q ⊗ exp(Û) (R ← R exp(Û))
+        _combine(u, K, b, 0, hk, s, L)
+        nlarge = 0
+        for l in range(L):
+            nlarge += _finish_coefficients(u, ca, cb, ch, sh, False, l)
+        if nlarge:  # rare: a step beyond θ = 0.1
             for l in range(L):
-                u[d, l] = 0.0
-        for j in range(s):
-            w = hk * b[j]
-            for d in range(3):
-                for l in range(L):
-                    u[d, l] += w * K[j, d, l]
-        for l in range(L):
-            t2[l] = u[0, l] * u[0, l] + u[1, l] * u[1, l] + u[2, l] * u[2, l]
-            ca[l], cb[l] = _coefficients(t2[l])
-        _fix_large(t2, ca, cb, L)
-        for l in range(L):
-            P[0, l], P[1, l], P[2, l] = _rotate_back(u, P, ca[l], cb[l], l)  # Π ← exp(−Û)Π
-        for l in range(L):
-            ca[l], cb[l] = _half_angle(t2[l])  # reused: cos(θ/2), sin(θ/2)/θ
-        for l in range(L):
-            if t2[l] >= 1e-2:  # rare: a stage beyond θ = 0.1
-                th = np.sqrt(t2[l])
-                ca[l] = np.cos(0.5 * th)
-                cb[l] = np.sin(0.5 * th) / th
-        for l in range(L):
-            # q ← q ⊗ (cos(θ/2), sin(θ/2) U/θ)
-            ch, sh = ca[l], cb[l]
-            w0, w1, w2 = sh * u[0, l], sh * u[1, l], sh * u[2, l]
-            q0, q1, q2, q3 = qb[0, l], qb[1, l], qb[2, l], qb[3, l]
-            qb[0, l] = q0 * ch - q1 * w0 - q2 * w1 - q3 * w2
-            qb[1, l] = q0 * w0 + q1 * ch + q2 * w2 - q3 * w1
-            qb[2, l] = q0 * w1 - q1 * w2 + q2 * ch + q3 * w0
-            qb[3, l] = q0 * w2 + q1 * w1 - q2 * w0 + q3 * ch
+                _finish_coefficients(u, ca, cb, ch, sh, True, l)
         if project:
             for l in range(L):
-                # the unit sphere of quaternions is the exact projection for rotations
-                n = 1.0 / np.sqrt(qb[0, l] ** 2 + qb[1, l] ** 2 + qb[2, l] ** 2 + qb[3, l] ** 2)
-                qb[0, l] *= n
-                qb[1, l] *= n
-                qb[2, l] *= n
-                qb[3, l] *= n
+                _finish_lane(u, P, qb, ca, cb, ch, sh, True, l)
+        else:
+            for l in range(L):
+                _finish_lane(u, P, qb, ca, cb, ch, sh, False, l)
         if slot < save_steps.shape[0] and save_steps[slot] == k + 1:
             for i in range(3):
                 for l in range(L):
@@ -259,39 +351,3 @@ def run_lanes(
     status = run(pi, q, Iinv, A, b, c, coeffs, h, h_last, k_from, k_to, nsteps, save_steps, project, out_pi, out_q)
     bad = status[status >= 0]
     return int(bad.min()) if bad.size else -1
-
-
-def quaternion_to_matrix(q: np.ndarray) -> np.ndarray:
-    """Rotation matrices ``(..., 3, 3)`` of unit quaternions ``(..., 4)`` = (w, x, y, z)."""
-    w, x, y, z = np.moveaxis(q, -1, 0)
-    return np.stack(
-        [
-            np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], -1),
-            np.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], -1),
-            np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], -1),
-        ],
-        -2,
-    )
-
-
-def matrix_to_quaternion(R: np.ndarray) -> np.ndarray:
-    """Unit quaternions ``(..., 4)`` of rotation matrices, by the largest of the four pivots
-    (Shepperd's method), so the result is accurate for every rotation."""
-    R = np.asarray(R, dtype=float)
-    tr = np.trace(R, axis1=-2, axis2=-1)
-    diag = np.diagonal(R, axis1=-2, axis2=-1)
-    pivots = np.concatenate([tr[..., None], diag], axis=-1)
-    k = np.argmax(pivots, axis=-1)
-    q = np.empty(R.shape[:-2] + (4,))
-    r = lambda i, j: R[..., i, j]  # noqa: E731
-    cases = [
-        (1 + tr, r(2, 1) - r(1, 2), r(0, 2) - r(2, 0), r(1, 0) - r(0, 1)),
-        (r(2, 1) - r(1, 2), 1 + 2 * r(0, 0) - tr, r(0, 1) + r(1, 0), r(0, 2) + r(2, 0)),
-        (r(0, 2) - r(2, 0), r(0, 1) + r(1, 0), 1 + 2 * r(1, 1) - tr, r(1, 2) + r(2, 1)),
-        (r(1, 0) - r(0, 1), r(0, 2) + r(2, 0), r(1, 2) + r(2, 1), 1 + 2 * r(2, 2) - tr),
-    ]
-    for case, comps in enumerate(cases):
-        sel = k == case
-        v = np.stack(comps, -1)
-        q[sel] = v[sel] / (2 * np.sqrt(np.stack(comps, -1)[sel][..., case : case + 1]))
-    return q / np.linalg.norm(q, axis=-1, keepdims=True)
