@@ -145,9 +145,9 @@ class Top3Kernel:
         else:
             pi, R = minus_vee(self.P.T @ A @ self.P), R @ self.P
         if self.lanes:
-            from .lanes import matrix_to_quaternion
+            from .quaternions import lanes_from_matrices
 
-            return {"pi": np.ascontiguousarray(pi.T), "q": np.ascontiguousarray(matrix_to_quaternion(R).T)}
+            return {"pi": np.ascontiguousarray(pi.T), "q": lanes_from_matrices(R)}
         return {"pi": pi, "R": np.ascontiguousarray(R)}
 
     def advance(self, internal: dict, k_from: int, k_to: int, plan, save_steps, project: bool):
@@ -176,7 +176,8 @@ class Top3Kernel:
         return {"pi": fin_pi, "R": fin_R}, self._user(out_pi, out_R)
 
     def _advance_lanes(self, internal, k_from, k_to, plan, save_steps, project):
-        from .lanes import quaternion_to_matrix, run_lanes
+        from .lanes import run_lanes
+        from .quaternions import matrices_from_lanes
 
         tab = self.method
         pi, q = internal["pi"].copy(), internal["q"].copy()
@@ -203,7 +204,7 @@ class Top3Kernel:
         )
         if bad >= 0:
             raise range_error(bad, plan)
-        R = quaternion_to_matrix(np.swapaxes(out_q, -1, -2))
+        R = matrices_from_lanes(out_q)
         return {"pi": pi, "q": q}, self._user(np.swapaxes(out_pi, -1, -2), R)
 
     def _user(self, pi, R) -> dict:
@@ -229,9 +230,9 @@ class Top3Kernel:
 
     def user_state(self, internal: dict) -> dict:
         if self.lanes:
-            from .lanes import quaternion_to_matrix
+            from .quaternions import matrices_from_lanes
 
-            pi, R = internal["pi"].T, quaternion_to_matrix(internal["q"].T)
+            pi, R = internal["pi"].T, matrices_from_lanes(internal["q"])
         else:
             pi, R = internal["pi"], internal["R"]
         return {k: v[0] for k, v in self._user(pi[None], R[None]).items()}
