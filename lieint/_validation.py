@@ -124,10 +124,7 @@ def check_skew(arr: np.ndarray, name: str, rtol: float = 1e-10) -> np.ndarray:
 def check_rotation(arr: np.ndarray, name: str, atol: float = 1e-10) -> None:
     """Check that every matrix of ``arr`` lies in SO(n) (orthogonal, det = +1)."""
     n = arr.shape[-1]
-    # the largest ‖RᵀR − I‖_F: the Frobenius norm as np.linalg.norm computes it, without its
-    # Python wrapper (sqrt is monotone: the root of the largest sum is the largest norm)
-    D = arr.swapaxes(-1, -2) @ arr - _eye(n)
-    worst = math.sqrt(np.maximum.reduce(np.add.reduce(D * D, axis=(-2, -1)), axis=None, initial=0.0))
+    worst = _largest_orthogonality_defect(arr)
     if worst > atol:
         raise ValueError(
             f"`{name}` must be a rotation in SO({n}) (R^T R = I, det R = +1); got ||R^T R - I|| = {worst:.3g}."
@@ -140,9 +137,36 @@ def check_rotation(arr: np.ndarray, name: str, atol: float = 1e-10) -> None:
         )
 
 
+def _largest_orthogonality_defect(arr: np.ndarray) -> float:
+    """The largest ``‖RᵀR − I‖_F`` over the matrices of ``arr`` (..., n, n)."""
+    if arr.shape[-1] == 3 and arr.size >= 9 * 64:
+        # many 3 × 3: the six distinct entries of RᵀR as dot products of columns, ~5× faster
+        # than numpy's stacked matmul of small matrices
+        cols = [arr[..., :, i] for i in range(3)]
+        total = 0.0
+        for i in range(3):
+            for j in range(i, 3):
+                a, b = cols[i], cols[j]
+                g = a[..., 0] * b[..., 0] + a[..., 1] * b[..., 1] + a[..., 2] * b[..., 2]
+                total = total + ((g - 1.0) * (g - 1.0) if i == j else 2.0 * (g * g))
+        return math.sqrt(np.maximum.reduce(total, axis=None, initial=0.0))
+    # the Frobenius norm as np.linalg.norm computes it, without its Python wrapper (sqrt is
+    # monotone: the root of the largest sum is the largest norm)
+    D = arr.swapaxes(-1, -2) @ arr - _eye(arr.shape[-1])
+    return math.sqrt(np.maximum.reduce(np.add.reduce(D * D, axis=(-2, -1)), axis=None, initial=0.0))
+
+
 def _det(arr: np.ndarray) -> np.ndarray:
     """``np.linalg.det`` of float64 ``(..., n, n)`` matrices checked already: its LAPACK gufunc
-    called directly (the wrapper's own checks cost more than the 3 × 3 determinant)."""
+    called directly (the wrapper's own checks cost more than the 3 × 3 determinant), or for many
+    3 × 3 matrices the cofactor expansion (only its sign is used: R is orthogonal to 1e-10 here)."""
+    if arr.shape[-1] == 3 and arr.size >= 9 * 64:  # many 3 × 3: the cofactor expansion, 14× faster
+        r = arr
+        return (
+            r[..., 0, 0] * (r[..., 1, 1] * r[..., 2, 2] - r[..., 1, 2] * r[..., 2, 1])
+            - r[..., 0, 1] * (r[..., 1, 0] * r[..., 2, 2] - r[..., 1, 2] * r[..., 2, 0])
+            + r[..., 0, 2] * (r[..., 1, 0] * r[..., 2, 1] - r[..., 1, 1] * r[..., 2, 0])
+        )
     if _DET_GUFUNC is not None and arr.dtype == np.float64:
         return _DET_GUFUNC(arr)
     return np.linalg.det(arr)
