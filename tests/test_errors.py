@@ -69,6 +69,22 @@ def test_bad_initial_state(top, kwargs, match):
 
 
 @pytest.mark.parametrize(
+    ("defect", "match"),
+    [
+        (np.diag([1.0, 1.0, -1.0]), r"det R = \+1; got det R = -1"),
+        (np.diag([1.0, 1.0, 1.0 + 1e-6]), r"got \|\|R\^T R - I\|\| = 2e-06"),  # (1 + 1e-6)² − 1
+        (np.diag([1.0, 1.0, np.nan]), r"`R` must be finite"),
+    ],
+)
+@pytest.mark.parametrize("bodies", [3, 200])  # numpy's det and matmul / the column sums for many 3 × 3
+def test_one_bad_rotation_in_an_ensemble_is_found(top, defect, match, bodies):
+    R = np.broadcast_to(np.eye(3), (bodies, 3, 3)).copy()
+    R[bodies - 2] = defect
+    with pytest.raises(ValueError, match=match):
+        top.initial_state(angular_velocity=np.ones((bodies, 3)), R=R)
+
+
+@pytest.mark.parametrize(
     ("kwargs", "exc", "match"),
     [
         ({"h": 0.0}, ValueError, r"`h` must be a positive finite number; got 0.0"),
