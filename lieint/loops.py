@@ -188,7 +188,9 @@ class _KernelLoop(_CompiledRows):
         new, states = self.kernel.advance(carry.state, carry.k, k_to, plan, saves, d.project)
         m = saves.size
         failure = None
-        if all(_finite(v) for v in states.values()) and all(_finite(v) for v in new.values()):
+        from .fast.finite import all_finite  # numba is loaded: a kernel just ran
+
+        if all_finite([*states.values(), *new.values()]):
             carry.state, done = new, k_to
         else:
             finite = np.ones(m, dtype=bool)
