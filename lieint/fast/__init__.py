@@ -23,6 +23,9 @@ from ..groups.base import DexpinvRangeError, bernoulli_dexpinv_coefficients
 
 __all__ = ["Top3Kernel", "kernel_for", "range_error", "use_threads"]
 
+#: bodies per block of the SIMD-lanes kernel (:mod:`lieint.fast.lanes`), one block per thread
+LANES_BLOCK = 128
+
 
 def kernel_for(system, method, y0, plan) -> tuple[object | None, str]:
     """A compiled kernel for this run, or None with the reason none applies.
@@ -115,6 +118,9 @@ class Top3Kernel:
 
     def __init__(self, sys_decl: dict, meth_decl: dict, y, batch: tuple[int, ...]):
         self.moments = np.asarray(sys_decl["moments"], dtype=float)
+        self.inverse_moments = 1.0 / self.moments
+        self.tableau_A = np.ascontiguousarray(meth_decl["A"], dtype=float)
+        self.tableau_b = np.ascontiguousarray(meth_decl["b"], dtype=float)
         self.orientation = bool(sys_decl["orientation"])
         self.method = meth_decl
         self.lie = meth_decl["kind"] == "rkmk"
@@ -126,8 +132,8 @@ class Top3Kernel:
         # a proper rotation keeps Π a vector (not a pseudo-vector); the identity skips the products
         self.P, self.identity_frame = _proper_frame(sys_decl["P"])
         self.coeffs = _dexpinv_coefficients(meth_decl["dexpinv_degree"] if self.lie else 0)
-        # lanes run blocks of _BLOCK bodies: threads pay off from one block per thread
-        units = -(-bodies // 64) if self.lanes else bodies
+        # lanes run blocks of LANES_BLOCK bodies: threads pay off from one block per thread
+        units = -(-bodies // LANES_BLOCK) if self.lanes else bodies
         self.parallel, self.threads = use_threads(units)
 
     def describe(self) -> str:
@@ -153,13 +159,12 @@ class Top3Kernel:
     def advance(self, internal: dict, k_from: int, k_to: int, plan, save_steps, project: bool):
         if self.lanes:
             return self._advance_lanes(internal, k_from, k_to, plan, save_steps, project)
-        tab = self.method
         out_pi, out_R, fin_pi, fin_R, bad = _top3().integrate_top3(
             internal["pi"],
             internal["R"],
-            self.moments,
-            tab["A"],
-            tab["b"],
+            self.inverse_moments,
+            self.tableau_A,
+            self.tableau_b,
             self.coeffs,
             self.lie,
             plan.h,

@@ -34,11 +34,12 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
+from . import LANES_BLOCK
 from .fused import fma
 
 __all__ = ["run_lanes"]
 
-_BLOCK = 128
+_BLOCK = LANES_BLOCK
 #: the row length of the block's arrays: the block and 8 doubles (64 bytes) of padding
 _ROW = _BLOCK + 8
 # (2π)²: the dexp⁻¹ series of so(3) converges for |u| < 2π

@@ -318,7 +318,7 @@ def _run_serial(
 def integrate_top3(
     pi0,
     R0,
-    moments,
+    inverse_moments,
     tableau_A,
     tableau_b,
     coeffs,
@@ -332,7 +332,9 @@ def integrate_top3(
     project: bool,
     parallel: bool = False,
 ):
-    """Run the compiled loop over steps ``k_from < k ≤ k_to`` (bodies in threads if ``parallel``).
+    """Run the compiled loop over steps ``k_from < k ≤ k_to`` (bodies in threads if ``parallel``):
+    ``Π`` (N, 3) and ``R`` (N, 3, 3) in the principal frame, the inverse principal moments, the
+    tableau's A and b as C-contiguous float64 arrays.
 
     Returns ``(Π, R)`` at the global save steps in that range, shapes ``(m, N, 3)`` and
     ``(m, N, 3, 3)``, the final ``(Π, R)``, all in the principal frame, and the first step at
@@ -346,10 +348,10 @@ def integrate_top3(
     status = run(
         np.ascontiguousarray(pi0),
         np.ascontiguousarray(R0),
-        1.0 / np.asarray(moments, dtype=float),
-        np.ascontiguousarray(tableau_A),
-        np.ascontiguousarray(tableau_b),
-        np.asarray(coeffs, dtype=float),
+        inverse_moments,
+        tableau_A,
+        tableau_b,
+        coeffs,
         bool(lie),
         float(h),
         float(h_last),
