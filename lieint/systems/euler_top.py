@@ -229,6 +229,18 @@ class EulerTop(LieGroupSystem):
             return None
         if self.n < 3:
             return None
+        # built once per inertia tensor and orientation flag (a single call's set-up is a few
+        # tens of microseconds; this is a tenth of it)
+        key = (self.inertia, self.orientation)
+        cached = own.get("_compiled_declaration")
+        if cached is not None and cached[0][0] is key[0] and cached[0][1] == key[1]:
+            return cached[1]
+        decl = self._declaration()
+        own["_compiled_declaration"] = (key, decl)
+        return decl
+
+    def _declaration(self) -> dict:
+        """:meth:`compiled`'s declaration of this top (n ≥ 3): the kernels treat it as read-only."""
         # the generic kernel's form too (lieint.fast.generic): Cayley coordinates, and for
         # n ≥ 4 the adaptive pairs
         head = [self.n, self.field_offsets().get("R", -1), float(self.inertia.diagonal)]
