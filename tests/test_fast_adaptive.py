@@ -71,9 +71,16 @@ def test_compiled_adaptive_matches_the_generic_controller(rng, method, orientati
     assert worst < 1e-13 * max(1.0, float(np.abs(ref.states["A"]).max()))
 
 
+@pytest.mark.parametrize("n", [3, 4])
 @pytest.mark.parametrize("method", ["rkmk45", "rkmk853"])
-def test_segments_give_the_same_bits_as_one_call(rng, method):
-    top, y0 = top_and_state(rng, True, 1)
+def test_segments_give_the_same_bits_as_one_call(rng, method, n):
+    if n == 3:
+        top, y0 = top_and_state(rng, True, 1)
+    else:  # the n-dimensional top's own adaptive kernel (lieint.fast.topn_adaptive)
+        Q = random_rotation(rng, n)
+        top = lieint.EulerTop(Q @ np.diag([0.6, 0.8, 1.1, 1.3]) @ Q.T)
+        X = rng.normal(size=(n, n))
+        y0 = top.initial_state(Omega=X - X.T, R=random_rotation(rng, n))
     kw = dict(method=lieint.get_method(method), t_span=(0.0, 20.0), rtol=1e-9, atol=1e-11, save_every=3)
     whole = Driver(top, **kw)
     carry = whole.start(y0)

@@ -236,17 +236,25 @@ def test_compiled_adaptive_pairs_take_the_generic_paths_steps(n, name):
 
 @pytest.mark.parametrize("n", [4, 6])
 def test_the_adaptive_pairs_of_the_n_dimensional_top_run_compiled(n):
-    """The Euler top for n ≥ 4 runs its fixed steps in its own kernel and its adaptive pairs
-    through the generic kernel (``compiled()["lie"]``), taking the generic path's steps."""
+    """The Euler top for n ≥ 4 runs its fixed steps and its adaptive pairs in its own kernels
+    (:mod:`lieint.fast.topn_adaptive`, in the principal frame, the error measured in the user's),
+    taking the generic path's steps, with and without R, projected or not."""
     rng = np.random.default_rng(n)
     top = lieint.EulerTop(_spd(rng, n, 0.5, 1.5))
     y0 = initial(top, rng)
-    for method in ("rkmk23", "rkmk45", "rkmk853"):
-        kw = dict(t_span=(0.0, 2.0), method=method, rtol=1e-8, atol=1e-10)
-        fast = lieint.integrate(top, y0, backend="numba", **kw)
-        ref = lieint.integrate(top, y0, backend="numpy", **kw)
-        assert f"Lie-group kernel on so({n}), adaptive" in fast.stats.backend_reason
-        assert (fast.t.size, fast.stats.nrejected) == (ref.t.size, ref.stats.nrejected), method
+    no_R = lieint.EulerTop(top.B, orientation=False)
+    for method, system, project in (
+        ("rkmk23", top, False),
+        ("rkmk45", no_R, False),
+        ("rkmk853", top, True),
+    ):
+        state = y0 if system is top else {"A": y0["A"]}
+        kw = dict(t_span=(0.0, 2.0), method=method, rtol=1e-8, atol=1e-10, project=project)
+        fast = lieint.integrate(system, state, backend="numba", **kw)
+        ref = lieint.integrate(system, state, backend="numpy", **kw)
+        assert f"compiled {n}D-top kernel, adaptive" in fast.stats.backend_reason
+        steps = (fast.t.size, fast.stats.nrejected, fast.nfev)
+        assert steps == (ref.t.size, ref.stats.nrejected, ref.nfev), method
         for field, expected in ref.states.items():
             np.testing.assert_allclose(fast.states[field][-1], expected[-1], rtol=0, atol=1e-11)
 

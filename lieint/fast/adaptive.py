@@ -3,9 +3,10 @@
 Chosen, like the fixed-step kernels, by declaration: the method declares an RKMK embedded pair
 (``method.compiled()`` with ``"b_hat"``, ``"error_order"`` and, for DOP853's combined estimate,
 ``"b_hat_low"``), and the system either the 3D top (``"top3"``: its own kernel,
-:mod:`lieint.fast.top3_adaptive`, for exponential coordinates) or compiled pieces (``"lie"``, or
-a top's declaration under ``"lie"``: :mod:`lieint.fast.generic_adaptive`, exponential and Cayley
-coordinates). The numba code is imported on the first step.
+:mod:`lieint.fast.top3_adaptive`, for exponential coordinates), the top in n ≥ 4 dimensions
+(``"topn"``: :mod:`lieint.fast.topn_adaptive`, exponential coordinates) or compiled pieces
+(``"lie"``, or a top's declaration under ``"lie"``: :mod:`lieint.fast.generic_adaptive`,
+exponential and Cayley coordinates). The numba code is imported on the first step.
 """
 
 from __future__ import annotations
@@ -14,7 +15,7 @@ import numpy as np
 
 from . import Top3Kernel
 
-__all__ = ["Top3AdaptiveKernel", "adaptive_kernel_for"]
+__all__ = ["Top3AdaptiveKernel", "TopNAdaptiveKernel", "adaptive_kernel_for"]
 
 
 def adaptive_kernel_for(system, method, y0) -> tuple[object | None, str]:
@@ -27,9 +28,9 @@ def adaptive_kernel_for(system, method, y0) -> tuple[object | None, str]:
         return None, f"{label} declares no compiled form"
     meth_decl = method.compiled()
     cayley = meth_decl is not None and meth_decl.get("coordinates") == "cayley"
-    if (sys_decl.get("kind") == "topn" or cayley) and "lie" in sys_decl:
-        sys_decl = sys_decl["lie"]  # the n-D top, and Cayley coordinates: through the generic kernel
-    if sys_decl.get("kind") not in ("top3", "lie"):
+    if cayley and "lie" in sys_decl:
+        sys_decl = sys_decl["lie"]  # Cayley coordinates: through the generic kernel
+    if sys_decl.get("kind") not in ("top3", "topn", "lie"):
         return None, f"no adaptive kernel for the compiled form {sys_decl.get('kind')!r}"
     if cayley and sys_decl["kind"] != "lie":
         return None, f"no adaptive Cayley kernel for the compiled form {sys_decl['kind']!r}"
@@ -46,6 +47,8 @@ def adaptive_kernel_for(system, method, y0) -> tuple[object | None, str]:
         from .generic_adaptive import LieAdaptiveKernel
 
         return LieAdaptiveKernel(pieces_of(sys_decl), meth_decl, batch), ""
+    if sys_decl["kind"] == "topn":
+        return TopNAdaptiveKernel(sys_decl, meth_decl, batch), ""
     return Top3AdaptiveKernel(sys_decl, meth_decl, batch), ""
 
 
@@ -122,3 +125,63 @@ class Top3AdaptiveKernel(Top3Kernel):
         )
         saved = self._user(out_pi[:rows], out_R[:rows])
         return {"pi": pi, "R": R}, (t, h, k), (accepted, rejected, nfev), out_t[:rows].copy(), saved, status == 1
+
+
+class TopNAdaptiveKernel:
+    """Adaptive RKMK on the Euler top in n ≥ 4 dimensions in machine code, state
+    ``(Ã, R̃) = (PᵀAP, RP)`` per body in the principal frame (as
+    :class:`~lieint.fast.topn.TopNKernel`'s; a batch shares one step size). The error norm is
+    taken on the user's fields, as on the generic path (:mod:`lieint.fast.topn_adaptive`)."""
+
+    ROWS_PER_CALL = Top3AdaptiveKernel.ROWS_PER_CALL
+    BYTES_PER_CALL = Top3AdaptiveKernel.BYTES_PER_CALL
+
+    def __init__(self, sys_decl: dict, meth_decl: dict, batch: tuple[int, ...]):
+        from .topn import TopNKernel
+
+        self.frame = TopNKernel(sys_decl, meth_decl, None, batch)  # layout, frame, conversions
+        self.stages, self.parallel, self.threads = self.frame.stages, False, 1
+        b = self.frame.b
+        pair = b[:, None] + b[None, :]
+        np.fill_diagonal(pair, 1.0)  # the diagonal of a bivector is zero anyway
+        self.M = -1.0 / pair
+        self.tab_A = np.ascontiguousarray(meth_decl["A"], dtype=float)
+        self.tab_b = np.ascontiguousarray(meth_decl["b"], dtype=float)
+        self.b_hat = np.ascontiguousarray(meth_decl["b_hat"], dtype=float)
+        low = meth_decl.get("b_hat_low")
+        self.has_low = low is not None
+        self.b_low = np.ascontiguousarray(low if low is not None else np.zeros_like(self.b_hat), dtype=float)
+        self.error_order = int(meth_decl["error_order"])
+        self.coeffs = np.asarray(self.frame.coeffs, dtype=float)
+
+    def describe(self) -> str:
+        return f"compiled {self.frame.n}D-top kernel, adaptive RKMK (whole controller loop), per body, serial"
+
+    def start(self, y: dict) -> dict:
+        return self.frame.start(y)
+
+    def user_state(self, internal: dict) -> dict:
+        return self.frame.user_state(internal)
+
+    def advance_adaptive(self, internal: dict, t, t1, h, k, max_accept, save_every, project, controller, h_min):
+        """Accepted steps from ``(t, h)`` at step ``k`` (see
+        :meth:`Top3AdaptiveKernel.advance_adaptive`)."""
+        from .topn_adaptive import adaptive_topn
+
+        f = self.frame
+        A = internal["A"].copy()
+        R = internal["R"].copy() if f.orientation else np.empty((A.shape[0], 0, 0))
+        N, n, r = A.shape[0], f.n, R.shape[1]
+        rows_fit = self.BYTES_PER_CALL // (8 * (n * n + r * r) * N)
+        cap = max(1, min(self.ROWS_PER_CALL, rows_fit, max_accept // save_every + 1))
+        out_t, out_A, out_R = np.empty(cap), np.empty((cap, N, n, n)), np.empty((cap, N, r, r))
+        status, t, h, k, accepted, rejected, nfev, rows = adaptive_topn(
+            A, R, f.orientation, self.M, f.P, f.identity_frame, self.tab_A, self.tab_b, self.b_hat, self.b_low,
+            self.has_low, self.coeffs, float(controller.rtol), float(controller.atol), self.error_order,
+            float(controller.safety), float(controller.factor_min), float(controller.factor_max), float(h_min),
+            float(t), float(t1), float(h), int(k), int(min(max_accept, np.iinfo(np.int64).max)), int(save_every),
+            bool(project), out_t, out_A, out_R,
+        )  # fmt: skip
+        new = {"A": A, "R": R} if f.orientation else {"A": A}
+        saved = f._user(out_A[:rows], out_R[:rows])
+        return new, (t, h, k), (accepted, rejected, nfev), out_t[:rows].copy(), saved, status == 1

@@ -216,9 +216,9 @@ class EulerTop(LieGroupSystem):
     def compiled(self):
         """What the compiled kernels (:mod:`lieint.fast`) need: for n = 3 the principal moments
         and frame (``"top3"``), for n ≥ 4 the eigenvalues b and eigenbasis P of B (``"topn"``,
-        :mod:`lieint.fast.topn`) with, under ``"lie"``, the generic kernel's declaration
-        (:mod:`lieint.fast.generic`: its adaptive pairs); None for n = 2 (so(2) is abelian:
-        nothing to compile).
+        :mod:`lieint.fast.topn` and :mod:`lieint.fast.topn_adaptive`) with, under ``"lie"``, the
+        generic kernel's declaration (:mod:`lieint.fast.generic`: Cayley coordinates); None for
+        n = 2 (so(2) is abelian: nothing to compile).
 
         The declaration stands for the Euler top's equations: a subclass that overrides the
         generator, the action or the projection integrates other dynamics and declares None
@@ -241,8 +241,7 @@ class EulerTop(LieGroupSystem):
 
     def _declaration(self) -> dict:
         """:meth:`compiled`'s declaration of this top (n ≥ 3): the kernels treat it as read-only."""
-        # the generic kernel's form too (lieint.fast.generic): Cayley coordinates, and for
-        # n ≥ 4 the adaptive pairs
+        # the generic kernel's form too (lieint.fast.generic): Cayley coordinates
         head = [self.n, self.field_offsets().get("R", -1), float(self.inertia.diagonal)]
         params = np.concatenate([head, self.inertia.kernel_params])
         lie = {"kind": "lie", "pieces": "euler_top", "params": params, "n": self.n}
