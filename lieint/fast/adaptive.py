@@ -14,6 +14,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import Top3Kernel
+from .pairs import CompiledPair, row_capacity
 
 __all__ = ["Top3AdaptiveKernel", "TopNAdaptiveKernel", "adaptive_kernel_for"]
 
@@ -61,26 +62,17 @@ class Top3AdaptiveKernel(Top3Kernel):
     error norm as on the generic path (:mod:`lieint.fast.top3_adaptive`).
     """
 
-    #: rows the kernel writes per call before handing them back (memory stays bounded) ...
-    ROWS_PER_CALL = 4096
-    #: ... and the bytes those rows may take (fewer rows per call for a large batch)
-    BYTES_PER_CALL = 32_000_000
-
     def __init__(self, sys_decl: dict, meth_decl: dict, batch: tuple[int, ...]):
         super().__init__(sys_decl, meth_decl, None, batch)
         self.lanes, self.parallel, self.threads = False, False, 1
-        self.b_hat = np.ascontiguousarray(meth_decl["b_hat"], dtype=float)
-        low = meth_decl.get("b_hat_low")
-        self.has_low = low is not None
-        self.b_low = np.ascontiguousarray(low if low is not None else np.zeros_like(self.b_hat), dtype=float)
-        self.error_order = int(meth_decl["error_order"])
+        self.pair = CompiledPair.from_declaration(meth_decl)
 
     def describe(self) -> str:
         return "compiled 3D-top kernel, adaptive RKMK (whole controller loop), per body, serial"
 
     def advance_adaptive(self, internal: dict, t, t1, h, k, max_accept, save_every, project, controller, h_min):
         """Accepted steps from ``(t, h)`` at step ``k`` until ``t1``, ``max_accept`` accepted
-        steps or :attr:`ROWS_PER_CALL` saved rows.
+        steps or :data:`lieint.fast.pairs.ROWS_PER_CALL` saved rows.
 
         Returns the new internal state, ``(t, h, k)``, the accepted, rejected and evaluation
         counts, the saved times and user states, and whether the step size fell below ``h_min``.
@@ -89,25 +81,24 @@ class Top3AdaptiveKernel(Top3Kernel):
 
         pi, R = internal["pi"].copy(), internal["R"].copy()
         N = pi.shape[0]
-        rows_fit = self.BYTES_PER_CALL // (8 * 12 * N)
-        cap = max(1, min(self.ROWS_PER_CALL, rows_fit, max_accept // save_every + 1))
+        cap = row_capacity(8 * 12 * N, max_accept, save_every)
         out_t, out_pi, out_R = np.empty(cap), np.empty((cap, N, 3)), np.empty((cap, N, 3, 3))
-        tab = self.method
+        pair = self.pair
         status, t, h, k, accepted, rejected, nfev, rows = adaptive_top3(
             pi,
             R,
-            1.0 / self.moments,
-            np.ascontiguousarray(tab["A"], dtype=float),
-            np.ascontiguousarray(tab["b"], dtype=float),
-            self.b_hat,
-            self.b_low,
-            self.has_low,
-            np.asarray(self.coeffs, dtype=float),
+            self.inverse_moments,
+            self.tableau_A,
+            self.tableau_b,
+            pair.b_hat,
+            pair.b_low,
+            pair.has_low,
+            self.coeffs,
             self.P,
             self.orientation,
             float(controller.rtol),
             float(controller.atol),
-            self.error_order,
+            pair.error_order,
             float(controller.safety),
             float(controller.factor_min),
             float(controller.factor_max),
@@ -133,25 +124,15 @@ class TopNAdaptiveKernel:
     :class:`~lieint.fast.topn.TopNKernel`'s; a batch shares one step size). The error norm is
     taken on the user's fields, as on the generic path (:mod:`lieint.fast.topn_adaptive`)."""
 
-    ROWS_PER_CALL = Top3AdaptiveKernel.ROWS_PER_CALL
-    BYTES_PER_CALL = Top3AdaptiveKernel.BYTES_PER_CALL
-
     def __init__(self, sys_decl: dict, meth_decl: dict, batch: tuple[int, ...]):
-        from .topn import TopNKernel
+        from .topn import TopNKernel, inertia_factors
 
         self.frame = TopNKernel(sys_decl, meth_decl, None, batch)  # layout, frame, conversions
         self.stages, self.parallel, self.threads = self.frame.stages, False, 1
-        b = self.frame.b
-        pair = b[:, None] + b[None, :]
-        np.fill_diagonal(pair, 1.0)  # the diagonal of a bivector is zero anyway
-        self.M = -1.0 / pair
+        self.M = inertia_factors(self.frame.b)
         self.tab_A = np.ascontiguousarray(meth_decl["A"], dtype=float)
         self.tab_b = np.ascontiguousarray(meth_decl["b"], dtype=float)
-        self.b_hat = np.ascontiguousarray(meth_decl["b_hat"], dtype=float)
-        low = meth_decl.get("b_hat_low")
-        self.has_low = low is not None
-        self.b_low = np.ascontiguousarray(low if low is not None else np.zeros_like(self.b_hat), dtype=float)
-        self.error_order = int(meth_decl["error_order"])
+        self.pair = CompiledPair.from_declaration(meth_decl)
         self.coeffs = np.asarray(self.frame.coeffs, dtype=float)
 
     def describe(self) -> str:
@@ -172,12 +153,12 @@ class TopNAdaptiveKernel:
         A = internal["A"].copy()
         R = internal["R"].copy() if f.orientation else np.empty((A.shape[0], 0, 0))
         N, n, r = A.shape[0], f.n, R.shape[1]
-        rows_fit = self.BYTES_PER_CALL // (8 * (n * n + r * r) * N)
-        cap = max(1, min(self.ROWS_PER_CALL, rows_fit, max_accept // save_every + 1))
+        cap = row_capacity(8 * (n * n + r * r) * N, max_accept, save_every)
         out_t, out_A, out_R = np.empty(cap), np.empty((cap, N, n, n)), np.empty((cap, N, r, r))
+        p = self.pair
         status, t, h, k, accepted, rejected, nfev, rows = adaptive_topn(
-            A, R, f.orientation, self.M, f.P, f.identity_frame, self.tab_A, self.tab_b, self.b_hat, self.b_low,
-            self.has_low, self.coeffs, float(controller.rtol), float(controller.atol), self.error_order,
+            A, R, f.orientation, self.M, f.P, f.identity_frame, self.tab_A, self.tab_b, p.b_hat, p.b_low,
+            p.has_low, self.coeffs, float(controller.rtol), float(controller.atol), p.error_order,
             float(controller.safety), float(controller.factor_min), float(controller.factor_max), float(h_min),
             float(t), float(t1), float(h), int(k), int(min(max_accept, np.iinfo(np.int64).max)), int(save_every),
             bool(project), out_t, out_A, out_R,

@@ -28,6 +28,7 @@ from numba import njit, types
 
 from .controller import advanced_time, error_norm, step_factor
 from .generic import ACTION, FIELD, GENERATOR, LieKernel, lie_step, move
+from .pairs import CompiledPair, row_capacity
 
 __all__ = ["LieAdaptiveKernel", "adaptive_lie"]
 
@@ -154,19 +155,10 @@ class LieAdaptiveKernel(LieKernel):
     """Adaptive RKMK through the generic compiled kernel: the whole controller loop in machine
     code, serial (a batch shares one step size), state flattened as :class:`LieKernel`'s."""
 
-    #: rows the kernel writes per call before handing them back (memory stays bounded) ...
-    ROWS_PER_CALL = 4096
-    #: ... and the bytes those rows may take (fewer rows per call for a large batch)
-    BYTES_PER_CALL = 32_000_000
-
     def __init__(self, sys_decl: dict, meth_decl: dict, batch: tuple[int, ...]):
         super().__init__(sys_decl, meth_decl, None, batch)
         self.parallel, self.threads = False, 1
-        self.b_hat = np.array(meth_decl["b_hat"], dtype=float)
-        low = meth_decl.get("b_hat_low")
-        self.has_low = low is not None
-        self.b_low = np.array(low if low is not None else np.zeros_like(self.b_hat), dtype=float)
-        self.error_order = int(meth_decl["error_order"])
+        self.pair = CompiledPair.from_declaration(meth_decl)
         self.tab_A = np.array(meth_decl["A"], dtype=float)
         self.tab_b = np.array(meth_decl["b"], dtype=float)
 
@@ -176,12 +168,11 @@ class LieAdaptiveKernel(LieKernel):
 
     def advance_adaptive(self, internal: dict, t, t1, h, k, max_accept, save_every, project, controller, h_min):
         """Accepted steps from ``(t, h)`` at step ``k`` until ``t1``, ``max_accept`` accepted
-        steps or :attr:`ROWS_PER_CALL` saved rows (see
+        steps or :data:`lieint.fast.pairs.ROWS_PER_CALL` saved rows (see
         :meth:`lieint.fast.adaptive.Top3AdaptiveKernel.advance_adaptive`)."""
         Y = internal["Y"].copy()
         N, d = Y.shape
-        rows_fit = self.BYTES_PER_CALL // (8 * d * N)
-        cap = max(1, min(self.ROWS_PER_CALL, rows_fit, max_accept // save_every + 1))
+        cap = row_capacity(8 * d * N, max_accept, save_every)
         out_t, out_Y = np.empty(cap), np.empty((cap, N, d))
         status, t, h, k, accepted, rejected, nfev, rows = adaptive_lie(
             *self.pieces.functions[:2],
@@ -192,13 +183,13 @@ class LieAdaptiveKernel(LieKernel):
             self.m,
             self.tab_A,
             self.tab_b,
-            self.b_hat,
-            self.b_low,
-            self.has_low,
+            self.pair.b_hat,
+            self.pair.b_low,
+            self.pair.has_low,
             self.coeffs,
             float(controller.rtol),
             float(controller.atol),
-            self.error_order,
+            self.pair.error_order,
             float(controller.safety),
             float(controller.factor_min),
             float(controller.factor_max),
