@@ -191,9 +191,9 @@ class Top3Kernel:
         bad = run_lanes(
             pi,
             q,
-            1.0 / self.moments,
-            tab["A"],
-            tab["b"],
+            self.inverse_moments,
+            self.tableau_A,
+            self.tableau_b,
             tab["c"],
             self.coeffs,
             plan.h,

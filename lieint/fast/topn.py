@@ -57,7 +57,7 @@ from ..groups.base import bernoulli_dexpinv_coefficients
 from . import range_error, use_threads
 from .skew import _bracket, _finite, _project, expm_skew, expm_skew_into, mm_into, so_ad_radius_exceeds
 
-__all__ = ["TopNKernel", "expm_skew", "integrate_topn", "so_ad_radius_exceeds"]
+__all__ = ["TopNKernel", "expm_skew", "inertia_factors", "integrate_topn", "so_ad_radius_exceeds"]
 
 
 @njit(cache=True)
@@ -245,6 +245,15 @@ def _run_bodies(
         _store(fin_R, m, R)
 
 
+def inertia_factors(b_principal) -> np.ndarray:
+    """``M_ij = −1/(b_i + b_j)``: the inertia operator in the principal frame is the entrywise
+    product ``Ω̃ = M ∘ Ã`` (the diagonal, zero in a bivector, is set to −1)."""
+    b = np.asarray(b_principal, dtype=float)
+    pair = b[:, None] + b[None, :]
+    np.fill_diagonal(pair, 1.0)  # the diagonal of a bivector is zero anyway
+    return -1.0 / pair
+
+
 def integrate_topn(
     A0,
     R0,
@@ -308,10 +317,7 @@ def integrate_topn(
     m = save_steps.size
     out_A, out_R = np.empty((m, N, n, n)), np.empty((m, N, r, r))
     fin_A, fin_R = np.empty((N, n, n)), np.empty((N, r, r))
-    b_principal = np.asarray(b_principal, dtype=float)
-    pair = b_principal[:, None] + b_principal[None, :]
-    np.fill_diagonal(pair, 1.0)  # the diagonal of a bivector is zero anyway
-    M = -1.0 / pair
+    M = inertia_factors(b_principal)
     status = np.empty(N, dtype=np.int64)
     args = (
         A0,
