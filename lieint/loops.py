@@ -83,7 +83,19 @@ def fixed_loop(driver: Driver, y0: dict):
     return _FixedLoop(driver, reason)
 
 
-class _FixedLoop:
+class _GenericRows:
+    """What the generic loops share: the carry holds the user's state itself."""
+
+    d: Driver
+
+    def first_row(self, carry: Carry) -> Segment:
+        return Segment(np.array([self.d.t0]), {k: v[None] for k, v in carry.state.items()})
+
+    def user_state(self, carry: Carry) -> dict:
+        return carry.state
+
+
+class _FixedLoop(_GenericRows):
     """Fixed steps on the global grid, generic numpy path (any system, any method)."""
 
     name = "numpy"
@@ -94,12 +106,6 @@ class _FixedLoop:
     def start(self, y0: dict) -> Carry:
         d = self.d
         return Carry(0, d.t0, dict(y0), d.plan.h, d.method.init(d.system, d.t0, y0, d.plan.h))
-
-    def first_row(self, carry: Carry) -> Segment:
-        return Segment(np.array([self.d.t0]), {k: v[None] for k, v in carry.state.items()})
-
-    def user_state(self, carry: Carry) -> dict:
-        return carry.state
 
     def advance(self, carry: Carry, max_steps: int | None) -> Segment:
         d = self.d
@@ -207,7 +213,7 @@ class _KernelLoop(_CompiledRows):
         return Segment(plan.times(saves), states, failure)
 
 
-class _AdaptiveLoop:
+class _AdaptiveLoop(_GenericRows):
     """Accepted and rejected steps under the step-size controller (generic numpy path)."""
 
     name = "numpy"
@@ -220,12 +226,6 @@ class _AdaptiveLoop:
         d = self.d
         h = d.h if d.h is not None else d.controller.initial_step(d.system, d.t0, y0, d.t1, d.method.error_order)
         return Carry(0, d.t0, dict(y0), min(h, d.t1 - d.t0), d.method.init(d.system, d.t0, y0, h))
-
-    def first_row(self, carry: Carry) -> Segment:
-        return Segment(np.array([self.d.t0]), {k: v[None] for k, v in carry.state.items()})
-
-    def user_state(self, carry: Carry) -> dict:
-        return carry.state
 
     def advance(self, carry: Carry, max_steps: int | None) -> Segment:
         d = self.d
