@@ -154,3 +154,43 @@ def test_both_paths_warn_alike_at_the_edge_of_resolution(rng, method):
         assert outcome["numba"] == outcome["numpy"], (factor, outcome)
         decisions.append(outcome["numba"])
     assert decisions[0] is False and any(d is True or d == "refused" for d in decisions[1:])
+
+
+def test_the_fused_multiply_add_rounds_once_in_scalar_code_and_in_simd_lanes():
+    """``fma(1 + 2⁻³⁰, 1 − 2⁻³⁰, −1) = −2⁻⁶⁰`` exactly (the product rounded first gives 0), in a
+    loop long enough to be vectorised and in its scalar remainder alike."""
+    from numba import njit
+
+    from lieint.fast.fused import fma
+
+    @njit
+    def fused(a, b, c, out):
+        for i in range(a.size):
+            out[i] = fma(a[i], b[i], c[i])
+
+    n = 37  # a vectorised body and a scalar remainder
+    a, b, c = np.full(n, 1 + 2.0**-30), np.full(n, 1 - 2.0**-30), np.full(n, -1.0)
+    out = np.empty(n)
+    fused(a, b, c, out)
+    assert np.all(out == -(2.0**-60)) and np.all(a * b + c == 0.0)
+
+
+def test_lanes_quaternions_are_scipys_rotations_near_every_pivot(rng):
+    """The lanes kernel's quaternion conversions (Shepperd's four pivots) against scipy's
+    ``Rotation``: random rotations and rotations by π about each axis and near it."""
+    from scipy.spatial.transform import Rotation
+
+    from lieint.fast.quaternions import lanes_from_matrices, matrices_from_lanes
+
+    axes = np.eye(3)
+    vectors = np.concatenate([rng.normal(size=(200, 3)), np.pi * axes, (np.pi - 1e-9) * axes, 1e-12 * axes])
+    R = Rotation.from_rotvec(vectors).as_matrix()
+    q = lanes_from_matrices(R)  # (4, N) as (w, x, y, z)
+    expected = Rotation.from_matrix(R).as_quat()  # (N, 4) as (x, y, z, w)
+    same = np.minimum(
+        np.abs(q.T[:, [1, 2, 3, 0]] - expected).max(axis=1), np.abs(q.T[:, [1, 2, 3, 0]] + expected).max(axis=1)
+    )
+    assert same.max() < 1e-15
+    # back to matrices: products of two components, a few ulps (scipy's own quaternion → matrix
+    # of the same rotations errs by 6.7e-16 over 5,000 of them; ours by 8.3e-16)
+    np.testing.assert_allclose(matrices_from_lanes(q), R, rtol=0, atol=2e-15)
