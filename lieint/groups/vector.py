@@ -19,10 +19,24 @@ class VectorSpace(LieGroup):
     """``(Rᵈ, +)`` with elements of trailing shape ``shape`` (e.g. ``(n,)`` or ``(n, n)``).
 
     Group and algebra elements are the same arrays; the group law is addition.
+
+    Parameters
+    ----------
+    shape : tuple of int
+        Trailing shape of an element.
+    antisymmetric : bool
+        The field this factor moves holds skew matrices (shape ``(n, n)``), e.g. a rolling
+        ball's body angular velocity Ω: the directions a state can move in are the skew ones.
+        The group law is unchanged (a sum of skew matrices is skew); what asks for a basis of
+        the directions — the energy projection of :mod:`lieint.methods.energy_projection` — takes
+        ``E_jk − E_kj`` instead of every unit matrix.
     """
 
-    def __init__(self, shape: tuple[int, ...]):
+    def __init__(self, shape: tuple[int, ...], antisymmetric: bool = False):
         self.shape = tuple(int(s) for s in shape)
+        if antisymmetric and (len(self.shape) != 2 or self.shape[0] != self.shape[1]):
+            raise ValueError(f"`antisymmetric` needs a square shape (n, n); got {self.shape}.")
+        self.antisymmetric = bool(antisymmetric)
         self.dim = int(np.prod(self.shape))
         self.name = f"R^{self.shape}"
 
@@ -59,7 +73,7 @@ class VectorSpace(LieGroup):
         return g
 
     def __repr__(self) -> str:
-        return f"VectorSpace({self.shape})"
+        return f"VectorSpace({self.shape}{', antisymmetric=True' if self.antisymmetric else ''})"
 
 
 class ProductGroup(LieGroup):

@@ -230,7 +230,7 @@ class RollingBall(RollingPose, LieGroupSystem):
             self.fields["G"] = (n,)
         self._pose_fields(n, self.orientation)
         pose = SE(n) if self.track_center else SO(n)
-        self.group = ProductGroup(pose, VectorSpace((n, n)))
+        self.group = ProductGroup(pose, VectorSpace((n, n), antisymmetric=True))
 
     # -- physics -----------------------------------------------------------------------
     def contact_mass_tensor(self, Gamma: np.ndarray) -> np.ndarray:
