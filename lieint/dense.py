@@ -37,7 +37,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["DenseOutput", "EmbeddedHermite", "Increment", "LieHermite"]
+__all__ = ["DenseOutput", "EmbeddedHermite", "Increment", "LieHermite", "Restep"]
 
 
 @dataclass(frozen=True)
@@ -64,6 +64,47 @@ class Increment:
     def algebra(self, group):
         """``u`` with ``y₁ = ρ(exp(u), y₀)``."""
         return self.u if self.u is not None else group.log(self.g)
+
+
+@dataclass(frozen=True)
+class Restep:
+    """Dense output by stepping again: ``y(t₀ + τ)`` is the method's own step of size τ from
+    ``(t₀, y₀)`` (for ``0 < τ < h``), so between the steps the solution has the method's order,
+    its error constant and every property its steps have (on the group, on the energy level).
+
+    A method reports it as its step's ``dense`` when a Hermite curve through the step ends would
+    be much less accurate than the step itself — the energy-keeping pairs, whose steps flow the
+    spin about the momentum axis exactly and may turn the body by radians
+    (:mod:`lieint.methods.energy_projection`). Each evaluation costs one step.
+
+    Attributes
+    ----------
+    method : Method
+        The method that took the step.
+    system : LieGroupSystem
+    t0, t1 : float
+        The step's ends.
+    y0, y1 : dict
+        The states there (returned as they are at the ends).
+    state : Any
+        The method's state at ``t0`` (what its step received).
+    """
+
+    method: Any
+    system: Any
+    t0: float
+    t1: float
+    y0: dict
+    y1: dict
+    state: Any
+
+    def __call__(self, t: float) -> dict:
+        t = float(t)
+        if t == self.t1:
+            return self.y1
+        if t == self.t0:
+            return self.y0
+        return self.method.step(self.system, self.t0, self.y0, t - self.t0, self.state).y
 
 
 def _hermite(theta: float) -> tuple[float, float, float, float]:

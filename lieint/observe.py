@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .dense import DenseOutput, EmbeddedHermite, Increment, LieHermite
+from .dense import DenseOutput, EmbeddedHermite, Increment, LieHermite, Restep
 from .events import EventLog, as_events
 
 __all__ = ["StepObserver", "group_action_of"]
@@ -118,6 +118,8 @@ class StepObserver:
     def _interpolant(self, t0: float, y0: dict, t1: float, y1: dict, result):
         system = self.system
         increment = result.dense
+        if isinstance(increment, Restep):  # the method's own step from y₀, of any size up to h
+            return increment
         if self.group_action and not isinstance(increment, Increment):
             g = system.relative_element(y0, y1)
             increment = None if g is None else Increment(g=g)
@@ -134,11 +136,16 @@ class StepObserver:
         if lie:
             group = system.group
             u = increment.algebra(group)
-            earlier, g = [], None
+            earlier, g, reach = [], None, 0.0
             for tj, xij, uj in reversed(self.history):
                 back = group.exp(group.negate(uj))
                 # y_j = ρ(exp(−u_{n−1}) ⋯ exp(−u_j), y_n) for a right action
                 g = back if g is None else group.multiply(g, back)
+                # the principal log of the chain follows the path back only while the path turns
+                # by less than π (bounded by the steps' ad radii): beyond, a lower degree
+                reach += float(np.max(group.ad_spectral_radius(uj), initial=0.0))
+                if earlier and not reach < np.pi:
+                    break
                 earlier.append((tj, group.negate(uj) if len(earlier) == 0 else group.log(g), xij))
             if self.extra_nodes:
                 self.history = [*self.history, (t0, d0, u)][-self.extra_nodes :]
