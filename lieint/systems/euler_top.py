@@ -136,6 +136,29 @@ class EulerTop(LieGroupSystem):
     def generator(self, t, y: State) -> np.ndarray:
         return self.angular_velocity(y["A"])
 
+    def commuting_generator(self, t, y: State) -> np.ndarray:
+        """The part of the generator that commutes with A: ``λA`` with ``λ = ⟨Ω, A⟩ / ⟨A, A⟩``.
+
+        The generator of ``A' = [A, Ω]`` is defined only up to the centraliser of A: ``Ω − λA``
+        moves A exactly as Ω does, for any λ. With this λ (``= −4T/|A|²``, a ratio of the energy
+        and the Casimir, so constant along the flow) ``Ω − λA`` is the representative of least
+        norm in ``Ω + span{A}``, and the rest, ``λA``, has an exact flow that commutes with the
+        whole motion: it turns the attitude about the momentum axis, ``R ↦ R exp(tλA)`` (in
+        space, ``exp(tλm) R`` with ``m = R A Rᵀ``), and leaves A alone. Near a steady rotation
+        ``Ω ≈ λA``: what remains for a Lie-group method to integrate is small there, however fast
+        the body spins (see :mod:`lieint.methods.energy_projection`, which uses it).
+
+        Returns
+        -------
+        ndarray, shape (..., n, n)
+            ``λA`` (zero where A is zero).
+        """
+        A = y["A"]
+        Omega = self.generator(t, y)
+        norm2 = np.sum(A * A, axis=(-2, -1), keepdims=True)
+        lam = np.sum(Omega * A, axis=(-2, -1), keepdims=True) / np.where(norm2 > 0, norm2, 1.0)
+        return lam * A
+
     def act(self, g: np.ndarray, y: State) -> State:
         gt = np.swapaxes(g, -1, -2)
         out = {"A": skew_part(gt @ y["A"] @ g)}
