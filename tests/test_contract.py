@@ -120,11 +120,10 @@ def applies(method, system) -> bool:
 # -- orders: each method finds a problem with a known solution it applies to ----------------------
 
 
-def exact_top_problem():
+def exact_top_problem(T=5.0):
     """The 3D Euler top against its Jacobi-elliptic solution."""
     top = lieint.EulerTop.from_principal_moments([1.0, 2.0, 3.0])
     y0 = top.initial_state(angular_velocity=[0.3, 1.0, 0.4])
-    T = 5.0
     return top, y0, T, lambda y: y["A"], top.exact_solution([T], y0)["A"][-1]
 
 
@@ -210,9 +209,18 @@ def test_every_method_reaches_its_order(name):
     ns = [n0, 2 * n0, 4 * n0, 8 * n0]
     if p >= 8:
         ns = [6, 8, 11, 16]
+    if spec.family == "rkmk-energy":
+        # over T = 20: with the energy kept only the error along the orbit is left, and at T = 5
+        # the 8th-order pair's endpoint error happens to cancel in part (slope 7.5 there, 8.3 and
+        # 8.2 at T = 20); steps such that the errors stay above the ~1e-12 round-off floor
+        system, y0, T, field, exact = exact_top_problem(20.0)
+        ns = [round({3: 200, 5: 50}.get(p, 24) * 2 ** (k / 2)) for k in range(4)]
     errs = [np.linalg.norm(field(fixed_steps(method, system, y0, T, n)) - exact) for n in ns]
     slope = fitted_slope([T / n for n in ns], errs)
-    assert abs(slope - p) <= 0.3 or (p >= 6 and slope >= p - 0.3), (slope, errs)
+    # a projection onto the energy level keeps the base order and may raise it (on the 3D top
+    # only the error along the orbit accumulates: tests/test_energy_projection.py)
+    at_least = p >= 6 or spec.family == "rkmk-energy"
+    assert abs(slope - p) <= 0.3 or (at_least and slope >= p - 0.3), (slope, errs)
 
 
 # -- every method × every built-in system through integrate --------------------------------------
