@@ -5,12 +5,17 @@ The 3D Euler top, I = (1, 2, 3), atol = 1e-3·rtol; error = max over the accepte
 (ω₀ = (0.3, 0.5, 1), T = 100) and the Dzhanibekov top near the separatrix
 (ω₀ = (0.01, 1, 0.01), T = 60). Each row prints error/rtol and the accepted steps of every pair.
 
-    OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/adaptive_rtol.py [--quick] [--energy] [--local]
+    OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/adaptive_rtol.py [--quick] [--local] \\
+        [--energy] [--energy-pairs [--no-R]]
 
 ``--quick`` runs rtol 1e-4 … 1e-8 only (the rkmk23 rows at 1e-9 and 1e-10 take ~10⁵ steps).
 ``--energy`` prints, instead, the experiment that tests the explanation in the guide
 ("Adaptive steps and rtol"): rkmk45 whose every accepted state is moved along its group orbit
 (so the Casimir stays exact) back onto the initial energy level, beside rkmk45 and RK45.
+``--energy-pairs [--no-R]`` prints global error / rtol of every pair, the same pair with the
+energy kept (``rkmk23+energy`` …, :mod:`lieint.methods.energy_projection`) and scipy's pair,
+on A alone with ``--no-R`` (the same state for both kinds of pair), or on the top with R, where
+each cell gives A's and R's error / rtol (scipy's steps are then set by its error in R).
 ``--local`` prints where each pair's local error sits: for every accepted step of rkmk853 and
 of scipy's DOP853 (stepped one step at a time through ``scipy.integrate.DOP853``) on both
 cases at rtol 1e-8, the true local error (one step from the numerical state against the
@@ -166,6 +171,40 @@ def local_split() -> None:
             print(f"{label:38}{name:14}{len(rows) + 1:>6}{cells}", flush=True)
 
 
+def ratios_a_and_r(top, y0, T, method, rtol):
+    """(max |A − A_exact|_F/|A₀|_F, max |R − R_exact|_F/|R₀|_F) over the accepted steps, / rtol."""
+    sol = lieint.integrate(top, y0, (0.0, T), method=method, rtol=rtol, atol=1e-3 * rtol)
+    exact = top.exact_solution(sol.t, y0)
+    errors = [
+        np.max(np.linalg.norm(sol.states[f] - exact[f], axis=(-2, -1))) / np.linalg.norm(y0[f]) for f in ("A", "R")
+    ]
+    return errors[0] / rtol, errors[1] / rtol, sol.stats.nsteps
+
+
+def energy_pairs(with_attitude: bool) -> None:
+    top = lieint.EulerTop.from_principal_moments([1.0, 2.0, 3.0], orientation=with_attitude)
+    triples = [(lie, f"{lie}+energy", scipy) for lie, scipy in PAIRS]
+    for label, (w0, T) in CASES.items():
+        y0 = top.initial_state(angular_velocity=w0)
+        what = "A and R: A's / R's global error / rtol" if with_attitude else "A only: global error / rtol"
+        print(f"\n{label}, {what} (accepted steps)")
+        print("rtol    " + "".join(f"{m:>22}" for triple in triples for m in triple))
+        for rtol in [10.0**-k for k in range(4, 11)]:
+            cells = []
+            for triple in triples:
+                for m in triple:
+                    if m.startswith("rkmk23") and rtol < 1e-8:  # ~10⁵ steps
+                        cells.append(f"{'-':>22}")
+                        continue
+                    if with_attitude:  # A's and R's error / rtol
+                        a, r, n = ratios_a_and_r(top, y0, T, m, rtol)
+                        cells.append(f"{a:>7.3g}/{r:<7.3g}({n:>6})")
+                        continue
+                    r, n = ratio(top, y0, T, m, rtol)
+                    cells.append(f"{r:>13.3g} ({n:>6})")
+            print(f"{rtol:<8.0e}" + "".join(cells), flush=True)
+
+
 def main(quick: bool) -> None:
     top = lieint.EulerTop.from_principal_moments([1.0, 2.0, 3.0])
     rtols = [10.0**-k for k in range(4, 9 if quick else 11)]
@@ -185,6 +224,8 @@ def main(quick: bool) -> None:
 if __name__ == "__main__":
     if "--energy" in sys.argv:
         energy_experiment()
+    elif "--energy-pairs" in sys.argv:
+        energy_pairs("--no-R" not in sys.argv)
     elif "--local" in sys.argv:
         local_split()
     else:
