@@ -67,6 +67,21 @@ def test_high_order_dense_output_matches_earlier_step_ends(method, order, hs):
     assert abs(fitted_slope(hs, at_steps) - order) <= 0.35 or at_steps[-1] < 1e-14, at_steps
 
 
+def test_dense_output_of_steps_that_turn_the_body_by_radians_follows_the_steps():
+    """A fast top (|ω| = 3) at loose rtol: rkmk853's steps turn the body by up to 3.3 rad. The
+    curve through two earlier step ends needs the logarithm of the chain of steps back, whose
+    principal value stops following the path past π: there the curve now keeps fewer ends
+    (dense error ≤ 3.6× the steps'; through the wrong branch it was 0.64–1.5, the steps'
+    3e-3–4e-2)."""
+    y0 = TOP.initial_state(angular_velocity=[0.05, 3.0, 0.05])
+    t = np.linspace(0.0, 6.0, 601)
+    exact = TOP.exact_solution(t, y0)["R"]
+    for rtol in (1e-3, 1e-4, 1e-5):
+        sol = lieint.integrate(TOP, y0, (0.0, 6.0), method="rkmk853", rtol=rtol, backend="numpy", dense_output=True)
+        at_steps = np.abs(sol.states["R"] - TOP.exact_solution(sol.t, y0)["R"]).max()
+        assert np.abs(sol.sol(t)["R"] - exact).max() <= 5 * at_steps
+
+
 @pytest.mark.parametrize("method", lieint.method_names())
 def test_t_eval_works_for_every_method(method):
     t_eval = np.linspace(0.0, 1.0, 7)
