@@ -211,8 +211,8 @@ def test_every_method_reaches_its_order(name):
         ns = [6, 8, 11, 16]
     if spec.family == "rkmk-energy":
         # over T = 20: with the energy kept only the error along the orbit is left, and at T = 5
-        # the 8th-order pair's endpoint error happens to cancel in part (slope 7.5 there, 8.3 and
-        # 8.2 at T = 20); steps such that the errors stay above the ~1e-12 round-off floor
+        # the 8th-order pair's endpoint error happens to cancel in part (slope 7.5 there, fitted
+        # 8.1 at T = 20); steps such that the errors stay above the ~1e-12 round-off floor
         system, y0, T, field, exact = exact_top_problem(20.0)
         ns = [round({3: 200, 5: 50}.get(p, 24) * 2 ** (k / 2)) for k in range(4)]
     errs = [np.linalg.norm(field(fixed_steps(method, system, y0, T, n)) - exact) for n in ns]

@@ -79,7 +79,7 @@ def test_the_projection_keeps_the_order_of_the_base_pair(method, order, w0, coun
     """Fixed steps of the propagated solution over T = 20, global error on the 3D top against the
     Jacobi elliptic solution (errors between 1e-3 and 1e-12): the fitted slope is at least the
     base pair's order. (For the 3(2) and 5(4) pairs on the generic motion it is higher, 3.6 and
-    5.9: with the energy and the Casimir kept the state cannot leave its orbit, a curve, so only
+    6.0: with the energy and the Casimir kept the state cannot leave its orbit, a curve, so only
     the error along the orbit accumulates.)"""
     step = lieint.get_method(method)
     y0 = TOP_A.initial_state(angular_velocity=w0)
