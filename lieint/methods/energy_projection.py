@@ -252,7 +252,7 @@ class EnergyProjected(Method):
         else:
             result = self.base.step(system, t, y, h, base_state)
         y1, _ = self.onto_level(system, t + h, result.y, energy0)
-        # dense output steps again from y₀ (a Hermite curve through the ends would err ~10⁴×
+        # dense output steps again from y₀ (a Hermite curve through the ends erred ~10⁵×
         # more than these steps, which may spin the body by radians about the momentum axis)
         dense = Restep(self, system, t, t + h, y, y1, state)
         state1 = {"energy0": energy0, **_prefixed(result.state)}
