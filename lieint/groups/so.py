@@ -28,6 +28,8 @@ __all__ = [
 
 # Below this angle the closed forms switch to their Taylor series (no 0/0).
 _SMALL_ANGLE = 1e-3
+_EYE3 = np.eye(3)
+_EYE3.flags.writeable = False
 
 
 def so3_angle_squared(X: np.ndarray) -> np.ndarray:
@@ -66,6 +68,14 @@ def so_ad_spectral_radius(X: np.ndarray) -> np.ndarray:
 
 def so3_exp(X: np.ndarray) -> np.ndarray:
     """Rodrigues' formula ``exp X = I + (sin θ/θ) X + ((1 − cos θ)/θ²) X²``, θ = |vee X|."""
+    if X.ndim == 2:  # one matrix: the same arithmetic on scalars (4× faster than on 1 × 1 arrays)
+        t2 = np.float64(so3_angle_squared(X))
+        theta = np.sqrt(t2)
+        if theta < _SMALL_ANGLE:
+            a, b = 1.0 - t2 / 6.0 + t2 * t2 / 120.0, 0.5 - t2 / 24.0 + t2 * t2 / 720.0
+        else:
+            a, b = np.sin(theta) / theta, (1.0 - np.cos(theta)) / (theta * theta)
+        return _EYE3 + a * X + b * (X @ X)
     t2 = so3_angle_squared(X)[..., None, None]
     theta = np.sqrt(t2)
     small = theta < _SMALL_ANGLE
