@@ -65,7 +65,7 @@ def integrate(
         A name from :func:`lieint.method_names` ("lie_euler", "rkmk2", "rkmk3", "rkmk4",
         "rkmk6", the adaptive "rkmk23", "rkmk45", "rkmk853" and, for conservative systems, the
         same pairs keeping the energy, "rkmk23+energy", "rkmk45+energy", "rkmk853+energy"
-        (global error proportional to rtol; the guide), the commutator-free "cf3", "cf4",
+        (global error per rtol like scipy's pairs'; the guide), the commutator-free "cf3", "cf4",
         the Crouch–Grossman "cg3", "cg4a", the Magnus "magnus4", "magnus6" (generators of t
         only), "rk4", "scipy:DOP853", …) or a
         method object (:class:`~lieint.methods.Method`).

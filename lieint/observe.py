@@ -10,6 +10,8 @@ driver ends the run there. At the end :meth:`StepObserver.finish` puts ``sol``,
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
 from .dense import DenseOutput, EmbeddedHermite, Increment, LieHermite, Restep
@@ -119,7 +121,8 @@ class StepObserver:
         system = self.system
         increment = result.dense
         if isinstance(increment, Restep):  # the method's own step from y₀, of any size up to h
-            return increment
+            # with the ends as the run keeps them (a last step snapped onto t1, a projected y₁)
+            return dataclasses.replace(increment, t0=t0, y0=y0, t1=t1, y1=y1)
         if self.group_action and not isinstance(increment, Increment):
             g = system.relative_element(y0, y1)
             increment = None if g is None else Increment(g=g)

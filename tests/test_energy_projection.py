@@ -97,6 +97,50 @@ def test_the_projection_keeps_the_order_of_the_base_pair(method, order, w0, coun
     assert slope > order - 0.35 and min(errors) > 1e-12, (errors, slope)
 
 
+def test_the_attitude_keeps_the_order_too():
+    """R is moved by the exact turn about the momentum axis and the base step of the rest: its
+    global error (against the elliptic attitude) has the pair's order as well — a turn of the
+    wrong sign or size would leave an O(1) error."""
+    step = lieint.get_method("rkmk45+energy")
+    y0 = TOP.initial_state(angular_velocity=GENERIC)
+    T, counts, errors = 20.0, (50, 100, 200), []
+    for n in counts:
+        t = np.linspace(0.0, T, n + 1)
+        exact = TOP.exact_solution(t, y0)["R"]
+        y, state, worst = y0, step.init(TOP, 0.0, y0, t[1]), 0.0
+        for k in range(n):
+            result = step.step(TOP, t[k], y, t[k + 1] - t[k], state)
+            y, state = result.y, result.state
+            worst = max(worst, np.abs(y["R"] - exact[k + 1]).max())
+        errors.append(worst)
+    slope = np.polyfit(np.log(T / np.array(counts)), np.log(errors), 1)[0]
+    assert slope > 5 - 0.35 and errors[-1] < 1e-6, (errors, slope)
+
+
+def test_the_split_is_taken_only_with_the_generator_it_was_derived_for():
+    """A subclass that replaces the top's generator (its commuting part would no longer be
+    constant along the flow) is stepped without the split; one that keeps it, with it."""
+    from lieint.methods.energy_projection import _commuting_part
+
+    class Gyroscopic(lieint.EulerTop):
+        def generator(self, t, y):
+            return super().generator(t, y) + 0.1 * y["A"] @ y["A"] @ y["A"]
+
+    class Renamed(lieint.EulerTop):
+        pass
+
+    assert _commuting_part(Gyroscopic(TOP.B)) is None
+    assert _commuting_part(Renamed(TOP.B)) is not None and _commuting_part(TOP) is not None
+
+
+def test_dense_output_at_the_ends_is_the_run_s_own_state():
+    """With ``project=True`` the run keeps the projected state; the dense output returns the
+    saved states at the step ends bit for bit (it steps again only in between)."""
+    y0 = TOP.initial_state(angular_velocity=GENERIC)
+    sol = lieint.integrate(TOP, y0, (0.0, 3.0), method="rkmk45+energy", rtol=1e-6, project=True, dense_output=True)
+    assert all(np.array_equal(sol.sol(sol.t)[k], sol.states[k]) for k in sol.states)
+
+
 def test_a_step_that_kept_the_energy_to_round_off_is_not_moved():
     """Near the separatrix the period depends on the energy like log|E − E_s|: moving a state
     whose energy is already right to round-off would only add the noise of evaluating H, which
@@ -183,3 +227,9 @@ def test_systems_without_an_energy_or_methods_without_an_orbit_are_refused():
         lieint.integrate(gyro, gyro.initial_state(), (0.0, 1.0), method="rkmk45+energy")
     with pytest.raises(ValueError, match=r"'rk4' does not move the state by the group action"):
         EnergyProjected(lieint.get_method("rk4")).check_system(TOP)
+    from lieint.groups.so import SO
+    from lieint.groups.vector import ProductGroup, VectorSpace
+    from lieint.methods.energy_projection import algebra_basis
+
+    with pytest.raises(TypeError, match="`group`: nested product groups"):
+        algebra_basis(ProductGroup(SO(3), ProductGroup(SO(3), VectorSpace((3,)))))

@@ -22,11 +22,13 @@ the motion (:meth:`lieint.EulerTop.commuting_generator`). A step of size h is th
 
     y₁ = base step of the generator ``Ω − λA`` from ``ρ(exp(h λ₀A₀), y₀)``,
 
-exact in the split, so the base pair's order is kept, while the pair integrates the least-norm
-representative ``Ω − λA``: near a steady rotation it is small however fast the body spins, and
-the local error constant of the Lie step (which scales with the increment, not with A')
-falls — near the separatrix of the 3D top 50–75× below DOP853's without it, about DOP853's
-with it (``benchmarks/adaptive_rtol.py``). Systems without ``commuting_generator`` skip it.
+exact in the split, so the base pair's order is kept, while the pair integrates ``Ω − λA``,
+the element of least norm in ``Ω + span{A}``: near a steady rotation it is small however fast
+the body spins, and the local error constant of the Lie step (which scales with the increment,
+not with A') falls — near the separatrix of the 3D top, at equal steps, the plain pair's local
+error in A is 48–75× DOP853's (``benchmarks/adaptive_rtol.py``). Systems without
+``commuting_generator`` skip it, and so does a subclass that replaced the generator the
+commuting part was derived for.
 
 How the energy is kept. After the base step ``y₁`` (its error estimate drives the controller
 unchanged), ``y₁`` is moved along its group orbit in the direction of steepest ascent of H
@@ -41,17 +43,22 @@ error, so the order of the base method is kept (a projection method, HLW §IV.4)
 is a group action every invariant of the action stays exact (and, with R in the state, the
 spatial angular momentum ``R A Rᵀ``). For the Euler top ``η`` is ``[Ω, A]`` up to a factor (ρ
 conjugates A, so the move is the double-bracket direction ``[A, [Ω, A]]``); for a vector-space
-factor (velocities, positions) it is the ordinary gradient, i.e. the standard orthogonal
-projection (restricted to skew matrices for a field that holds them).
+factor (velocities, positions) it is the ordinary gradient. The metric is the Euclidean one of
+the basis coordinates (radians, and the units of the vector fields, restricted to skew matrices
+for a field that holds them); the direction's accuracy does not affect the level reached, only
+how far along the orbit the state moves to reach it.
 
 A state whose energy is already within ``LEVEL_ULPS`` ulps of the level is not moved (a move
 would only add the noise of evaluating H — near a separatrix, where the period depends on the
 energy like ``log|E − E_s|``, that noise becomes a phase error). A body at which H has (nearly)
-no gradient along the orbit is left as the base step put it: the projection is applied only when
-the secant iteration meets the energy level to round-off with a move ``|s η|`` below 1e-3.
+no gradient along the orbit is left as the base step put it: the move is applied only when it is
+below 1e-3 (``|s η|``) and the secant iteration meets the level to round-off or cuts the gap a
+hundredfold (an energy near zero, kinetic and potential cancelling, can leave the band below
+the round-off of H; the iteration then stops on stagnation).
 
-Cost: on the generic path about twice the base pair's step (the gradient takes ``2 dim 𝔤``
-evaluations of H in one batched call, the secant two to four more); there is no compiled path.
+Cost: on the generic path about 2.3× the base pair's step (H at the step's end, the gradient's
+``2 dim 𝔤`` evaluations of H in one batched call, then one to four secant evaluations, each an
+exponential and an action); there is no compiled path.
 """
 
 from __future__ import annotations
@@ -115,6 +122,8 @@ def algebra_basis(group) -> Any:
             return _skew_basis(group.shape[0])
         return np.eye(group.dim).reshape((group.dim,) + group.shape)
     if isinstance(group, ProductGroup):
+        if any(isinstance(f, ProductGroup) for f in group.factors):
+            raise TypeError(f"`group`: nested product groups are not supported; got {group!r}")
         parts = [algebra_basis(f) for f in group.factors]
         total = sum(len(part) for part in parts)
         out, start = [], 0
@@ -124,12 +133,12 @@ def algebra_basis(group) -> Any:
             out.append(block)
             start += len(part)
         return tuple(out)
-    raise TypeError(f"no algebra basis is known for the group {group!r}")
+    raise TypeError(f"`group`: no algebra basis is known for {group!r}")
 
 
 class _Reduced:
     """``system`` with the generator ``ξ − η``, η its ``commuting_generator`` (every other
-    attribute is the system's own)."""
+    attribute is the system's own); ξ is evaluated once per stage."""
 
     def __init__(self, system):
         self._system = system
@@ -138,7 +147,21 @@ class _Reduced:
         return getattr(self._system, name)
 
     def generator(self, t, y):
-        return self._system.generator(t, y) - self._system.commuting_generator(t, y)
+        xi = self._system.generator(t, y)
+        return xi - self._system.commuting_generator(t, y, xi)
+
+
+def _commuting_part(system):
+    """The system's ``commuting_generator``, or None — also when a subclass replaced the
+    generator the commuting part was derived for (its split would no longer be exact: the
+    commuting part must be constant along the flow, as ``λ = −4T/|A|²`` is for the Euler top)."""
+    part = getattr(system, "commuting_generator", None)
+    if part is None:
+        return None
+    owner = next(c for c in type(system).__mro__ if "commuting_generator" in vars(c))
+    if getattr(type(system), "generator", None) is not getattr(owner, "generator", None):
+        return None
+    return part
 
 
 def _prefixed(base_state) -> dict:
@@ -146,7 +169,10 @@ def _prefixed(base_state) -> dict:
     if base_state is None:
         return {}
     if not isinstance(base_state, dict):
-        raise TypeError(f"the energy projection carries dict or None method states; got {type(base_state).__name__}")
+        raise TypeError(
+            f"`method`: the energy projection carries a base method's state as a dict of arrays or None; "
+            f"got {type(base_state).__name__}"
+        )
     return {f"base:{k}": v for k, v in base_state.items()}
 
 
@@ -243,7 +269,7 @@ class EnergyProjected(Method):
         energy0 = np.asarray(state["energy0"], dtype=float)
         base_state = {k[5:]: v for k, v in state.items() if k.startswith("base:")} or None
         group = system.group
-        commuting = getattr(system, "commuting_generator", None)
+        commuting = _commuting_part(system)
         if commuting is not None:
             # the exact flow of the commuting part first (it moves only the attitude), then the
             # base step of the rest: the two flows commute, so the split is exact
@@ -270,6 +296,11 @@ class EnergyProjected(Method):
             return X.reshape((d,) + (1,) * len(batch) + X.shape[1:])
 
         basis = _map(spread, basis, ndim)
+        f0 = np.asarray(energy(t, y), dtype=float) - energy0
+        # H is evaluated to a few ulps of its terms: below this the gap is round-off
+        level = LEVEL_ULPS * np.finfo(float).eps * np.abs(energy0)
+        if not np.any(np.isfinite(f0) & (np.abs(f0) > level)):  # every body on its level already
+            return dict(y), _map(lambda X, k: np.zeros(batch + X.shape[1 + len(batch) :]), basis, ndim)
         up = energy(t, system.act(group.exp(_map(lambda X, k: _EPSILON * X, basis, ndim)), y))
         down = energy(t, system.act(group.exp(_map(lambda X, k: -_EPSILON * X, basis, ndim)), y))
         grad = (np.asarray(up) - np.asarray(down)) / (2.0 * _EPSILON)  # (d, *batch)
@@ -286,9 +317,6 @@ class EnergyProjected(Method):
             return np.asarray(energy(t, system.act(group.exp(scaled(s)), y)), dtype=float) - energy0
 
         slope0 = np.sum(grad * grad, axis=0)  # dH/ds at s = 0
-        f0 = gap(np.zeros(batch))
-        # H is evaluated to a few ulps of its terms: below this the gap is round-off
-        level = LEVEL_ULPS * np.finfo(float).eps * np.abs(energy0)
         with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
             s_prev, f_prev = np.zeros(batch), f0
             # a body whose base step already kept the energy to round-off is not moved: a move
@@ -298,6 +326,8 @@ class EnergyProjected(Method):
             f = np.where(s != 0.0, gap(s), f0)
             for _ in range(_ITERATIONS - 1):  # secant steps, each body frozen once on the level
                 active = (np.abs(f) > level) & (f != f_prev)
+                if not np.any(active):
+                    break
                 step = np.where(active, f * (s - s_prev) / np.where(active, f - f_prev, 1.0), 0.0)
                 s_prev, f_prev, s = s, f, s - step
                 f = np.where(active, gap(s), f)

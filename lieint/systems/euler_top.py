@@ -136,7 +136,7 @@ class EulerTop(LieGroupSystem):
     def generator(self, t, y: State) -> np.ndarray:
         return self.angular_velocity(y["A"])
 
-    def commuting_generator(self, t, y: State) -> np.ndarray:
+    def commuting_generator(self, t, y: State, xi: np.ndarray | None = None) -> np.ndarray:
         """The part of the generator that commutes with A: ``λA`` with ``λ = ⟨Ω, A⟩ / ⟨A, A⟩``.
 
         The generator of ``A' = [A, Ω]`` is defined only up to the centraliser of A: ``Ω − λA``
@@ -148,13 +148,21 @@ class EulerTop(LieGroupSystem):
         ``Ω ≈ λA``: what remains for a Lie-group method to integrate is small there, however fast
         the body spins (see :mod:`lieint.methods.energy_projection`, which uses it).
 
+        Parameters
+        ----------
+        t : float
+        y : dict
+            The state.
+        xi : ndarray, optional
+            The generator at ``(t, y)`` when the caller has it (else it is evaluated).
+
         Returns
         -------
         ndarray, shape (..., n, n)
             ``λA`` (zero where A is zero).
         """
         A = y["A"]
-        Omega = self.generator(t, y)
+        Omega = self.generator(t, y) if xi is None else xi
         norm2 = np.sum(A * A, axis=(-2, -1), keepdims=True)
         lam = np.sum(Omega * A, axis=(-2, -1), keepdims=True) / np.where(norm2 > 0, norm2, 1.0)
         return lam * A
