@@ -6,7 +6,7 @@ The 3D Euler top, I = (1, 2, 3), atol = 1e-3·rtol; error = max over the accepte
 (ω₀ = (0.01, 1, 0.01), T = 60). Each row prints error/rtol and the accepted steps of every pair.
 
     OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/adaptive_rtol.py [--quick] [--local] \\
-        [--energy] [--energy-pairs [--no-R]]
+        [--energy] [--energy-pairs [--no-R]] [--equal-steps]
 
 ``--quick`` runs rtol 1e-4 … 1e-8 only (the rkmk23 rows at 1e-9 and 1e-10 take ~10⁵ steps).
 ``--energy`` prints, instead, the experiment that tests the explanation in the guide
@@ -16,6 +16,8 @@ The 3D Euler top, I = (1, 2, 3), atol = 1e-3·rtol; error = max over the accepte
 energy kept (``rkmk23+energy`` …, :mod:`lieint.methods.energy_projection`) and scipy's pair,
 on A alone with ``--no-R`` (the same state for both kinds of pair), or on the top with R, where
 each cell gives A's and R's error / rtol (scipy's steps are then set by its error in R).
+``--equal-steps`` prints the median ratio of rkmk853's local error in A to classical DOP853's
+from the same states with the same steps (the Lie step's error scales with its increment).
 ``--local`` prints where each pair's local error sits: for every accepted step of rkmk853 and
 of scipy's DOP853 (stepped one step at a time through ``scipy.integrate.DOP853``) on both
 cases at rtol 1e-8, the true local error (one step from the numerical state against the
@@ -181,6 +183,34 @@ def ratios_a_and_r(top, y0, T, method, rtol):
     return errors[0] / rtol, errors[1] / rtol, sol.stats.nsteps
 
 
+def equal_steps() -> None:
+    """The local error in A of one rkmk853 step and of one classical DOP853 step (scipy's
+    tableau, ``rk_step``) from the same states with the same h — the accepted states and steps
+    of an ``rkmk853+energy`` run on A alone — against the elliptic solution from each state."""
+    from scipy.integrate._ivp.rk import DOP853, rk_step
+
+    top = lieint.EulerTop.from_principal_moments([1.0, 2.0, 3.0], orientation=False)
+    lie = lieint.get_method("rkmk853")
+
+    def field(t, z):
+        return top.vector_field(t, {"A": z.reshape(3, 3)})["A"].ravel()
+
+    print("case                                   rtol   steps  median |δA| rkmk853 / DOP853")
+    for label, (w0, T) in CASES.items():
+        y0 = top.initial_state(angular_velocity=w0)
+        for rtol in (1e-6, 1e-10):
+            sol = lieint.integrate(top, y0, (0.0, T), method="rkmk853+energy", rtol=rtol, atol=1e-3 * rtol)
+            ratios = []
+            for k in range(1, len(sol.t) - 1):
+                A, h = sol.states["A"][k], sol.t[k + 1] - sol.t[k]
+                exact = top.exact_solution(np.array([0.0, h]), {"A": A})["A"][1]
+                mine = lie.step(top, 0.0, {"A": A}, h, None).y["A"]
+                z, K = A.ravel(), np.empty((DOP853.n_stages + 1, 9))
+                theirs, _ = rk_step(field, 0.0, z, field(0.0, z), h, DOP853.A, DOP853.B, DOP853.C, K)
+                ratios.append(np.linalg.norm(mine - exact) / np.linalg.norm(theirs.reshape(3, 3) - exact))
+            print(f"{label:38}{rtol:<7.0e}{len(sol.t) - 1:>6}  {np.median(ratios):.3g}", flush=True)
+
+
 def energy_pairs(with_attitude: bool) -> None:
     top = lieint.EulerTop.from_principal_moments([1.0, 2.0, 3.0], orientation=with_attitude)
     triples = [(lie, f"{lie}+energy", scipy) for lie, scipy in PAIRS]
@@ -228,5 +258,7 @@ if __name__ == "__main__":
         energy_pairs("--no-R" not in sys.argv)
     elif "--local" in sys.argv:
         local_split()
+    elif "--equal-steps" in sys.argv:
+        equal_steps()
     else:
         main("--quick" in sys.argv)

@@ -26,7 +26,7 @@ exact in the split, so the base pair's order is kept, while the pair integrates 
 the element of least norm in ``Ω + span{A}``: near a steady rotation it is small however fast
 the body spins, and the local error constant of the Lie step (which scales with the increment,
 not with A') falls — near the separatrix of the 3D top, at equal steps, the plain pair's local
-error in A is 48–75× DOP853's (``benchmarks/adaptive_rtol.py``). Systems without
+error in A is 46–98× DOP853's (``benchmarks/adaptive_rtol.py --equal-steps``). Systems without
 ``commuting_generator`` skip it, and so does a subclass that replaced the generator the
 commuting part was derived for.
 
