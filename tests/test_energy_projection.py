@@ -26,6 +26,25 @@ def systems() -> dict[str, lieint.LieGroupSystem]:
     return out
 
 
+def fixed_step_error(method, system, w0, n, field="A", T=20.0):
+    """The largest error of ``field`` (Frobenius norm) over n fixed steps of T/n of the method's
+    own step, against the Jacobi-elliptic solution."""
+    step = lieint.get_method(method)
+    y0 = system.initial_state(angular_velocity=w0)
+    t = np.linspace(0.0, T, n + 1)
+    exact = system.exact_solution(t, y0)[field]
+    y, state, worst = y0, step.init(system, 0.0, y0, t[1]), 0.0
+    for k in range(n):
+        result = step.step(system, t[k], y, t[k + 1] - t[k], state)
+        y, state = result.y, result.state
+        worst = max(worst, np.linalg.norm(y[field] - exact[k + 1]))
+    return worst
+
+
+def fitted_order(counts, errors, T=20.0):
+    return np.polyfit(np.log(T / np.array(counts)), np.log(errors), 1)[0]
+
+
 def test_every_adaptive_lie_pair_has_an_energy_keeping_variant():
     pairs = [n for n, s in SPECS.items() if s.adaptive and s.family == "rkmk-embedded"]
     assert pairs and sorted(ENERGY_METHODS) == sorted(f"{n}+energy" for n in pairs)
@@ -81,19 +100,8 @@ def test_the_projection_keeps_the_order_of_the_base_pair(method, order, w0, coun
     base pair's order. (For the 3(2) and 5(4) pairs on the generic motion it is higher, 3.6 and
     6.0: with the energy and the Casimir kept the state cannot leave its orbit, a curve, so only
     the error along the orbit accumulates.)"""
-    step = lieint.get_method(method)
-    y0 = TOP_A.initial_state(angular_velocity=w0)
-    T, errors = 20.0, []
-    for n in counts:
-        t = np.linspace(0.0, T, n + 1)
-        exact = TOP_A.exact_solution(t, y0)["A"]
-        y, state, worst = y0, step.init(TOP_A, 0.0, y0, t[1]), 0.0
-        for k in range(n):
-            result = step.step(TOP_A, t[k], y, t[k + 1] - t[k], state)
-            y, state = result.y, result.state
-            worst = max(worst, np.linalg.norm(y["A"] - exact[k + 1]))
-        errors.append(worst)
-    slope = np.polyfit(np.log(T / np.array(counts)), np.log(errors), 1)[0]
+    errors = [fixed_step_error(method, TOP_A, w0, n) for n in counts]
+    slope = fitted_order(counts, errors)
     assert slope > order - 0.35 and min(errors) > 1e-12, (errors, slope)
 
 
@@ -101,19 +109,9 @@ def test_the_attitude_keeps_the_order_too():
     """R is moved by the exact turn about the momentum axis and the base step of the rest: its
     global error (against the elliptic attitude) has the pair's order as well — a turn of the
     wrong sign or size would leave an O(1) error."""
-    step = lieint.get_method("rkmk45+energy")
-    y0 = TOP.initial_state(angular_velocity=GENERIC)
-    T, counts, errors = 20.0, (50, 100, 200), []
-    for n in counts:
-        t = np.linspace(0.0, T, n + 1)
-        exact = TOP.exact_solution(t, y0)["R"]
-        y, state, worst = y0, step.init(TOP, 0.0, y0, t[1]), 0.0
-        for k in range(n):
-            result = step.step(TOP, t[k], y, t[k + 1] - t[k], state)
-            y, state = result.y, result.state
-            worst = max(worst, np.abs(y["R"] - exact[k + 1]).max())
-        errors.append(worst)
-    slope = np.polyfit(np.log(T / np.array(counts)), np.log(errors), 1)[0]
+    counts = (50, 100, 200)
+    errors = [fixed_step_error("rkmk45+energy", TOP, GENERIC, n, field="R") for n in counts]
+    slope = fitted_order(counts, errors)
     assert slope > 5 - 0.35 and errors[-1] < 1e-6, (errors, slope)
 
 
@@ -145,19 +143,7 @@ def test_a_step_that_kept_the_energy_to_round_off_is_not_moved():
     """Near the separatrix the period depends on the energy like log|E − E_s|: moving a state
     whose energy is already right to round-off would only add the noise of evaluating H, which
     becomes a phase error (with that move the finest run below erred by 9.8e-11, not 3e-13)."""
-    y0 = TOP_A.initial_state(angular_velocity=SEPARATRIX)
-    T, n = 20.0, 200
-    t = np.linspace(0.0, T, n + 1)
-    exact = TOP_A.exact_solution(t, y0)["A"]
-    worst = {}
-    for name in ("rkmk853", "rkmk853+energy"):
-        step, y, err = lieint.get_method(name), y0, 0.0
-        state = step.init(TOP_A, 0.0, y0, t[1])
-        for k in range(n):
-            result = step.step(TOP_A, t[k], y, t[k + 1] - t[k], state)
-            y, state = result.y, result.state
-            err = max(err, np.linalg.norm(y["A"] - exact[k + 1]))
-        worst[name] = err
+    worst = {name: fixed_step_error(name, TOP_A, SEPARATRIX, 200) for name in ("rkmk853", "rkmk853+energy")}
     assert worst["rkmk853+energy"] < 2 * worst["rkmk853"], worst
     # a state within the level's round-off band is returned as it is, bit for bit, unmoved
     method = lieint.get_method("rkmk45+energy")
