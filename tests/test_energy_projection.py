@@ -127,7 +127,11 @@ def test_the_split_is_taken_only_with_the_generator_it_was_derived_for():
     class Renamed(lieint.EulerTop):
         pass
 
-    assert _commuting_part(Gyroscopic(TOP.B)) is None
+    class Delegating:  # finds commuting_generator on another object: no class vouches for it
+        def __getattr__(self, name):
+            return getattr(TOP, name)
+
+    assert _commuting_part(Gyroscopic(TOP.B)) is None and _commuting_part(Delegating()) is None
     assert _commuting_part(Renamed(TOP.B)) is not None and _commuting_part(TOP) is not None
 
 
@@ -150,8 +154,8 @@ def test_a_step_that_kept_the_energy_to_round_off_is_not_moved():
     y = TOP.initial_state(angular_velocity=GENERIC)
     level = TOP.energy(y["A"])
     for gap in (0.0, 0.5 * LEVEL_ULPS * np.finfo(float).eps * level):
-        moved, move = method.onto_level(TOP, 0.0, y, level + gap)
-        assert all(np.array_equal(moved[k], y[k]) for k in y) and not np.any(move)
+        moved = method.onto_level(TOP, 0.0, y, level + gap)
+        assert all(np.array_equal(moved[k], y[k]) for k in y)
 
 
 def global_ratio(method, w0, T, rtol):

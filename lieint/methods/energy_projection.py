@@ -158,8 +158,8 @@ def _commuting_part(system):
     part = getattr(system, "commuting_generator", None)
     if part is None:
         return None
-    owner = next(c for c in type(system).__mro__ if "commuting_generator" in vars(c))
-    if getattr(type(system), "generator", None) is not getattr(owner, "generator", None):
+    owner = next((c for c in type(system).__mro__ if "commuting_generator" in vars(c)), None)
+    if owner is None or getattr(type(system), "generator", None) is not getattr(owner, "generator", None):
         return None
     return part
 
@@ -277,16 +277,16 @@ class EnergyProjected(Method):
             result = self.base.step(_Reduced(system), t, system.act(turn, y), h, base_state)
         else:
             result = self.base.step(system, t, y, h, base_state)
-        y1, _ = self.onto_level(system, t + h, result.y, energy0)
+        y1 = self.onto_level(system, t + h, result.y, energy0)
         # dense output steps again from y₀ (a Hermite curve through the ends erred ~10⁵×
         # more than these steps, which may spin the body by radians about the momentum axis)
         dense = Restep(self, system, t, t + h, y, y1, state)
         state1 = {"energy0": energy0, **_prefixed(result.state)}
         return StepResult(y1, result.error, result.nfev, state1, result.h, dense)
 
-    def onto_level(self, system, t: float, y: dict, energy0: np.ndarray) -> tuple[dict, Any]:
-        """``(ρ(exp(s η), y), s η)`` with ``H(ρ(exp(s η), y)) = H₀`` per body (s = 0 where
-        the projection does not apply, see the module docstring)."""
+    def onto_level(self, system, t: float, y: dict, energy0: np.ndarray) -> dict:
+        """``ρ(exp(s η), y)`` with ``H(ρ(exp(s η), y)) = H₀`` per body (s = 0 where the
+        projection does not apply, see the module docstring)."""
         group, energy = system.group, system.invariants["energy"]
         batch = np.shape(energy0)
         basis, ndim = algebra_basis(group), _trailing_ndim(group)
@@ -300,7 +300,7 @@ class EnergyProjected(Method):
         # H is evaluated to a few ulps of its terms: below this the gap is round-off
         level = LEVEL_ULPS * np.finfo(float).eps * np.abs(energy0)
         if not np.any(np.isfinite(f0) & (np.abs(f0) > level)):  # every body on its level already
-            return dict(y), _map(lambda X, k: np.zeros(batch + X.shape[1 + len(batch) :]), basis, ndim)
+            return dict(y)
         up = energy(t, system.act(group.exp(_map(lambda X, k: _EPSILON * X, basis, ndim)), y))
         down = energy(t, system.act(group.exp(_map(lambda X, k: -_EPSILON * X, basis, ndim)), y))
         grad = (np.asarray(up) - np.asarray(down)) / (2.0 * _EPSILON)  # (d, *batch)
@@ -339,7 +339,7 @@ class EnergyProjected(Method):
         move = scaled(s)
         moved = system.act(group.exp(move), y)
         keep = {k: np.reshape(ok, batch + (1,) * (np.ndim(v) - len(batch))) for k, v in moved.items()}
-        return {k: np.where(keep[k], moved[k], y[k]) for k in moved}, move
+        return {k: np.where(keep[k], moved[k], y[k]) for k in moved}
 
     def compiled(self):
         return None
