@@ -276,7 +276,10 @@ def _proper_frame(P) -> tuple[np.ndarray, bool]:
 @lru_cache(maxsize=32)
 def _dexpinv_coefficients(degree: int) -> np.ndarray:
     """The truncated dexp⁻¹ series as the kernels take it (a read-only float array; degree 0:
-    ``(1.0,)``, what classical RK passes)."""
+    ``(1.0,)``, what classical RK passes), without its trailing zeros: ``B_k = 0`` for odd
+    k ≥ 3, and a kernel brackets up to the last coefficient — degree 5 costs what degree 4 does,
+    and gives the same sum."""
     coeffs = np.array(bernoulli_dexpinv_coefficients(degree), dtype=float)
+    coeffs = coeffs[: int(np.flatnonzero(coeffs)[-1]) + 1]
     coeffs.flags.writeable = False
     return coeffs

@@ -42,8 +42,7 @@ import numpy as np
 from numba import njit, types
 from numba.core.types.function_type import CompileResultWAP
 
-from ..groups.base import bernoulli_dexpinv_coefficients
-from . import range_error, use_threads
+from . import _dexpinv_coefficients, range_error, use_threads
 from .se_algebra import coordinate_map, dcayinv, dexpinv, out_of_range
 
 __all__ = ["ACTION", "FIELD", "GENERATOR", "CompiledPieces", "LieKernel", "integrate_lie"]
@@ -358,7 +357,7 @@ class LieKernel:
         self.cayley = self.lie and meth_decl.get("coordinates") == "cayley"
         self.stages = int(np.asarray(meth_decl["b"]).size)
         degree = meth_decl.get("dexpinv_degree") if self.lie and not self.cayley else 0
-        self.coeffs = np.array(bernoulli_dexpinv_coefficients(degree))
+        self.coeffs = np.array(_dexpinv_coefficients(degree))  # writable, as the compiled signature has it
         self.batch = batch
         self.parallel, self.threads = use_threads(math.prod(batch))
 

@@ -14,6 +14,8 @@ import math
 import numpy as np
 from numba import njit
 
+from .small_products import square_into
+
 __all__ = [
     "expm_se",
     "expm_skew",
@@ -21,6 +23,7 @@ __all__ = [
     "mm",
     "mm_into",
     "mm_loops",
+    "mm_small_into",
     "mv",
     "so_ad_radius_exceeds",
 ]
@@ -81,6 +84,16 @@ def mm_into(A, B, out):
         out[:, :] = np.ascontiguousarray(A) @ np.ascontiguousarray(B)
     else:
         _loops_into(A, B, out)
+
+
+@njit(cache=True)
+def mm_small_into(A, B, out):
+    """:func:`mm_into` with the unrolled n × n products of :mod:`lieint.fast.small_products`
+    for 3 ≤ n ≤ 8 (the same bits; 73 against 125 ns at n = 6): the products of the Taylor
+    exponential, the Newton–Schulz projection and the n-dimensional top's kernels, where the
+    step is matrix products. Other shapes go to :func:`mm_into`."""
+    if not square_into(A, B, out):
+        mm_into(A, B, out)
 
 
 @njit(cache=True)
@@ -153,7 +166,7 @@ def expm_skew_into(u, out, work):
     """:func:`expm_skew` written into ``out`` (n, n), with ``work`` (5, n, n) as scratch: no
     allocation."""
     u2 = work[0]
-    mm_into(u, u, u2)
+    mm_small_into(u, u, u2)
     # θ₁ = ‖u‖₂ ≤ min(‖u‖₁, ‖u²‖₁^{1/2}); the second is often several times tighter for large n
     _scaled_taylor_into(u, min(_onenorm(u), np.sqrt(_onenorm(u2))), _THETAS, out, work)
 
@@ -320,34 +333,51 @@ def _scaled_taylor_into(u, norm, thetas, out, work):
             x[a, b] = u[a, b] * scale
             x2[a, b] *= scale2
     if p >= 3:
-        mm_into(x2, x, x3)
+        mm_small_into(x2, x, x3)
     if p == 4:
-        mm_into(x2, x2, x4)
+        mm_small_into(x2, x2, x4)
     top = x2 if p == 2 else (x3 if p == 3 else x4)
     c = _INV_FACTORIAL
-    # Horner in x^p: S = c_m x^p + B_{q−1}, then S ← S x^p + B_j for j = q − 2 … 0
-    S = out
+    # Horner in x^p: S = c_m x^p + B_{q−1}, then S ← S x^p + B_j for j = q − 2 … 0; the product
+    # goes to the other buffer and the two swap (a small product may write over its operand,
+    # BLAS's may not)
+    S, T = out, work[4]
     cm = c[p * q]
     for a in range(n):
         for b in range(n):
             S[a, b] = cm * top[a, b]
     for j in range(q - 1, -1, -1):
         if j < q - 1:
-            mm_into(S, top, T)
-            S[:, :] = T
-        c0, c1, c2 = c[j * p], c[j * p + 1], c[j * p + 2] if p >= 3 else 0.0
-        c3 = c[j * p + 3] if p == 4 else 0.0
+            mm_small_into(S, top, T)
+            S, T = T, S
+        _add_taylor_block(S, x, x2, x3, p, c[j * p], c[j * p + 1], c[j * p + 2], c[j * p + 3])
+    for _ in range(s):
+        mm_small_into(S, S, T)
+        S, T = T, S
+    if s % 2 != (q - 1) % 2:  # an odd number of swaps left the result in work[4]
+        out[:, :] = S
+
+
+@njit(cache=True)
+def _add_taylor_block(S, x, x2, x3, p, c0, c1, c2, c3):
+    """``S += c0 I + c1 x (+ c2 x² (+ c3 x³))`` for a block of p = 2, 3 or 4 Taylor terms, each
+    entry's terms added in that order (one loop per p: no test in the inner loop)."""
+    n = S.shape[0]
+    if p == 2:
         for a in range(n):
             S[a, a] += c0
             for b in range(n):
                 S[a, b] += c1 * x[a, b]
-                if p >= 3:
-                    S[a, b] += c2 * x2[a, b]
-                if p == 4:
-                    S[a, b] += c3 * x3[a, b]
-    for _ in range(s):
-        mm_into(S, S, T)
-        S[:, :] = T
+    elif p == 3:
+        for a in range(n):
+            S[a, a] += c0
+            for b in range(n):
+                S[a, b] = S[a, b] + c1 * x[a, b] + c2 * x2[a, b]
+    else:
+        for a in range(n):
+            S[a, a] += c0
+            for b in range(n):
+                S[a, b] = S[a, b] + c1 * x[a, b] + c2 * x2[a, b] + c3 * x3[a, b]
 
 
 @njit(cache=True)
@@ -423,9 +453,19 @@ def _exp_or_nan(u):
 
 @njit(cache=True)
 def _project(R):
-    """Newton–Schulz toward the polar factor: ``R ← R(3I − RᵀR)/2 = R − R E/2`` with
+    """:func:`_project_into` on a copy of R (R is not modified)."""
+    n = R.shape[0]
+    out = R.copy()
+    _project_into(out, np.empty((2, n, n)))
+    return out
+
+
+@njit(cache=True)
+def _project_into(R, work):
+    """Newton–Schulz toward the polar factor, in place: ``R ← R(3I − RᵀR)/2 = R − R E/2`` with
     ``E = RᵀR − I``, once, then again while ``max |E|`` exceeds 1e-8 (quadratic convergence:
-    the last step leaves ~1e-16).
+    the last step leaves ~1e-16). ``work`` (2, n, n) is scratch: a step of a kernel allocates
+    nothing.
 
     The iteration maps each singular value σ to σ(3 − σ²)/2 and converges for σ in (0, √3).
     ``max |E_ij| < 2/n`` bounds the spectral radius of E below 2, i.e. σ² < 3; beyond it (a
@@ -434,39 +474,47 @@ def _project(R):
     singular value of 1e-18 grows ×1.5 a step).
     """
     n = R.shape[0]
-    E, worst = _gram_defect(R)
+    E, P = work[0], work[1]
+    worst = _gram_defect_into(R, E)
     if not np.isfinite(worst):
-        return R
+        return
     if worst >= 2.0 / n:
-        G = mm(R.T, R)
+        mm_small_into(R.T, R, P)
         norm1 = 0.0
         for c in range(n):
             col = 0.0
             for r in range(n):
-                col += abs(G[r, c])
+                col += abs(P[r, c])
             norm1 = max(norm1, col)
         if norm1 > 0.0:
-            R = R / np.sqrt(norm1)
-            E, worst = _gram_defect(R)
+            scale = np.sqrt(norm1)
+            for a in range(n):
+                for b in range(n):
+                    R[a, b] = R[a, b] / scale
+            worst = _gram_defect_into(R, E)
     for _ in range(128):
-        R = R - 0.5 * mm(R, E)
+        mm_small_into(R, E, P)
+        for a in range(n):
+            for b in range(n):
+                R[a, b] = R[a, b] - 0.5 * P[a, b]
         if worst <= 1e-8:
             break
-        E, worst = _gram_defect(R)
+        worst = _gram_defect_into(R, E)
         if not np.isfinite(worst):
             break
-    return R
 
 
 @njit(cache=True)
-def _gram_defect(R):
-    """``E = RᵀR − I`` and ``max |E_ij|``."""
+def _gram_defect_into(R, E):
+    """``E = RᵀR − I`` into E; returns ``max |E_ij|`` (NaN when R is not finite)."""
     n = R.shape[0]
-    E = mm(R.T, R)
+    mm_small_into(R.T, R, E)
     for i in range(n):
         E[i, i] -= 1.0
     worst = 0.0
-    for x in E.ravel():
-        if abs(x) > worst or x != x:
-            worst = abs(x)
-    return E, worst
+    for a in range(n):
+        for b in range(n):
+            x = E[a, b]
+            if abs(x) > worst or x != x:
+                worst = abs(x)
+    return worst

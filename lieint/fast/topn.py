@@ -20,9 +20,10 @@ is Python overhead, not arithmetic. This module runs the whole fixed-step loop i
   polynomial of degree 4, 6, 9, 12 or 16 chosen so that the truncation error is below the unit
   round-off (:func:`lieint.fast.skew.expm_skew_into`): only matrix products, no linear solve —
   numba's ``np.linalg.solve`` alone would add about 5 s to the one-time compilation;
-* a step allocates nothing: the stage slopes and the scratch of the exponential, the action and
-  the brackets are held per body for the whole run, and the products are loops into them up to
-  n = 8 (BLAS above, where the arithmetic outweighs a call);
+* a step allocates nothing: the stage slopes and the scratch of the exponential, the action,
+  the brackets and the projection are held per body for the whole run, and the products are
+  written into them, unrolled up to n = 8 (:func:`lieint.fast.skew.mm_small_into`; BLAS above,
+  where the arithmetic outweighs a call);
 * brackets of skew matrices cost one product, ``[X, Y] = XY − (XY)ᵀ``;
 * the dexp⁻¹ series converges only while the spectral radius of ``ad_u`` on so(n),
   ``θ₁ + θ₂`` (the two largest rotation angles of u), is below 2π; the Frobenius norm settles
@@ -53,9 +54,8 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 from numba import njit
 
-from ..groups.base import bernoulli_dexpinv_coefficients
-from . import range_error, use_threads
-from .skew import _bracket, _finite, _project, expm_skew, expm_skew_into, mm_into, so_ad_radius_exceeds
+from . import _dexpinv_coefficients, range_error, use_threads
+from .skew import _bracket, _finite, _project_into, expm_skew, expm_skew_into, mm_small_into, so_ad_radius_exceeds
 
 __all__ = ["TopNKernel", "expm_skew", "inertia_factors", "integrate_topn", "so_ad_radius_exceeds"]
 
@@ -66,8 +66,8 @@ def _act_into(Q, A, M, A1, Om, C, tmp):
     made exactly skew as the generic action does (``skew_part``), and the inertia operator
     ``Ω̃_ij = M_ij Ã'_ij`` (M symmetric, so Ω̃' is exactly skew too). ``C`` and ``tmp`` are
     scratch; A1 may be A (A is read before A1 is written)."""
-    mm_into(A, Q, tmp)
-    mm_into(Q.T, tmp, C)
+    mm_small_into(A, Q, tmp)
+    mm_small_into(Q.T, tmp, C)
     n = C.shape[0]
     for a in range(n):
         for c in range(n):
@@ -80,7 +80,7 @@ def _act_into(Q, A, M, A1, Om, C, tmp):
 def _bracket_into(X, Y, out, tmp):
     """``out = [X, Y] = W − Wᵀ`` with ``W = XY`` (tmp), for skew X, Y: one product, exactly
     skew."""
-    mm_into(X, Y, tmp)
+    mm_small_into(X, Y, tmp)
     n = out.shape[0]
     for a in range(n):
         for c in range(n):
@@ -161,7 +161,7 @@ def _lie_step(A, R, orient, M, tab, b, h, coeffs, K, W, E):
     _exp_into(u, Q, E)
     _act_into(Q, A, M, A, acc, C, tmp)
     if orient:
-        mm_into(R, Q, C)
+        mm_small_into(R, Q, C)
         R[:, :] = C
     return True
 
@@ -220,6 +220,7 @@ def _run_bodies(
     KR = np.zeros((s, r, r))
     W = np.zeros((8, n, n))
     E = np.zeros((5, n, n))
+    PW = np.zeros((2, r, r))
     for m in range(lo, hi):
         A = np.empty((n, n))
         R = np.empty((r, r))
@@ -236,7 +237,7 @@ def _run_bodies(
             else:
                 A, R = _classical_step(A, R, orient, M, tab, b, hk, K, KR)
             if project and orient:
-                R = _project(R)
+                _project_into(R, PW)
             if slot < save_steps.shape[0] and save_steps[slot] == k + 1:
                 _save(out_A, slot, m, A)
                 _save(out_R, slot, m, R)
@@ -385,7 +386,8 @@ class TopNKernel:
         self.method = meth_decl
         self.lie = meth_decl["kind"] == "rkmk"
         self.stages = int(np.asarray(meth_decl["b"]).size)
-        self.coeffs = bernoulli_dexpinv_coefficients(meth_decl["dexpinv_degree"]) if self.lie else (1.0,)
+        # writable, as the compiled signature has it
+        self.coeffs = np.array(_dexpinv_coefficients(meth_decl["dexpinv_degree"] if self.lie else 0))
         self.batch = batch
         bodies = int(np.prod(batch)) if batch else 1
         self.parallel, self.threads = use_threads(bodies)

@@ -37,7 +37,7 @@ import numpy as np
 from numba import njit
 
 from .controller import advanced_time, error_norm, step_factor
-from .skew import _project, mm_into
+from .skew import _project_into, mm_small_into
 from .topn import _accumulate, _act_into, _exp_into, _lie_step
 
 __all__ = ["adaptive_topn"]
@@ -52,7 +52,7 @@ def _embedded(A0, R0, orient, M, K, w, h, W, E, out_A, out_R):
     _exp_into(u, Q, E)
     _act_into(Q, A0, M, out_A, acc, C, tmp)
     if orient:
-        mm_into(R0, Q, out_R)
+        mm_small_into(R0, Q, out_R)
 
 
 @njit(cache=True)
@@ -62,10 +62,10 @@ def _user(X, P, right_only, identity, out, tmp):
     if identity:
         out[:, :] = X
     elif right_only:
-        mm_into(X, P.T, out)
+        mm_small_into(X, P.T, out)
     else:
-        mm_into(P, X, tmp)
-        mm_into(tmp, P.T, out)
+        mm_small_into(P, X, tmp)
+        mm_small_into(tmp, P.T, out)
 
 
 @njit(cache=True)
@@ -141,6 +141,7 @@ def adaptive_topn(
     U = np.zeros((7, n, n))
     Ah = np.zeros((n, n))
     Rh = np.zeros((r, r))
+    PW = np.zeros((2, r, r))
     A1 = np.empty((N, n, n))
     R1 = np.empty((N, r, r))
     count = float(N * (2 * n * n if orient else n * n))
@@ -183,7 +184,9 @@ def adaptive_topn(
         for m in range(N):
             A[m, :, :] = A1[m]
             if orient:
-                R[m, :, :] = _project(R1[m]) if project else R1[m]
+                R[m, :, :] = R1[m]
+                if project:
+                    _project_into(R[m], PW)
         k += 1
         accepted += 1
         if k % save_every == 0 or t == t1:

@@ -1,0 +1,51 @@
+"""The unrolled small products (:mod:`lieint.fast.small_products`): generated, not edited, and
+bit for bit the loops they replace."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from lieint.fast import _generate_products
+from lieint.fast.skew import _loops_into
+from lieint.fast.small_products import square_into
+
+
+def test_the_module_is_the_generators_output():
+    assert _generate_products.TARGET.read_text() == _generate_products.source()
+
+
+@pytest.mark.parametrize("n", list(_generate_products.SIZES))
+def test_each_size_gives_the_loops_bits_also_in_place_and_on_a_transposed_view(n):
+    rng = np.random.default_rng(n)
+    A, B = rng.normal(size=(n, n)), rng.normal(size=(n, n)) * 10.0 ** rng.integers(-8, 8, size=(n, n))
+    expected = np.empty((n, n))
+    _loops_into(A, B, expected)
+    out = np.full((n, n), np.nan)
+    assert square_into(A, B, out)
+    assert np.array_equal(out, expected)
+    # and the product: within the classical bound n ε |A||B| of the exact one
+    assert np.all(np.abs(out - A @ B) <= 2 * n * np.finfo(float).eps * (np.abs(A) @ np.abs(B)))
+    # out may be either operand (each is read before it is written)
+    left, right = A.copy(), B.copy()
+    assert square_into(left, B, left) and np.array_equal(left, expected)
+    assert square_into(A, right, right) and np.array_equal(right, expected)
+    # a transposed (Fortran-ordered) view, as the kernels pass Qᵀ
+    _loops_into(A.T, B, expected)
+    assert square_into(A.T, B, out) and np.array_equal(out, expected)
+
+
+@pytest.mark.parametrize("shape", [(1, 1, 1), (2, 2, 2), (9, 9, 9), (3, 4, 4), (4, 4, 3), (4, 3, 4)])
+def test_other_shapes_are_refused_and_left_untouched(shape):
+    n, k, m = shape
+    out = np.full((n, m), 7.0)
+    assert not square_into(np.ones((n, k)), np.ones((k, m)), out)
+    assert np.all(out == 7.0)
+
+
+def test_a_non_finite_entry_reaches_its_column_of_the_product():
+    A, B = np.eye(5), np.eye(5)
+    B[2, 3] = np.nan  # 0 · NaN is NaN: the whole column
+    out = np.empty((5, 5))
+    square_into(A, B, out)
+    assert np.isnan(out[:, 3]).all() and np.isfinite(np.delete(out, 3, axis=1)).all()
