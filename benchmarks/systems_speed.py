@@ -1,8 +1,9 @@
 """CPU time to reach an error, every built-in rigid system: lieint compiled against scipy DOP853.
 
 Run: ``OPENBLAS_NUM_THREADS=1 python benchmarks/systems_speed.py`` (about five minutes;
-``--quick`` for a smoke run; ``--busy`` times everything a second time while another CPU-bound
-process runs, as on a user's busy laptop; ``--ensembles`` adds the ensemble throughput).
+``--quick`` for a smoke run; ``--only n=6`` for the systems whose label contains "n=6";
+``--busy`` times everything a second time while another CPU-bound process runs, as on a user's
+busy laptop; ``--ensembles`` adds the ensemble throughput).
 
 For each system — the Euler top in 3, 4 and 6 dimensions, the heavy top in 3 and 4, the ball
 with an offset centre of mass on an incline in 3, the Chaplygin ball in 3 and 4 — and each
@@ -217,13 +218,15 @@ def ensembles(quick: bool) -> None:
         print(f"{label:<27s} {run.stats.backend_reason[:60]:<60s} {work / best_wall:13.3g} {work / best_cpu:11.3g}")
 
 
-def main(quick: bool, busy: bool) -> None:
+def main(quick: bool, busy: bool, only: str | None = None) -> None:
     reps = 3 if quick else 5
     threads = os.environ.get("NUMBA_NUM_THREADS", "default")
     blas = os.environ.get("OPENBLAS_NUM_THREADS", "unset")
     print(f"numba threads: {threads}, OPENBLAS_NUM_THREADS={blas}, cores: {os.cpu_count()}")
     all_series = {}
     for label, system, y0, T in cases():
+        if only is not None and only not in label:
+            continue
         case = Case(system, y0, T)
         all_series[label] = (case, sweeps(case, quick))
         print(f"{label:<27s} T = {T:g}, reference error estimate {case.ref_error:.1e}")
@@ -247,9 +250,10 @@ if __name__ == "__main__":
     parser.add_argument("--busy", action="store_true", help="time again with a CPU-bound process running")
     parser.add_argument("--ensembles", action="store_true", help="the ensemble throughput of every system")
     parser.add_argument("--ensembles-only", action="store_true", help="only the ensemble throughput")
+    parser.add_argument("--only", metavar="TEXT", help="only the systems whose label contains TEXT (e.g. 'n=6')")
     args = parser.parse_args()
     if not args.ensembles_only:
-        main(args.quick, args.busy)
+        main(args.quick, args.busy, args.only)
     if args.ensembles or args.ensembles_only:
         ensembles(args.quick)
         from flop_ceiling import report  # the 3D ensemble against this machine's ceiling
