@@ -193,3 +193,21 @@ def test_topn_reports_a_non_finite_state_like_the_generic_path(rng):
     assert not fast.success and not ref.success
     assert "non-finite" in fast.message and "non-finite" in ref.message
     assert np.isfinite(fast.states["A"]).all() and fast.t.size >= 1
+
+
+@pytest.mark.parametrize("diagonal", [True, False])
+def test_the_kernels_generator_radius_is_the_generic_one_over_the_rows(rng, diagonal):
+    # the step check's θ₁ + θ₂ of ξ, from the principal frame's M ∘ PᵀAP, against ξ evaluated
+    # by the system in the user's frame; a non-finite row hands the check back (None)
+    from lieint.fast import kernel_for
+
+    n = 5
+    system = lieint.EulerTop(top(n, rng, diagonal=diagonal))
+    rows = system.initial_state(Omega=np.stack([random_skew(rng, n, scale=s) for s in (0.1, 3.0, 0.7)]))
+    method = lieint.methods.get_method("rkmk4")
+    kernel, reason = kernel_for(system, method, {k: v[0] for k, v in rows.items()}, None)
+    assert kernel is not None, reason
+    generic = so_ad_spectral_radius(system.generator(0.0, rows)).max()
+    assert kernel.generator_radius(rows) == pytest.approx(generic, rel=1e-13)
+    rows["A"][1, 0, 1] = np.nan
+    assert kernel.generator_radius(rows) is None

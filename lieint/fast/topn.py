@@ -54,7 +54,7 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 from numba import njit
 
-from . import _dexpinv_coefficients, range_error, use_threads
+from . import _dexpinv_coefficients, _proper_frame, range_error, use_threads
 from .skew import _bracket, _finite, _project_into, expm_skew, expm_skew_into, mm_small_into, so_ad_radius_exceeds
 
 __all__ = ["TopNKernel", "expm_skew", "inertia_factors", "integrate_topn", "so_ad_radius_exceeds"]
@@ -377,12 +377,9 @@ class TopNKernel:
         self.b = np.asarray(sys_decl["b"], dtype=float)
         self.n = self.b.size
         self.orientation = bool(sys_decl["orientation"])
-        P = np.array(sys_decl["P"], dtype=float)
-        if np.linalg.det(P) < 0:  # a proper frame keeps R̃ = RP a rotation
-            P[:, -1] *= -1.0
-        self.P = P
-        # a diagonal B needs no change of frame (P = I): the conversions are skipped, not rounded
-        self.identity_frame = bool(np.array_equal(P, np.eye(self.n)))
+        # a proper frame keeps R̃ = RP a rotation; a diagonal B needs no change of frame (P = I):
+        # the conversions are skipped, not rounded (both worked out once per frame)
+        self.P, self.identity_frame = _proper_frame(sys_decl["P"])
         self.method = meth_decl
         self.lie = meth_decl["kind"] == "rkmk"
         self.stages = int(np.asarray(meth_decl["b"]).size)
@@ -450,6 +447,20 @@ class TopNKernel:
                 R = R @ self.P.T
             states["R"] = R.reshape(lead + self.batch + (n, n))
         return states
+
+    def generator_radius(self, states: dict) -> float | None:
+        """The largest ad spectral radius of ``ξ(y) = Ω`` over the rows ``states`` (the user's
+        frame), ``θ₁ + θ₂`` of ``Ω̃ = M ∘ PᵀAP`` (conjugation by P keeps the rotation angles),
+        what ``lieint.integrate``'s step check needs, without the generic evaluation of ξ; None
+        when a row is not finite (the generic check then handles it)."""
+        from ..groups.so import so_ad_spectral_radius
+
+        A = states["A"].reshape(-1, self.n, self.n)
+        if not np.isfinite(A).all():
+            return None
+        if not self.identity_frame:
+            A = self.P.T @ A @ self.P
+        return float(np.max(so_ad_spectral_radius(A * inertia_factors(self.b)), initial=0.0))
 
     def user_state(self, internal: dict) -> dict:
         R = internal["R"][None] if self.orientation else None
