@@ -379,7 +379,8 @@ class TopNKernel:
         self.orientation = bool(sys_decl["orientation"])
         # a proper frame keeps R̃ = RP a rotation; a diagonal B needs no change of frame (P = I):
         # the conversions are skipped, not rounded (both worked out once per frame)
-        self.P, self.identity_frame = _proper_frame(sys_decl["P"])
+        P, self.identity_frame = _proper_frame(sys_decl["P"])
+        self.P = np.array(P)  # writable: the compiled loops' signatures take mutable arrays
         self.method = meth_decl
         self.lie = meth_decl["kind"] == "rkmk"
         self.stages = int(np.asarray(meth_decl["b"]).size)
