@@ -10,6 +10,7 @@
 from __future__ import annotations
 
 import math
+import types
 
 import numpy as np
 from numba import njit
@@ -20,23 +21,17 @@ __all__ = [
     "expm_se",
     "expm_skew",
     "expm_skew_into",
+    "expm_skew_small_into",
     "mm",
     "mm_into",
     "mm_loops",
     "mm_small_into",
     "mv",
+    "project_small_into",
     "so_ad_radius_exceeds",
 ]
 
 _TWO_PI = 2.0 * np.pi
-
-#: ``1/k!`` for the Taylor polynomial of exp
-_INV_FACTORIAL = np.array([1.0 / math.factorial(k) for k in range(17)])
-#: Paterson–Stockmeyer shapes ``(p, q)`` of the Taylor degrees ``m = pq`` used, and for each
-#: the largest norm θ_m with ``θ_m^{m+1}/(m+1)! ≤ 2⁻⁵³`` (the truncation error on a skew
-#: matrix of spectral norm θ ≤ θ_m, whose eigenvalues are ``±iθ_k``, stays below the unit
-#: round-off): m = 4, 6, 9, 12, 16 cost 2, 3, 4, 5, 6 products.
-
 
 #: ``1/k!`` for the Taylor polynomial of exp
 _INV_FACTORIAL = np.array([1.0 / math.factorial(k) for k in range(17)])
@@ -89,9 +84,10 @@ def mm_into(A, B, out):
 @njit(cache=True)
 def mm_small_into(A, B, out):
     """:func:`mm_into` with the unrolled n × n products of :mod:`lieint.fast.small_products`
-    for 3 ≤ n ≤ 8 (the same bits; 73 against 125 ns at n = 6): the products of the Taylor
-    exponential, the Newton–Schulz projection and the n-dimensional top's kernels, where the
-    step is matrix products. Other shapes go to :func:`mm_into`."""
+    for 3 ≤ n ≤ 8 (the same bits; 73 against 125 ns at n = 6), the product of the n-dimensional
+    top's kernels, whose step is matrix products, and of their exponential and projection
+    (:data:`expm_skew_small_into`, :data:`project_small_into`). Other shapes go to
+    :func:`mm_into`."""
     if not square_into(A, B, out):
         mm_into(A, B, out)
 
@@ -166,7 +162,7 @@ def expm_skew_into(u, out, work):
     """:func:`expm_skew` written into ``out`` (n, n), with ``work`` (5, n, n) as scratch: no
     allocation."""
     u2 = work[0]
-    mm_small_into(u, u, u2)
+    mm_into(u, u, u2)
     # θ₁ = ‖u‖₂ ≤ min(‖u‖₁, ‖u²‖₁^{1/2}); the second is often several times tighter for large n
     _scaled_taylor_into(u, min(_onenorm(u), np.sqrt(_onenorm(u2))), _THETAS, out, work)
 
@@ -333,9 +329,9 @@ def _scaled_taylor_into(u, norm, thetas, out, work):
             x[a, b] = u[a, b] * scale
             x2[a, b] *= scale2
     if p >= 3:
-        mm_small_into(x2, x, x3)
+        mm_into(x2, x, x3)
     if p == 4:
-        mm_small_into(x2, x2, x4)
+        mm_into(x2, x2, x4)
     top = x2 if p == 2 else (x3 if p == 3 else x4)
     c = _INV_FACTORIAL
     # Horner in x^p: S = c_m x^p + B_{q−1}, then S ← S x^p + B_j for j = q − 2 … 0; the product
@@ -348,11 +344,11 @@ def _scaled_taylor_into(u, norm, thetas, out, work):
             S[a, b] = cm * top[a, b]
     for j in range(q - 1, -1, -1):
         if j < q - 1:
-            mm_small_into(S, top, T)
+            mm_into(S, top, T)
             S, T = T, S
         _add_taylor_block(S, x, x2, x3, p, c[j * p], c[j * p + 1], c[j * p + 2], c[j * p + 3])
     for _ in range(s):
-        mm_small_into(S, S, T)
+        mm_into(S, S, T)
         S, T = T, S
     if s % 2 != (q - 1) % 2:  # an odd number of swaps left the result in work[4]
         out[:, :] = S
@@ -479,7 +475,7 @@ def _project_into(R, work):
     if not np.isfinite(worst):
         return
     if worst >= 2.0 / n:
-        mm_small_into(R.T, R, P)
+        mm_into(R.T, R, P)
         norm1 = 0.0
         for c in range(n):
             col = 0.0
@@ -493,7 +489,7 @@ def _project_into(R, work):
                     R[a, b] = R[a, b] / scale
             worst = _gram_defect_into(R, E)
     for _ in range(128):
-        mm_small_into(R, E, P)
+        mm_into(R, E, P)
         for a in range(n):
             for b in range(n):
                 R[a, b] = R[a, b] - 0.5 * P[a, b]
@@ -508,7 +504,7 @@ def _project_into(R, work):
 def _gram_defect_into(R, E):
     """``E = RᵀR − I`` into E; returns ``max |E_ij|`` (NaN when R is not finite)."""
     n = R.shape[0]
-    mm_small_into(R.T, R, E)
+    mm_into(R.T, R, E)
     for i in range(n):
         E[i, i] -= 1.0
     worst = 0.0
@@ -518,3 +514,34 @@ def _gram_defect_into(R, E):
             if abs(x) > worst or x != x:
                 worst = abs(x)
     return worst
+
+
+def _with_product(dispatchers, product, suffix: str) -> dict:
+    """Compiled copies of ``dispatchers`` whose matrix product ``mm_into`` is ``product`` (and
+    whose calls among themselves go to the copies), keyed by name.
+
+    One source for the Taylor exponential and the projection, two sets of machine code: the
+    n-dimensional top's kernels take the unrolled products, while every other kernel keeps the
+    loops — linked into a kernel, the unrolled bodies are optimised again inside it (about 10 s
+    more compilation per kernel, for products that do not dominate those kernels' steps). Each
+    copy has its own qualified name, so numba caches it beside the original."""
+    scope = dict(globals())
+    scope["mm_into"] = product
+    copies = {}
+    for dispatcher in dispatchers:
+        f = dispatcher.py_func
+        clone = types.FunctionType(f.__code__, scope, f.__name__ + suffix, f.__defaults__, f.__closure__)
+        clone.__qualname__ = f.__qualname__ + suffix
+        clone.__module__, clone.__doc__ = f.__module__, f.__doc__
+        copies[f.__name__] = njit(cache=True)(clone)
+    scope.update(copies)
+    return copies
+
+
+_UNROLLED = _with_product(
+    [expm_skew_into, _scaled_taylor_into, _project_into, _gram_defect_into], mm_small_into, "_unrolled"
+)
+#: :func:`expm_skew_into` with the unrolled products (:func:`mm_small_into`)
+expm_skew_small_into = _UNROLLED["expm_skew_into"]
+#: :func:`_project_into` with the unrolled products (:func:`mm_small_into`)
+project_small_into = _UNROLLED["_project_into"]

@@ -18,7 +18,7 @@ is Python overhead, not arithmetic. This module runs the whole fixed-step loop i
   or classical RK on the embedded equations ``Ã' = [Ã, Ω̃]``, ``R̃' = R̃Ω̃``;
 * ``exp`` of a skew matrix (:mod:`lieint.fast.skew`) by scaling and squaring with a Taylor
   polynomial of degree 4, 6, 9, 12 or 16 chosen so that the truncation error is below the unit
-  round-off (:func:`lieint.fast.skew.expm_skew_into`): only matrix products, no linear solve —
+  round-off (:data:`lieint.fast.skew.expm_skew_small_into`): only matrix products, no linear solve —
   numba's ``np.linalg.solve`` alone would add about 5 s to the one-time compilation;
 * a step allocates nothing: the stage slopes and the scratch of the exponential, the action,
   the brackets and the projection are held per body for the whole run, and the products are
@@ -55,7 +55,15 @@ import numpy as np
 from numba import njit
 
 from . import _dexpinv_coefficients, _proper_frame, range_error, use_threads
-from .skew import _bracket, _finite, _project_into, expm_skew, expm_skew_into, mm_small_into, so_ad_radius_exceeds
+from .skew import (
+    _bracket,
+    _finite,
+    expm_skew,
+    expm_skew_small_into,
+    mm_small_into,
+    project_small_into,
+    so_ad_radius_exceeds,
+)
 
 __all__ = ["TopNKernel", "expm_skew", "inertia_factors", "integrate_topn", "so_ad_radius_exceeds"]
 
@@ -91,7 +99,7 @@ def _bracket_into(X, Y, out, tmp):
 def _exp_into(u, Q, work):
     """``Q = exp(u)``, or NaN when u is not finite (the driver reports the state)."""
     if _finite(u):
-        expm_skew_into(u, Q, work)
+        expm_skew_small_into(u, Q, work)
     else:
         Q[:, :] = np.nan
 
@@ -237,7 +245,7 @@ def _run_bodies(
             else:
                 A, R = _classical_step(A, R, orient, M, tab, b, hk, K, KR)
             if project and orient:
-                _project_into(R, PW)
+                project_small_into(R, PW)
             if slot < save_steps.shape[0] and save_steps[slot] == k + 1:
                 _save(out_A, slot, m, A)
                 _save(out_R, slot, m, R)

@@ -37,7 +37,7 @@ import numpy as np
 from numba import njit
 
 from .controller import advanced_time, error_norm, step_factor
-from .skew import _project_into, mm_small_into
+from .skew import mm_small_into, project_small_into
 from .topn import _accumulate, _act_into, _exp_into, _lie_step
 
 __all__ = ["adaptive_topn"]
@@ -186,7 +186,7 @@ def adaptive_topn(
             if orient:
                 R[m, :, :] = R1[m]
                 if project:
-                    _project_into(R[m], PW)
+                    project_small_into(R[m], PW)
         k += 1
         accepted += 1
         if k % save_every == 0 or t == t1:
