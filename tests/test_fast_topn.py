@@ -198,16 +198,21 @@ def test_topn_reports_a_non_finite_state_like_the_generic_path(rng):
 @pytest.mark.parametrize("diagonal", [True, False])
 def test_the_kernels_generator_radius_is_the_generic_one_over_the_rows(rng, diagonal):
     # the step check's θ₁ + θ₂ of ξ, from the principal frame's M ∘ PᵀAP, against ξ evaluated
-    # by the system in the user's frame; a non-finite row hands the check back (None)
+    # by the system in the user's frame, over the rows the generic check samples (at most
+    # _WARN_SAMPLES, evenly spaced); a non-finite row hands the check back (None)
     from lieint.fast import kernel_for
+    from lieint.ivp import _WARN_SAMPLES
 
     n = 5
     system = lieint.EulerTop(top(n, rng, diagonal=diagonal))
-    rows = system.initial_state(Omega=np.stack([random_skew(rng, n, scale=s) for s in (0.1, 3.0, 0.7)]))
     method = lieint.methods.get_method("rkmk4")
-    kernel, reason = kernel_for(system, method, {k: v[0] for k, v in rows.items()}, None)
-    assert kernel is not None, reason
-    generic = so_ad_spectral_radius(system.generator(0.0, rows)).max()
-    assert kernel.generator_radius(rows) == pytest.approx(generic, rel=1e-13)
-    rows["A"][1, 0, 1] = np.nan
-    assert kernel.generator_radius(rows) is None
+    for count in (3, 500):
+        scales = rng.uniform(0.1, 3.0, count)
+        rows = system.initial_state(Omega=np.stack([random_skew(rng, n, scale=s) for s in scales]))
+        kernel, reason = kernel_for(system, method, {k: v[0] for k, v in rows.items()}, None)
+        assert kernel is not None, reason
+        picks = np.unique(np.linspace(0, count - 1, min(count, _WARN_SAMPLES)).astype(int))
+        generic = so_ad_spectral_radius(system.generator(0.0, {k: v[picks] for k, v in rows.items()})).max()
+        assert kernel.generator_radius(rows) == pytest.approx(generic, rel=1e-13)
+        rows["A"][picks[1], 0, 1] = np.nan
+        assert kernel.generator_radius(rows) is None

@@ -27,7 +27,6 @@ __all__ = [
     "mm_loops",
     "mm_small_into",
     "mv",
-    "project_small_into",
     "so_ad_radius_exceeds",
 ]
 
@@ -85,9 +84,8 @@ def mm_into(A, B, out):
 def mm_small_into(A, B, out):
     """:func:`mm_into` with the unrolled n × n products of :mod:`lieint.fast.small_products`
     for 3 ≤ n ≤ 8 (the same bits; 73 against 125 ns at n = 6), the product of the n-dimensional
-    top's kernels, whose step is matrix products, and of their exponential and projection
-    (:data:`expm_skew_small_into`, :data:`project_small_into`). Other shapes go to
-    :func:`mm_into`."""
+    top's kernels, whose step is matrix products, and of their exponential
+    (:data:`expm_skew_small_into`). Other shapes go to :func:`mm_into`."""
     if not square_into(A, B, out):
         mm_into(A, B, out)
 
@@ -334,10 +332,8 @@ def _scaled_taylor_into(u, norm, thetas, out, work):
         mm_into(x2, x2, x4)
     top = x2 if p == 2 else (x3 if p == 3 else x4)
     c = _INV_FACTORIAL
-    # Horner in x^p: S = c_m x^p + B_{q−1}, then S ← S x^p + B_j for j = q − 2 … 0; the product
-    # goes to the other buffer and the two swap (a small product may write over its operand,
-    # BLAS's may not)
-    S, T = out, work[4]
+    # Horner in x^p: S = c_m x^p + B_{q−1}, then S ← S x^p + B_j for j = q − 2 … 0
+    S = out
     cm = c[p * q]
     for a in range(n):
         for b in range(n):
@@ -345,35 +341,20 @@ def _scaled_taylor_into(u, norm, thetas, out, work):
     for j in range(q - 1, -1, -1):
         if j < q - 1:
             mm_into(S, top, T)
-            S, T = T, S
-        _add_taylor_block(S, x, x2, x3, p, c[j * p], c[j * p + 1], c[j * p + 2], c[j * p + 3])
-    for _ in range(s):
-        mm_into(S, S, T)
-        S, T = T, S
-    if s % 2 != (q - 1) % 2:  # an odd number of swaps left the result in work[4]
-        out[:, :] = S
-
-
-@njit(cache=True)
-def _add_taylor_block(S, x, x2, x3, p, c0, c1, c2, c3):
-    """``S += c0 I + c1 x (+ c2 x² (+ c3 x³))`` for a block of p = 2, 3 or 4 Taylor terms, each
-    entry's terms added in that order (one loop per p: no test in the inner loop)."""
-    n = S.shape[0]
-    if p == 2:
+            S[:, :] = T
+        c0, c1, c2 = c[j * p], c[j * p + 1], c[j * p + 2] if p >= 3 else 0.0
+        c3 = c[j * p + 3] if p == 4 else 0.0
         for a in range(n):
             S[a, a] += c0
             for b in range(n):
                 S[a, b] += c1 * x[a, b]
-    elif p == 3:
-        for a in range(n):
-            S[a, a] += c0
-            for b in range(n):
-                S[a, b] = S[a, b] + c1 * x[a, b] + c2 * x2[a, b]
-    else:
-        for a in range(n):
-            S[a, a] += c0
-            for b in range(n):
-                S[a, b] = S[a, b] + c1 * x[a, b] + c2 * x2[a, b] + c3 * x3[a, b]
+                if p >= 3:
+                    S[a, b] += c2 * x2[a, b]
+                if p == 4:
+                    S[a, b] += c3 * x3[a, b]
+    for _ in range(s):
+        mm_into(S, S, T)
+        S[:, :] = T
 
 
 @njit(cache=True)
@@ -449,19 +430,9 @@ def _exp_or_nan(u):
 
 @njit(cache=True)
 def _project(R):
-    """:func:`_project_into` on a copy of R (R is not modified)."""
-    n = R.shape[0]
-    out = R.copy()
-    _project_into(out, np.empty((2, n, n)))
-    return out
-
-
-@njit(cache=True)
-def _project_into(R, work):
-    """Newton–Schulz toward the polar factor, in place: ``R ← R(3I − RᵀR)/2 = R − R E/2`` with
+    """Newton–Schulz toward the polar factor: ``R ← R(3I − RᵀR)/2 = R − R E/2`` with
     ``E = RᵀR − I``, once, then again while ``max |E|`` exceeds 1e-8 (quadratic convergence:
-    the last step leaves ~1e-16). ``work`` (2, n, n) is scratch: a step of a kernel allocates
-    nothing.
+    the last step leaves ~1e-16).
 
     The iteration maps each singular value σ to σ(3 − σ²)/2 and converges for σ in (0, √3).
     ``max |E_ij| < 2/n`` bounds the spectral radius of E below 2, i.e. σ² < 3; beyond it (a
@@ -470,61 +441,52 @@ def _project_into(R, work):
     singular value of 1e-18 grows ×1.5 a step).
     """
     n = R.shape[0]
-    E, P = work[0], work[1]
-    worst = _gram_defect_into(R, E)
+    E, worst = _gram_defect(R)
     if not np.isfinite(worst):
-        return
+        return R
     if worst >= 2.0 / n:
-        mm_into(R.T, R, P)
+        G = mm(R.T, R)
         norm1 = 0.0
         for c in range(n):
             col = 0.0
             for r in range(n):
-                col += abs(P[r, c])
+                col += abs(G[r, c])
             norm1 = max(norm1, col)
         if norm1 > 0.0:
-            scale = np.sqrt(norm1)
-            for a in range(n):
-                for b in range(n):
-                    R[a, b] = R[a, b] / scale
-            worst = _gram_defect_into(R, E)
+            R = R / np.sqrt(norm1)
+            E, worst = _gram_defect(R)
     for _ in range(128):
-        mm_into(R, E, P)
-        for a in range(n):
-            for b in range(n):
-                R[a, b] = R[a, b] - 0.5 * P[a, b]
+        R = R - 0.5 * mm(R, E)
         if worst <= 1e-8:
             break
-        worst = _gram_defect_into(R, E)
+        E, worst = _gram_defect(R)
         if not np.isfinite(worst):
             break
+    return R
 
 
 @njit(cache=True)
-def _gram_defect_into(R, E):
-    """``E = RᵀR − I`` into E; returns ``max |E_ij|`` (NaN when R is not finite)."""
+def _gram_defect(R):
+    """``E = RᵀR − I`` and ``max |E_ij|``."""
     n = R.shape[0]
-    mm_into(R.T, R, E)
+    E = mm(R.T, R)
     for i in range(n):
         E[i, i] -= 1.0
     worst = 0.0
-    for a in range(n):
-        for b in range(n):
-            x = E[a, b]
-            if abs(x) > worst or x != x:
-                worst = abs(x)
-    return worst
+    for x in E.ravel():
+        if abs(x) > worst or x != x:
+            worst = abs(x)
+    return E, worst
 
 
 def _with_product(dispatchers, product, suffix: str) -> dict:
     """Compiled copies of ``dispatchers`` whose matrix product ``mm_into`` is ``product`` (and
     whose calls among themselves go to the copies), keyed by name.
 
-    One source for the Taylor exponential and the projection, two sets of machine code: the
-    n-dimensional top's kernels take the unrolled products, while every other kernel keeps the
-    loops — linked into a kernel, the unrolled bodies are optimised again inside it (about 10 s
-    more compilation per kernel, for products that do not dominate those kernels' steps). Each
-    copy has its own qualified name, so numba caches it beside the original."""
+    One source for the Taylor exponential, two sets of machine code: the n-dimensional top's
+    kernels take the unrolled products, every other kernel keeps the loops (which do not
+    dominate those kernels' steps, and compile faster). Each copy has its own qualified name,
+    so numba caches it beside the original."""
     scope = dict(globals())
     scope["mm_into"] = product
     copies = {}
@@ -538,10 +500,7 @@ def _with_product(dispatchers, product, suffix: str) -> dict:
     return copies
 
 
-_UNROLLED = _with_product(
-    [expm_skew_into, _scaled_taylor_into, _project_into, _gram_defect_into], mm_small_into, "_unrolled"
-)
 #: :func:`expm_skew_into` with the unrolled products (:func:`mm_small_into`)
-expm_skew_small_into = _UNROLLED["expm_skew_into"]
-#: :func:`_project_into` with the unrolled products (:func:`mm_small_into`)
-project_small_into = _UNROLLED["_project_into"]
+expm_skew_small_into = _with_product([expm_skew_into, _scaled_taylor_into], mm_small_into, "_unrolled")[
+    "expm_skew_into"
+]

@@ -20,10 +20,9 @@ is Python overhead, not arithmetic. This module runs the whole fixed-step loop i
   polynomial of degree 4, 6, 9, 12 or 16 chosen so that the truncation error is below the unit
   round-off (:data:`lieint.fast.skew.expm_skew_small_into`): only matrix products, no linear solve —
   numba's ``np.linalg.solve`` alone would add about 5 s to the one-time compilation;
-* a step allocates nothing: the stage slopes and the scratch of the exponential, the action,
-  the brackets and the projection are held per body for the whole run, and the products are
-  written into them, unrolled up to n = 8 (:func:`lieint.fast.skew.mm_small_into`; BLAS above,
-  where the arithmetic outweighs a call);
+* the stage slopes and the scratch of the exponential, the action and the brackets are held
+  per body for the whole run, and the products are written into them, unrolled up to n = 8
+  (:func:`lieint.fast.skew.mm_small_into`; BLAS above, where the arithmetic outweighs a call);
 * brackets of skew matrices cost one product, ``[X, Y] = XY − (XY)ᵀ``;
 * the dexp⁻¹ series converges only while the spectral radius of ``ad_u`` on so(n),
   ``θ₁ + θ₂`` (the two largest rotation angles of u), is below 2π; the Frobenius norm settles
@@ -58,10 +57,10 @@ from . import _dexpinv_coefficients, _proper_frame, range_error, use_threads
 from .skew import (
     _bracket,
     _finite,
+    _project,
     expm_skew,
     expm_skew_small_into,
     mm_small_into,
-    project_small_into,
     so_ad_radius_exceeds,
 )
 
@@ -228,7 +227,6 @@ def _run_bodies(
     KR = np.zeros((s, r, r))
     W = np.zeros((8, n, n))
     E = np.zeros((5, n, n))
-    PW = np.zeros((2, r, r))
     for m in range(lo, hi):
         A = np.empty((n, n))
         R = np.empty((r, r))
@@ -245,7 +243,7 @@ def _run_bodies(
             else:
                 A, R = _classical_step(A, R, orient, M, tab, b, hk, K, KR)
             if project and orient:
-                project_small_into(R, PW)
+                R = _project(R)
             if slot < save_steps.shape[0] and save_steps[slot] == k + 1:
                 _save(out_A, slot, m, A)
                 _save(out_R, slot, m, R)
@@ -461,15 +459,30 @@ class TopNKernel:
         """The largest ad spectral radius of ``ξ(y) = Ω`` over the rows ``states`` (the user's
         frame), ``θ₁ + θ₂`` of ``Ω̃ = M ∘ PᵀAP`` (conjugation by P keeps the rotation angles),
         what ``lieint.integrate``'s step check needs, without the generic evaluation of ξ; None
-        when a row is not finite (the generic check then handles it)."""
+        when a row is not finite (the generic check then handles it).
+
+        As the generic check, it looks at most at ``_WARN_SAMPLES`` rows, evenly spaced; the
+        angles (a singular value decomposition) are computed only for the rows whose Frobenius
+        bound ``‖Ω̃‖_F ≥ θ₁ + θ₂`` exceeds the largest radius found so far, largest bound first."""
         from ..groups.so import so_ad_spectral_radius
+        from ..ivp import _WARN_SAMPLES
 
         A = states["A"].reshape(-1, self.n, self.n)
+        if A.shape[0] > _WARN_SAMPLES:
+            A = A[np.unique(np.linspace(0, A.shape[0] - 1, _WARN_SAMPLES).astype(int))]
         if not np.isfinite(A).all():
             return None
         if not self.identity_frame:
             A = self.P.T @ A @ self.P
-        return float(np.max(so_ad_spectral_radius(A * inertia_factors(self.b)), initial=0.0))
+        omega = A * inertia_factors(self.b)
+        bound = np.sqrt(np.sum(omega * omega, axis=(-2, -1)))
+        order = np.argsort(bound)[::-1]
+        best, start = 0.0, 0
+        while start < order.size and bound[order[start]] > best:
+            rows = order[start : start + 8]
+            best = max(best, float(np.max(so_ad_spectral_radius(omega[rows]))))
+            start += 8
+        return best
 
     def user_state(self, internal: dict) -> dict:
         R = internal["R"][None] if self.orientation else None

@@ -37,7 +37,7 @@ import numpy as np
 from numba import njit
 
 from .controller import advanced_time, error_norm, step_factor
-from .skew import mm_small_into, project_small_into
+from .skew import _project, mm_small_into
 from .topn import _accumulate, _act_into, _exp_into, _lie_step
 
 __all__ = ["adaptive_topn"]
@@ -141,7 +141,6 @@ def adaptive_topn(
     U = np.zeros((7, n, n))
     Ah = np.zeros((n, n))
     Rh = np.zeros((r, r))
-    PW = np.zeros((2, r, r))
     A1 = np.empty((N, n, n))
     R1 = np.empty((N, r, r))
     count = float(N * (2 * n * n if orient else n * n))
@@ -184,9 +183,7 @@ def adaptive_topn(
         for m in range(N):
             A[m, :, :] = A1[m]
             if orient:
-                R[m, :, :] = R1[m]
-                if project:
-                    project_small_into(R[m], PW)
+                R[m, :, :] = _project(R1[m]) if project else R1[m]
         k += 1
         accepted += 1
         if k % save_every == 0 or t == t1:
