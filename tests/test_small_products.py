@@ -49,3 +49,21 @@ def test_a_non_finite_entry_reaches_its_column_of_the_product():
     out = np.empty((5, 5))
     square_into(A, B, out)
     assert np.isnan(out[:, 3]).all() and np.isfinite(np.delete(out, 3, axis=1)).all()
+
+
+@pytest.mark.parametrize("n", [3, 4, 6, 8, 9])
+def test_the_unrolled_exponential_gives_the_loops_bits(n):
+    # the n-D top's compiled copy of the Taylor exponential (skew._with_product) against the
+    # original, every Taylor degree and squarings; and against scipy's expm to round-off
+    from scipy.linalg import expm
+
+    from lieint.fast.skew import expm_skew, expm_skew_small_into
+
+    rng = np.random.default_rng(n)
+    for scale in (1e-6, 0.01, 0.3, 1.0, 3.0):
+        u = rng.normal(size=(n, n))
+        u = (u - u.T) * scale / np.linalg.norm(u - u.T, 2)
+        out = np.empty((n, n))
+        expm_skew_small_into(u, out, np.empty((5, n, n)))
+        assert np.array_equal(out, expm_skew(u))
+        np.testing.assert_allclose(out, expm(u), rtol=0, atol=1e-14 * max(1.0, scale))
