@@ -128,7 +128,7 @@ def measure(repeats: int) -> dict[str, tuple[float, float]]:
         sol = driver.solution(first, [segment], c, 0.0, 0.0)
         t.append(clock())
         if hasattr(driver, "generator_radius"):  # the kernel's own radius of ξ, as integrate does
-            _warn_if_unresolved(top, sol, h, driver.generator_radius(sol.states))
+            _warn_if_unresolved(top, sol, h, driver.generator_radius(sol.states, limit=np.pi / h))
         else:  # before: ξ evaluated at the saved states
             _warn_if_unresolved(top, sol, h)
         t.append(clock())

@@ -11,9 +11,10 @@ target error 1e-6 and 1e-10 on the **whole state** at the final time (every fiel
 G, R, the centre; max over fields of ``max|y − y_ref| / max(1, max|y_ref|)``):
 
 * lieint with default settings (``lieint.integrate``: the compiled kernel is chosen by itself),
-  the cheapest of rkmk4 and rkmk6 over a sweep of steps and of adaptive rkmk853 over rtol
-  (atol = rtol·1e-3) that reaches the target; beside it, adaptive rkmk853 against the cheaper
-  fixed-step series (``853/fixed``) and DOP853 against rkmk853 (``DOP/853``);
+  the cheapest that reaches the target of rkmk4 and rkmk6 over a sweep of steps and of adaptive
+  rkmk853 over rtol (atol = rtol·1e-3), each in exponential and in Cayley coordinates (the
+  method's ``coordinates``; ``[cay]`` in the table); beside it, the cheaper adaptive rkmk853
+  against the cheapest fixed-step series (``853/fixed``) and DOP853 against rkmk853 (``DOP/853``);
 * ``scipy.integrate.solve_ivp(method="DOP853")`` on the same equations (the system's embedded
   vector field, all fields flattened), the loosest rtol (atol = rtol·1e-3) that reaches the
   target, R projected onto SO(n) at the end as a user would.
@@ -44,6 +45,9 @@ import lieint
 from lieint.groups import project_to_so
 
 TARGETS = (1e-6, 1e-10)
+#: the fixed-step and the adaptive series, each in both coordinate maps
+FIXED = ("rkmk4", "rkmk6", "rkmk4[cay]", "rkmk6[cay]")
+ADAPTIVE = ("rkmk853", "rkmk853[cay]")
 
 
 def _spd(rng, n, lo, hi):
@@ -121,11 +125,15 @@ class Case:
             y["R"] = project_to_so(y["R"])  # the projection a user would apply
         return y
 
-    def lieint(self, method, n=None, rtol=None):
+    def lieint(self, series, n=None, rtol=None):
+        """One call of ``lieint.integrate`` for a series name ("rkmk6", "rkmk6[cay]": Cayley
+        coordinates): ``n`` fixed steps, or adaptive at ``rtol``."""
+        method, cayley = series.removesuffix("[cay]"), series.endswith("[cay]")
+        kw = dict(method=method, coordinates="cayley" if cayley else "exp")
         if n is not None:
-            run = lieint.integrate(self.system, self.y0, (0.0, self.T), h=self.T / n, method=method, save_every=n)
+            run = lieint.integrate(self.system, self.y0, (0.0, self.T), h=self.T / n, save_every=n, **kw)
         else:
-            run = lieint.integrate(self.system, self.y0, (0.0, self.T), method=method, rtol=rtol, atol=rtol * 1e-3)
+            run = lieint.integrate(self.system, self.y0, (0.0, self.T), rtol=rtol, atol=rtol * 1e-3, **kw)
         return {k: v[-1] for k, v in run.states.items()}, run
 
     def error(self, y):
@@ -139,15 +147,16 @@ def sweeps(case: Case, quick: bool):
     """Errors of every setting (one call each, also the warm-up)."""
     counts = [round(25 * 2 ** (k / 2)) for k in range(0, 22, 2 if quick else 1)]  # 25 … ~25,600
     rtols = [10.0 ** (-k / 2) for k in range(8, 29, 2 if quick else 1)]  # 1e-4 … 1e-14
-    series = {"rkmk4": [], "rkmk6": [], "rkmk853": [], "DOP853": []}
-    for method in ("rkmk4", "rkmk6"):
+    series = {name: [] for name in (*FIXED, *ADAPTIVE, "DOP853")}
+    for name in FIXED:
         for n in counts:
             try:
-                series[method].append((case.error(case.lieint(method, n)), n))
+                series[name].append((case.error(case.lieint(name, n)), n))
             except lieint.DexpinvRangeError:
                 continue
     for rtol in rtols:
-        series["rkmk853"].append((case.error(case.lieint("rkmk853", rtol=rtol)), rtol))
+        for name in ADAPTIVE:
+            series[name].append((case.error(case.lieint(name, rtol=rtol)), rtol))
         series["DOP853"].append((case.error(case.scipy(rtol, rtol * 1e-3)), rtol))
     return series
 
@@ -156,37 +165,37 @@ def cheapest(series, name, target):
     ok = [row for row in series[name] if row[0] <= target]
     if not ok:
         return None
-    return max(ok, key=lambda r: r[1]) if name in ("rkmk853", "DOP853") else min(ok, key=lambda r: r[1])
+    return max(ok, key=lambda r: r[1]) if name in (*ADAPTIVE, "DOP853") else min(ok, key=lambda r: r[1])
 
 
 def table(all_series, reps: int, label: str) -> None:
     print(f"\n{label}; load average {os.getloadavg()[0]:.2f}; CPU time, min of {reps} repeats")
     print(
-        f"{'system':<27s} {'target':>6s} {'lieint best':>22s} {'error':>8s} {'CPU ms':>8s}"
+        f"{'system':<27s} {'target':>6s} {'lieint best':>27s} {'error':>8s} {'CPU ms':>8s}"
         f" {'DOP853':>12s} {'error':>8s} {'CPU ms':>8s} {'ratio':>7s} {'853/fixed':>9s} {'DOP/853':>8s}"
     )
     for name, (case, series) in all_series.items():
         for target in TARGETS:
             timed = {}  # method -> (setting, error, cpu)
-            for method in ("rkmk4", "rkmk6", "rkmk853"):
-                row = cheapest(series, method, target)
+            for series_name in (*FIXED, *ADAPTIVE):
+                row = cheapest(series, series_name, target)
                 if row is None:
                     continue
-                if method == "rkmk853":
-                    cpu = cpu_min(lambda c=case, r=row[1]: c.lieint("rkmk853", rtol=r), reps)
-                    setting = f"rkmk853 rtol {row[1]:.0e}"
+                if series_name in ADAPTIVE:
+                    cpu = cpu_min(lambda c=case, m=series_name, r=row[1]: c.lieint(m, rtol=r), reps)
+                    setting = f"{series_name} rtol {row[1]:.0e}"
                 else:
-                    cpu = cpu_min(lambda c=case, m=method, n=row[1]: c.lieint(m, n), reps)
-                    setting = f"{method} {row[1]} steps"
-                timed[method] = (setting, row[0], cpu)
+                    cpu = cpu_min(lambda c=case, m=series_name, n=row[1]: c.lieint(m, n), reps)
+                    setting = f"{series_name} {row[1]} steps"
+                timed[series_name] = (setting, row[0], cpu)
             best = min(timed.values(), key=lambda r: r[2]) if timed else None
-            fixed = [timed[m][2] for m in ("rkmk4", "rkmk6") if m in timed]
+            fixed = [timed[m][2] for m in FIXED if m in timed]
+            adaptive = min((timed[m] for m in ADAPTIVE if m in timed), key=lambda r: r[2], default=None)
             sp = cheapest(series, "DOP853", target)
             sp_cpu = cpu_min(lambda c=case, r=sp[1]: c.scipy(r, r * 1e-3), max(1, reps // 2)) if sp else None
-            lie_txt = f"{best[0]:>22s} {best[1]:8.1e} {1e3 * best[2]:8.2f}" if best else f"{'not reached':>40s}"
+            lie_txt = f"{best[0]:>27s} {best[1]:8.1e} {1e3 * best[2]:8.2f}" if best else f"{'not reached':>45s}"
             sp_txt = f"{f'rtol {sp[1]:.0e}':>12s} {sp[0]:8.1e} {1e3 * sp_cpu:8.2f}" if sp else f"{'not reached':>30s}"
             ratio = f"{sp_cpu / best[2]:7.1f}" if best and sp else "      -"
-            adaptive = timed.get("rkmk853")
             vs_fixed = f"{adaptive[2] / min(fixed):9.2f}" if adaptive and fixed else "        -"
             vs_dop = f"{sp_cpu / adaptive[2]:8.1f}" if adaptive and sp else "       -"
             print(f"{name:<27s} {target:6.0e} {lie_txt} {sp_txt} {ratio} {vs_fixed} {vs_dop}")
@@ -239,8 +248,9 @@ def main(quick: bool, busy: bool, only: str | None = None) -> None:
         finally:
             hog.kill()
     print(
-        "ratio: DOP853's CPU time / lieint's (the cheapest lieint series reaching the target); 853/fixed: "
-        "adaptive rkmk853's CPU time / the cheaper of rkmk4 and rkmk6 at the same target; DOP/853: DOP853's / rkmk853's"
+        "ratio: DOP853's CPU time / lieint's (the cheapest lieint series reaching the target; [cay]: Cayley "
+        "coordinates); 853/fixed: the cheaper adaptive rkmk853's CPU time / the cheapest of rkmk4 and rkmk6 at the "
+        "same target; DOP/853: DOP853's / the cheaper rkmk853's"
     )
 
 

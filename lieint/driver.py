@@ -196,12 +196,13 @@ class Driver:
         """The state dict of the carry."""
         return self.loop.user_state(carry)
 
-    def generator_radius(self, states: dict) -> float | None:
+    def generator_radius(self, states: dict, limit: float = 0.0) -> float | None:
         """The largest ad spectral radius of the generator ξ(y) over the rows ``states`` when the
         run's back end computes it in one pass (a compiled kernel's ``generator_radius``: the
-        3D top's ``max |ω|``), else None (the caller evaluates ξ)."""
+        3D top's ``max |ω|``), else None (the caller evaluates ξ). Below ``limit`` an upper
+        bound may stand for it (the step check asks only whether it reaches π/h)."""
         radius = getattr(self.loop, "generator_radius", None)
-        return radius(states) if radius is not None else None
+        return radius(states, limit) if radius is not None else None
 
     @property
     def backend(self) -> str:

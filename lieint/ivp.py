@@ -151,7 +151,7 @@ def integrate(
     )
     sol = driver.run(y)
     if driver.kind == "fixed" and not getattr(stepper, "any_step", False):  # exact flows take any step
-        _warn_if_unresolved(system, sol, h, driver.generator_radius(sol.states))
+        _warn_if_unresolved(system, sol, h, driver.generator_radius(sol.states, limit=np.pi / h))
     return sol
 
 
@@ -202,9 +202,9 @@ _WARN_SAMPLES = 200
 def _warn_if_unresolved(system, sol: Solution, h: float, radius: float | None = None) -> None:
     """Warn when ``h ξ`` at the saved states exceeds π in ad spectral radius (see LieStepWarning).
 
-    ``radius``: the largest ad spectral radius of ξ over every saved state when the back end
-    computed it (a compiled kernel's ``generator_radius``); None evaluates ξ at the saved
-    states (at most :data:`_WARN_SAMPLES` of them)."""
+    ``radius``: the largest ad spectral radius of ξ over every saved state, or an upper bound
+    of it below π/h, when the back end computed it (a compiled kernel's ``generator_radius``);
+    None evaluates ξ at the saved states (at most :data:`_WARN_SAMPLES` of them)."""
     if sol.t.size == 0:
         return
     if radius is not None:

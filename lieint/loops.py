@@ -167,11 +167,12 @@ class _CompiledRows:
     def user_state(self, carry: Carry) -> dict:
         return self.kernel.user_state(carry.state)
 
-    def generator_radius(self, states: dict) -> float | None:
+    def generator_radius(self, states: dict, limit: float = 0.0) -> float | None:
         """The largest ad spectral radius of ξ(y) over the rows ``states`` (the user's frame),
-        when the kernel computes it (``generator_radius``), else None."""
+        or an upper bound of it when that is below ``limit``, when the kernel computes it
+        (``generator_radius``), else None."""
         radius = getattr(self.kernel, "generator_radius", None)
-        return radius(states) if radius is not None else None
+        return radius(states, limit) if radius is not None else None
 
 
 class _KernelLoop(_CompiledRows):

@@ -1,9 +1,10 @@
 """The compiled n-dimensional top (lieint.fast.topn) must match the generic numpy path.
 
-Every registered fixed-step method whose ``compiled()`` declares kind "rkmk" or "rk" is run on
-both paths, for n = 4, 5, 6, 8, with and without the orientation, batched, thinned by
-``save_every``; a run cut into segments (streamed, interrupted and resumed) gives the bits of
-one that is not; the dexp⁻¹ range is the generic path's to the last bit of the step.
+Every registered fixed-step method whose ``compiled()`` declares kind "rkmk" or "rk" (the RKMK
+ones in exponential and in Cayley coordinates) is run on both paths, for n = 4, 5, 6, 8, with
+and without the orientation, batched, thinned by ``save_every``; a run cut into segments
+(streamed, interrupted and resumed) gives the bits of one that is not; the dexp⁻¹ range is
+the generic path's to the last bit of the step.
 Small n, few steps: the kernel compiles once (one type signature), about 13 s on a cold cache.
 """
 
@@ -16,6 +17,8 @@ import lieint
 from lieint.groups.so import so_ad_spectral_radius
 
 COMPILED = compiled_methods()
+#: the RKMK methods among them again in Cayley coordinates (the kernel steps both maps)
+CAYLEY = [name for name in COMPILED if lieint.get_method(name).compiled()["kind"] == "rkmk"]
 
 
 def test_the_registry_has_compiled_methods_of_both_kinds():
@@ -32,9 +35,11 @@ def top(n, rng, diagonal):
     return Q @ np.diag(b) @ Q.T
 
 
-@pytest.mark.parametrize("method", COMPILED)
+@pytest.mark.parametrize(
+    "method,coordinates", [(name, None) for name in COMPILED] + [(name, "cayley") for name in CAYLEY]
+)
 @pytest.mark.parametrize("n", [4, 5, 6, 8])
-def test_topn_matches_the_generic_path(rng, method, n):
+def test_topn_matches_the_generic_path(rng, method, coordinates, n):
     B = top(n, rng, diagonal=n % 2 == 0)
     project = n in (5, 8)
     Omega = random_skew(rng, n, (2,), scale=1.5)
@@ -42,11 +47,12 @@ def test_topn_matches_the_generic_path(rng, method, n):
         system = lieint.EulerTop(B, orientation=orientation)
         R = random_rotation(rng, n, (2,)) if orientation else None
         y0 = system.initial_state(Omega=Omega, R=R)
-        kw = dict(t_span=(0.0, 0.405), h=0.01, method=method, project=project, save_every=7)
+        kw = dict(t_span=(0.0, 0.405), h=0.01, method=method, coordinates=coordinates, project=project, save_every=7)
         fast = lieint.integrate(system, y0, backend="numba", **kw)
         ref = lieint.integrate(system, y0, backend="numpy", **kw)
         assert fast.stats.backend == "numba" and ref.stats.backend == "numpy"
         assert "compiled" in fast.stats.backend_reason and f"{n}D-top" in fast.stats.backend_reason
+        assert ("Cayley" in fast.stats.backend_reason) == (coordinates == "cayley")
         assert np.array_equal(fast.t, ref.t) and fast.t[-1] == 0.405
         assert list(fast.states) == list(ref.states) == (["A", "R"] if orientation else ["A"])
         assert fast.states["A"].shape == ref.states["A"].shape == (fast.t.size, 2, n, n)
@@ -214,5 +220,9 @@ def test_the_kernels_generator_radius_is_the_generic_one_over_the_rows(rng, diag
         picks = np.unique(np.linspace(0, count - 1, min(count, _WARN_SAMPLES)).astype(int))
         generic = so_ad_spectral_radius(system.generator(0.0, {k: v[picks] for k, v in rows.items()})).max()
         assert kernel.generator_radius(rows) == pytest.approx(generic, rel=1e-13)
+        # below a limit an upper bound may stand for it (the step check asks radius >= π/h)
+        assert kernel.generator_radius(rows, limit=generic) == pytest.approx(generic, rel=1e-13)
+        bound = kernel.generator_radius(rows, limit=10 * generic)
+        assert generic * (1 - 1e-13) <= bound < 10 * generic
         rows["A"][picks[1], 0, 1] = np.nan
         assert kernel.generator_radius(rows) is None

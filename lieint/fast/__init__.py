@@ -5,8 +5,9 @@ lanes of :mod:`lieint.fast.lanes`), the Euler top of any dimension n ≥ 4
 (:class:`lieint.fast.topn.TopNKernel`), and one generic loop for every system on SO(n) or SE(n)
 times a vector space that declares compiled pieces (:class:`lieint.fast.generic.LieKernel`:
 heavy top, free body, rolling and Chaplygin ball, :mod:`lieint.fast.bodies`), each for
-fixed-step RKMK in exponential coordinates with a truncated dexp⁻¹ and for classical RK; RKMK in
-Cayley coordinates runs in the generic kernel (the tops carry its declaration under ``"lie"``).
+fixed-step RKMK in exponential coordinates with a truncated dexp⁻¹ and for classical RK. RKMK in
+Cayley coordinates runs in the n-dimensional top's kernel and in the generic one (the 3D top
+carries the generic kernel's declaration under ``"lie"``).
 
 Only imported when first used, so ``import lieint`` stays light; numba compiles on the first
 call in a fresh environment and caches the machine code on disk for later processes.
@@ -48,8 +49,8 @@ def kernel_for(system, method, y0, plan) -> tuple[object | None, str]:
             "in Cayley coordinates, classical RK)",
         )
     kind = sys_decl.get("kind")
-    if meth_decl.get("coordinates") == "cayley" and kind != "lie":
-        # Cayley coordinates run in the generic kernel only: the tops carry its declaration
+    if meth_decl.get("coordinates") == "cayley" and kind not in ("lie", "topn"):
+        # the 3D top's kernel has no Cayley form: it carries the generic kernel's declaration
         if "lie" not in sys_decl:
             return None, f"no Cayley kernel for the compiled form {kind!r}"
         sys_decl, kind = sys_decl["lie"], "lie"
@@ -225,11 +226,11 @@ class Top3Kernel:
             states["R"] = (R @ self.P.T).reshape(shape)
         return states
 
-    def generator_radius(self, states: dict) -> float | None:
+    def generator_radius(self, states: dict, limit: float = 0.0) -> float | None:
         """The largest ad spectral radius of ``ξ(y) = Ω`` over the rows ``states`` (the user's
         frame): ``|ω|`` on so(3), what ``lieint.integrate``'s step check needs, in one compiled
         pass instead of the generic evaluation of ξ; None when a row is not finite (the generic
-        check then handles it)."""
+        check then handles it). ``limit`` is unused (the exact value costs no more)."""
         radius = _top3().largest_rate(states["A"], self.P, self.moments)
         return radius if math.isfinite(radius) else None
 

@@ -29,11 +29,11 @@ def adaptive_kernel_for(system, method, y0) -> tuple[object | None, str]:
         return None, f"{label} declares no compiled form"
     meth_decl = method.compiled()
     cayley = meth_decl is not None and meth_decl.get("coordinates") == "cayley"
-    if cayley and "lie" in sys_decl:
-        sys_decl = sys_decl["lie"]  # Cayley coordinates: through the generic kernel
+    if cayley and sys_decl.get("kind") == "top3" and "lie" in sys_decl:
+        sys_decl = sys_decl["lie"]  # the 3D top's Cayley coordinates: through the generic kernel
     if sys_decl.get("kind") not in ("top3", "topn", "lie"):
         return None, f"no adaptive kernel for the compiled form {sys_decl.get('kind')!r}"
-    if cayley and sys_decl["kind"] != "lie":
+    if cayley and sys_decl["kind"] == "top3":
         return None, f"no adaptive Cayley kernel for the compiled form {sys_decl['kind']!r}"
     if meth_decl is None or meth_decl.get("kind") != "rkmk" or "b_hat" not in meth_decl:
         return None, (
@@ -136,7 +136,8 @@ class TopNAdaptiveKernel:
         self.coeffs = np.asarray(self.frame.coeffs, dtype=float)
 
     def describe(self) -> str:
-        return f"compiled {self.frame.n}D-top kernel, adaptive RKMK (whole controller loop), per body, serial"
+        kind = "adaptive RKMK (Cayley)" if self.frame.cayley else "adaptive RKMK"
+        return f"compiled {self.frame.n}D-top kernel, {kind} (whole controller loop), per body, serial"
 
     def start(self, y: dict) -> dict:
         return self.frame.start(y)
@@ -158,7 +159,7 @@ class TopNAdaptiveKernel:
         p = self.pair
         status, t, h, k, accepted, rejected, nfev, rows = adaptive_topn(
             A, R, f.orientation, self.M, f.P, f.identity_frame, self.tab_A, self.tab_b, p.b_hat, p.b_low,
-            p.has_low, self.coeffs, float(controller.rtol), float(controller.atol), p.error_order,
+            p.has_low, self.coeffs, f.cayley, float(controller.rtol), float(controller.atol), p.error_order,
             float(controller.safety), float(controller.factor_min), float(controller.factor_max), float(h_min),
             float(t), float(t1), float(h), int(k), int(min(max_accept, np.iinfo(np.int64).max)), int(save_every),
             bool(project), out_t, out_A, out_R,

@@ -8,9 +8,10 @@ batch sharing one step size, with the generic path's controller
 * a trial step from ``y₀ = (Ã, R̃)`` in the principal frame of ``B = P diag(b) Pᵀ`` computes
   the stages ``k_i`` of the order-p tableau with the stage code of the fixed-step kernel
   (:func:`lieint.fast.topn._lie_step`: the Taylor exponential, the action
-  ``(QᵀÃQ, R̃Q)``, dexp⁻¹ truncated at the method's degree, brackets of one product), the
-  propagated solution ``y₁ = ρ(exp(h Σ b_j k_j), y₀)`` and the embedded one(s)
-  ``ŷ = ρ(exp(h Σ b̂_j k_j), y₀)`` from the same stages;
+  ``(QᵀÃQ, R̃Q)``, dexp⁻¹ truncated at the method's degree, brackets of one product — or in
+  Cayley coordinates, ``cay`` by elimination and the exact dcay⁻¹), the
+  propagated solution ``y₁ = ρ(φ(h Σ b_j k_j), y₀)`` and the embedded one(s)
+  ``ŷ = ρ(φ(h Σ b̂_j k_j), y₀)`` from the same stages (φ = exp or cay);
 * the error is measured on the **user's** fields, as the generic path measures it:
   ``A = P Ã Pᵀ``, ``R = R̃ Pᵀ`` (skipped when B is diagonal, P = I), componentwise
   ``r_i = (y₁ − ŷ)_i / (atol + rtol·max(|y₀,i|, |y₁,i|))`` over the n² entries of A and the n²
@@ -38,18 +39,22 @@ from numba import njit
 
 from .controller import advanced_time, error_norm, step_factor
 from .skew import _project, mm_small_into
-from .topn import _accumulate, _act_into, _exp_into, _lie_step
+from .topn import _accumulate, _act_into, _cayley_into, _exp_into, _lie_step
 
 __all__ = ["adaptive_topn"]
 
 
 @njit(cache=True)
-def _embedded(A0, R0, orient, M, K, w, h, W, E, out_A, out_R):
-    """``ρ(exp(h Σ_j w_j k_j), (Ã₀, R̃₀))`` into out_A, out_R (``W``, ``E``: scratch)."""
+def _embedded(A0, R0, orient, M, K, w, h, cayley, W, E, out_A, out_R):
+    """``ρ(φ(h Σ_j w_j k_j), (Ã₀, R̃₀))`` into out_A, out_R, φ = exp or cay (``cayley``);
+    ``W``, ``E``: scratch."""
     u, Q, C, tmp, acc = W[0], W[1], W[2], W[3], W[4]
     u[:, :] = 0.0
     _accumulate(u, K, w, w.shape[0], h)
-    _exp_into(u, Q, E)
+    if cayley:
+        _cayley_into(u, Q, E[0])
+    else:
+        _exp_into(u, Q, E)
     _act_into(Q, A0, M, out_A, acc, C, tmp)
     if orient:
         mm_small_into(R0, Q, out_R)
@@ -100,7 +105,7 @@ def _error_sum(Ah, Rh, orient, P, identity, rtol, atol, U):
 
 @njit(cache=True)
 def adaptive_topn(
-    A, R, orient, M, P, identity, tab, b, b_hat, b_low, has_low, coeffs, rtol, atol, q, safety, fmin, fmax,
+    A, R, orient, M, P, identity, tab, b, b_hat, b_low, has_low, coeffs, cayley, rtol, atol, q, safety, fmin, fmax,
     h_min, t, t1, h, k, max_accept, save_every, project, out_t, out_A, out_R,
 ):  # fmt: skip
     """Adaptive RKMK steps from ``t`` in place on ``A`` (N, n, n) and ``R`` (N, n, n) or
@@ -121,6 +126,8 @@ def adaptive_topn(
         third-order estimate.
     coeffs : ndarray
         Bernoulli coefficients of dexp⁻¹ up to the method's degree.
+    cayley : bool
+        Cayley coordinates (exact dcay⁻¹; ``coeffs`` unused) instead of exponential ones.
     rtol, atol, q, safety, fmin, fmax, h_min, t, t1, h, k, max_accept, save_every, project
         As :func:`lieint.fast.top3_adaptive.adaptive_top3`.
     out_t, out_A, out_R : ndarray
@@ -158,15 +165,15 @@ def adaptive_topn(
         for m in range(N):
             A1[m, :, :] = A[m]
             R1[m, :, :] = R[m]
-            if not _lie_step(A1[m], R1[m], orient, M, tab, b, h, coeffs, K, W, E):
+            if not _lie_step(A1[m], R1[m], orient, M, tab, b, h, coeffs, cayley, K, W, E):
                 ok = False
                 break
             _user_pair(A[m], R[m], orient, P, identity, U[0], U[1], U[6])
             _user_pair(A1[m], R1[m], orient, P, identity, U[2], U[3], U[6])
-            _embedded(A[m], R[m], orient, M, K, b_hat, h, W, E, Ah, Rh)
+            _embedded(A[m], R[m], orient, M, K, b_hat, h, cayley, W, E, Ah, Rh)
             s5 += _error_sum(Ah, Rh, orient, P, identity, rtol, atol, U)
             if has_low:
-                _embedded(A[m], R[m], orient, M, K, b_low, h, W, E, Ah, Rh)
+                _embedded(A[m], R[m], orient, M, K, b_low, h, cayley, W, E, Ah, Rh)
                 s3 += _error_sum(Ah, Rh, orient, P, identity, rtol, atol, U)
         if ok:
             nfev += s
