@@ -125,11 +125,11 @@ class TopNAdaptiveKernel:
     taken on the user's fields, as on the generic path (:mod:`lieint.fast.topn_adaptive`)."""
 
     def __init__(self, sys_decl: dict, meth_decl: dict, batch: tuple[int, ...]):
-        from .topn import TopNKernel, inertia_factors
+        from .topn import TopNKernel
 
         self.frame = TopNKernel(sys_decl, meth_decl, None, batch)  # layout, frame, conversions
         self.stages, self.parallel, self.threads = self.frame.stages, False, 1
-        self.M = inertia_factors(self.frame.b)
+        self.M = self.frame.M
         self.tab_A = np.ascontiguousarray(meth_decl["A"], dtype=float)
         self.tab_b = np.ascontiguousarray(meth_decl["b"], dtype=float)
         self.pair = CompiledPair.from_declaration(meth_decl)

@@ -51,6 +51,7 @@ installation (cached on disk).
 from __future__ import annotations
 
 from concurrent.futures import ThreadPoolExecutor
+from functools import lru_cache
 
 import numpy as np
 from numba import njit
@@ -330,6 +331,14 @@ def inertia_factors(b_principal) -> np.ndarray:
     return -1.0 / pair
 
 
+@lru_cache(maxsize=32)
+def _inertia_factors_of(data: bytes) -> np.ndarray:
+    """:func:`inertia_factors` of the eigenvalues in ``data``, worked out once per top (a
+    single call's set-up is tens of microseconds); writable, as the compiled loops take it,
+    and never written."""
+    return inertia_factors(np.frombuffer(data))
+
+
 def integrate_topn(
     A0,
     R0,
@@ -347,6 +356,7 @@ def integrate_topn(
     project: bool,
     threads: int = 1,
     cayley: bool = False,
+    inertia: np.ndarray | None = None,
 ):
     """Run the compiled loop over steps ``k_from < k ≤ k_to`` (bodies in ``threads`` threads).
 
@@ -377,6 +387,8 @@ def integrate_topn(
         contiguous range of bodies; 1 runs them all in the calling thread.
     cayley : bool
         RKMK in Cayley coordinates (exact dcay⁻¹; ``coeffs`` unused).
+    inertia : ndarray, optional
+        ``inertia_factors(b_principal)`` when the caller holds it already.
 
     Returns
     -------
@@ -396,7 +408,7 @@ def integrate_topn(
     m = save_steps.size
     out_A, out_R = np.empty((m, N, n, n)), np.empty((m, N, r, r))
     fin_A, fin_R = np.empty((N, n, n)), np.empty((N, r, r))
-    M = inertia_factors(b_principal)
+    M = inertia_factors(b_principal) if inertia is None else inertia
     status = np.empty(N, dtype=np.int64)
     args = (
         A0,
@@ -467,6 +479,7 @@ class TopNKernel:
         # writable, as the compiled signature has it
         degree = meth_decl["dexpinv_degree"] if self.lie and not self.cayley else 0
         self.coeffs = np.array(_dexpinv_coefficients(degree))
+        self.M = _inertia_factors_of(self.b.tobytes())  # Ω̃ = M ∘ Ã: the kernel's and the step check's
         self.batch = batch
         bodies = int(np.prod(batch)) if batch else 1
         self.parallel, self.threads = use_threads(bodies)
@@ -513,6 +526,7 @@ class TopNKernel:
             project,
             self.threads,
             self.cayley,
+            self.M,
         )
         if bad >= 0:
             raise range_error(bad, plan, f"so({self.n})")
@@ -548,14 +562,16 @@ class TopNKernel:
         A = states["A"].reshape(-1, self.n, self.n)
         if A.shape[0] > _WARN_SAMPLES:
             A = A[np.unique(np.linspace(0, A.shape[0] - 1, _WARN_SAMPLES).astype(int))]
-        if not np.isfinite(A).all():
-            return None
         if not self.identity_frame:
             A = self.P.T @ A @ self.P
-        omega = A * inertia_factors(self.b)
-        bound = np.sqrt(np.sum(omega * omega, axis=(-2, -1)))
-        if bound.max() < limit:
-            return float(bound.max())
+        omega = A * self.M
+        squares = omega * omega
+        bound = np.sqrt(np.add.reduce(squares.reshape(squares.shape[0], -1), axis=1))
+        largest = np.maximum.reduce(bound)  # NaN when a row is not finite
+        if not np.isfinite(largest):
+            return None
+        if largest < limit:
+            return float(largest)
         order = np.argsort(bound)[::-1]
         best, start = 0.0, 0
         while start < order.size and bound[order[start]] > best:
