@@ -9,8 +9,10 @@
 * :class:`ScipyLoop` — scipy's solvers, which choose their own steps.
 
 Each has ``start(y0) -> Carry``, ``first_row(carry)``, ``user_state(carry)`` and
-``advance(carry, max_steps) -> Segment``; :func:`fixed_loop` and :func:`adaptive_loop` pick
-the compiled loop where a kernel covers the run. A :class:`Carry` is the exact state of a run
+``advance(carry, max_steps) -> Segment``; :class:`_KernelLoop` also has
+``advance_from_start(carry)``, a whole run with its first row in one segment (the kernel writes
+that row beside the others: no concatenation of an ensemble's rows). :func:`fixed_loop` and
+:func:`adaptive_loop` pick the compiled loop where a kernel covers the run. A :class:`Carry` is the exact state of a run
 between steps, so a run split into segments gives the bits of one that is not.
 """
 
@@ -188,30 +190,43 @@ class _KernelLoop(_CompiledRows):
     def start(self, y0: dict) -> Carry:
         return Carry(0, self.d.t0, self.kernel.start(y0), self.d.plan.h)
 
-    def advance(self, carry: Carry, max_steps: int | None) -> Segment:
+    def advance(self, carry: Carry, max_steps: int | None, with_start: bool = False) -> Segment:
+        """At most ``max_steps`` steps (all that remain by default) in one kernel call;
+        ``with_start`` puts the carry's state first among the rows (the kernel writes it where
+        it writes the others: a whole run's rows need no concatenation)."""
         d, plan = self.d, self.d.plan
         k_to = plan.nsteps if max_steps is None else min(plan.nsteps, carry.k + max_steps)
         saves = plan.saves_between(d.save_every, carry.k, k_to)
-        new, states = self.kernel.advance(carry.state, carry.k, k_to, plan, saves, d.project)
-        m = saves.size
+        new, states = self.kernel.advance(carry.state, carry.k, k_to, plan, saves, d.project, with_start=with_start)
+        s = int(with_start)
+        rows = saves.size + s
         failure = None
         from .fast.finite import all_finite  # numba is loaded: a kernel just ran
 
         if all_finite([*states.values(), *new.values()]):
             carry.state, done = new, k_to
         else:
-            finite = np.ones(m, dtype=bool)
+            finite = np.ones(rows, dtype=bool)
             for v in states.values():
-                finite &= np.isfinite(v).all(axis=tuple(range(1, v.ndim)))  # also for m = 0 saved rows
-            bad = int(np.argmin(finite)) if not finite.all() else m
+                finite &= np.isfinite(v).all(axis=tuple(range(1, v.ndim)))  # also for no saved rows
+            bad = int(np.argmin(finite)) if not finite.all() else rows
             states = {k: v[:bad] for k, v in states.items()}
-            saves = saves[:bad]
-            done = int(saves[-1]) if bad > 0 else carry.k
+            saves = saves[: max(bad - s, 0)]
+            done = int(saves[-1]) if saves.size else carry.k
             # the run stops here (a failed run is not resumed: the failure would recur)
             failure = _nonfinite(done, plan.time(done), f"Reduce the step `h` = {plan.h:g}", until=k_to)
         carry.nfev += self.kernel.stages * (done - carry.k)
+        t_start = carry.t
         carry.k, carry.t = done, plan.time(done)
-        return Segment(plan.times(saves), states, failure)
+        t = plan.times(saves)
+        if s:
+            t = np.concatenate([[t_start], t])[: next(iter(states.values())).shape[0]]
+        return Segment(t, states, failure)
+
+    def advance_from_start(self, carry: Carry) -> Segment:
+        """The whole run from a fresh carry: its first row (the starting state) and every saved
+        row in one segment."""
+        return self.advance(carry, None, with_start=True)
 
 
 class _AdaptiveLoop(_GenericRows):

@@ -157,9 +157,11 @@ class Top3Kernel:
             return {"pi": np.ascontiguousarray(pi.T), "q": lanes_from_matrices(R)}
         return {"pi": pi, "R": np.ascontiguousarray(R)}
 
-    def advance(self, internal: dict, k_from: int, k_to: int, plan, save_steps, project: bool):
+    def advance(self, internal: dict, k_from: int, k_to: int, plan, save_steps, project: bool, with_start=False):
+        """Steps ``k_from < k ≤ k_to``: the state after them and the user's rows after the steps
+        in ``save_steps`` (``with_start``: the starting state's row first)."""
         if self.lanes:
-            return self._advance_lanes(internal, k_from, k_to, plan, save_steps, project)
+            return self._advance_lanes(internal, k_from, k_to, plan, save_steps, project, with_start)
         out_pi, out_R, fin_pi, fin_R, bad = _top3().integrate_top3(
             internal["pi"],
             internal["R"],
@@ -176,19 +178,22 @@ class Top3Kernel:
             save_steps,
             project,
             self.parallel,
+            with_start,
         )
         if bad >= 0:
             raise range_error(bad, plan)
         return {"pi": fin_pi, "R": fin_R}, self._user(out_pi, out_R)
 
-    def _advance_lanes(self, internal, k_from, k_to, plan, save_steps, project):
+    def _advance_lanes(self, internal, k_from, k_to, plan, save_steps, project, with_start=False):
         from .lanes import run_lanes
         from .quaternions import matrices_from_lanes
 
         tab = self.method
         pi, q = internal["pi"].copy(), internal["q"].copy()
-        m, N = len(save_steps), pi.shape[1]
-        out_pi, out_q = np.empty((m, 3, N)), np.empty((m, 4, N))
+        m, N, s = len(save_steps), pi.shape[1], int(bool(with_start))
+        out_pi, out_q = np.empty((m + s, 3, N)), np.empty((m + s, 4, N))
+        if s:  # the starting state's row, where the loop saves (no concatenation of rows later)
+            out_pi[0], out_q[0] = pi, q
         bad = run_lanes(
             pi,
             q,
@@ -204,8 +209,8 @@ class Top3Kernel:
             plan.nsteps,
             np.asarray(save_steps, dtype=np.int64),
             project,
-            out_pi,
-            out_q,
+            out_pi[s:],  # C-contiguous views
+            out_q[s:],
             self.parallel,
         )
         if bad >= 0:

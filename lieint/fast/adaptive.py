@@ -4,9 +4,9 @@ Chosen, like the fixed-step kernels, by declaration: the method declares an RKMK
 (``method.compiled()`` with ``"b_hat"``, ``"error_order"`` and, for DOP853's combined estimate,
 ``"b_hat_low"``), and the system either the 3D top (``"top3"``: its own kernel,
 :mod:`lieint.fast.top3_adaptive`, for exponential coordinates), the top in n ≥ 4 dimensions
-(``"topn"``: :mod:`lieint.fast.topn_adaptive`, exponential coordinates) or compiled pieces
-(``"lie"``, or a top's declaration under ``"lie"``: :mod:`lieint.fast.generic_adaptive`,
-exponential and Cayley coordinates). The numba code is imported on the first step.
+(``"topn"``: :mod:`lieint.fast.topn_adaptive`, exponential and Cayley coordinates) or compiled
+pieces (``"lie"``, or the 3D top's declaration under ``"lie"`` for its Cayley runs:
+:mod:`lieint.fast.generic_adaptive`, exponential and Cayley coordinates). The numba code is imported on the first step.
 """
 
 from __future__ import annotations

@@ -259,6 +259,7 @@ def integrate_lie(
     project: bool,
     threads: int = 1,
     cayley: bool = False,
+    start_row: bool = False,
 ):
     """Run the compiled loop over steps ``k_from < k ≤ k_to`` of N bodies.
 
@@ -276,6 +277,8 @@ def integrate_lie(
         As :func:`lieint.fast.topn.integrate_topn`.
     cayley : bool
         RKMK in Cayley coordinates (exact dcay⁻¹; ``coeffs`` unused).
+    start_row : bool
+        Save the starting states as a first row (``saves + 1`` rows).
 
     Returns
     -------
@@ -287,7 +290,10 @@ def integrate_lie(
     Y0 = np.ascontiguousarray(Y0, dtype=float)
     save_steps = np.ascontiguousarray(save_steps, dtype=np.int64)
     N, d = Y0.shape
-    out = np.empty((save_steps.size, N, d))
+    s = int(bool(start_row))
+    out = np.empty((save_steps.size + s, N, d))
+    if s:
+        out[0] = Y0
     fin = np.empty((N, d))
     status = np.empty(N, dtype=np.int64)
     args = (
@@ -309,7 +315,7 @@ def integrate_lie(
         int(nsteps),
         save_steps,
         bool(project),
-        out,
+        out[s:],  # a C-contiguous view
         fin,
         status,
     )
@@ -371,7 +377,7 @@ class LieKernel:
         N = math.prod(self.batch)
         return {"Y": np.concatenate([np.asarray(y[name], dtype=float).reshape(N, -1) for name in self.fields], axis=1)}
 
-    def advance(self, internal: dict, k_from: int, k_to: int, plan, save_steps, project: bool):
+    def advance(self, internal: dict, k_from: int, k_to: int, plan, save_steps, project: bool, with_start=False):
         tab = self.method
         out, fin, bad = integrate_lie(
             self.pieces,
@@ -393,6 +399,7 @@ class LieKernel:
             project,
             self.threads,
             self.cayley,
+            with_start,
         )
         if bad >= 0:
             raise range_error(bad, plan, self.group)

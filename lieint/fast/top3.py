@@ -331,23 +331,29 @@ def integrate_top3(
     save_steps,
     project: bool,
     parallel: bool = False,
+    start_row: bool = False,
 ):
     """Run the compiled loop over steps ``k_from < k ≤ k_to`` (bodies in threads if ``parallel``):
     ``Π`` (N, 3) and ``R`` (N, 3, 3) in the principal frame, the inverse principal moments, the
     tableau's A and b as C-contiguous float64 arrays.
 
     Returns ``(Π, R)`` at the global save steps in that range, shapes ``(m, N, 3)`` and
-    ``(m, N, 3, 3)``, the final ``(Π, R)``, all in the principal frame, and the first step at
-    which a stage left the dexp⁻¹ radius (-1: none).
+    ``(m, N, 3, 3)`` (with ``start_row`` the starting state first: ``m + 1`` rows, written
+    where the loop writes, so that a whole run's rows need no concatenation), the final
+    ``(Π, R)``, all in the principal frame, and the first step at which a stage left the dexp⁻¹
+    radius (-1: none).
     """
     save_steps = np.asarray(save_steps, dtype=np.int64)
-    m, N = save_steps.size, pi0.shape[0]
-    out_pi, out_R = np.empty((m, N, 3)), np.empty((m, N, 3, 3))
+    m, N, s = save_steps.size, pi0.shape[0], int(bool(start_row))
+    pi0, R0 = np.ascontiguousarray(pi0), np.ascontiguousarray(R0)
+    out_pi, out_R = np.empty((m + s, N, 3)), np.empty((m + s, N, 3, 3))
+    if s:
+        out_pi[0], out_R[0] = pi0, R0
     fin_pi, fin_R = np.empty((N, 3)), np.empty((N, 3, 3))
     run = _run_parallel if parallel else _run_serial
     status = run(
-        np.ascontiguousarray(pi0),
-        np.ascontiguousarray(R0),
+        pi0,
+        R0,
         inverse_moments,
         tableau_A,
         tableau_b,
@@ -360,8 +366,8 @@ def integrate_top3(
         int(nsteps),
         save_steps,
         bool(project),
-        out_pi,
-        out_R,
+        out_pi[s:],  # C-contiguous views: the compiled signature's layout
+        out_R[s:],
         fin_pi,
         fin_R,
     )

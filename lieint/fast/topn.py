@@ -357,6 +357,7 @@ def integrate_topn(
     threads: int = 1,
     cayley: bool = False,
     inertia: np.ndarray | None = None,
+    start_row: bool = False,
 ):
     """Run the compiled loop over steps ``k_from < k ≤ k_to`` (bodies in ``threads`` threads).
 
@@ -389,6 +390,9 @@ def integrate_topn(
         RKMK in Cayley coordinates (exact dcay⁻¹; ``coeffs`` unused).
     inertia : ndarray, optional
         ``inertia_factors(b_principal)`` when the caller holds it already.
+    start_row : bool
+        Save the starting state as a first row (``m + 1`` rows), where the loop saves: a whole
+        run's rows then need no concatenation.
 
     Returns
     -------
@@ -405,8 +409,10 @@ def integrate_topn(
     R0 = np.ascontiguousarray(R0, dtype=float)
     N, n = A0.shape[0], A0.shape[1]
     r = R0.shape[1]
-    m = save_steps.size
-    out_A, out_R = np.empty((m, N, n, n)), np.empty((m, N, r, r))
+    m, s = save_steps.size, int(bool(start_row))
+    out_A, out_R = np.empty((m + s, N, n, n)), np.empty((m + s, N, r, r))
+    if s:
+        out_A[0], out_R[0] = A0, R0
     fin_A, fin_R = np.empty((N, n, n)), np.empty((N, r, r))
     M = inertia_factors(b_principal) if inertia is None else inertia
     status = np.empty(N, dtype=np.int64)
@@ -427,8 +433,8 @@ def integrate_topn(
         int(nsteps),
         save_steps,
         bool(project),
-        out_A,
-        out_R,
+        out_A[s:],  # C-contiguous views
+        out_R[s:],
         fin_A,
         fin_R,
         status,
@@ -504,7 +510,7 @@ class TopNKernel:
             internal["R"] = np.ascontiguousarray(R, dtype=float)
         return internal
 
-    def advance(self, internal: dict, k_from: int, k_to: int, plan, save_steps, project: bool):
+    def advance(self, internal: dict, k_from: int, k_to: int, plan, save_steps, project: bool, with_start=False):
         tab = self.method
         A = internal["A"]
         # without orientation the kernel steps an empty R (one type signature for both cases)
@@ -527,6 +533,7 @@ class TopNKernel:
             self.threads,
             self.cayley,
             self.M,
+            with_start,
         )
         if bad >= 0:
             raise range_error(bad, plan, f"so({self.n})")
