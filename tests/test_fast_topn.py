@@ -227,6 +227,9 @@ def test_topn_reports_a_non_finite_state_like_the_generic_path(rng):
     assert not fast.success and not ref.success
     assert "non-finite" in fast.message and "non-finite" in ref.message
     assert np.isfinite(fast.states["A"]).all() and fast.t.size >= 1
+    # the rows kept are the generic path's: the first row and the finite saved rows before it
+    assert np.array_equal(fast.t, ref.t)
+    np.testing.assert_allclose(fast.states["A"], ref.states["A"], rtol=1e-9, atol=1e-9)
 
 
 @pytest.mark.parametrize("diagonal", [True, False])
