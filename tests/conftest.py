@@ -50,10 +50,17 @@ def record(request):
 
     def _record(figure: str, value, truth: str = ""):
         text = f"{value:.3g}" if isinstance(value, (float, np.floating)) else str(value)
-        HARD_FIGURES.append((request.node.name, figure, text, truth))
+        # carried by the test's report, so that the summary has it when the tests run in worker
+        # processes too (pytest-xdist sends the reports, not the workers' globals)
+        request.node.user_properties.append(("hard_figure", (request.node.name, figure, text, truth)))
         print(f"[hard] {request.node.name}: {figure} = {text}   ({truth})")
 
     return _record
+
+
+def pytest_runtest_logreport(report):
+    if report.when == "call":
+        HARD_FIGURES.extend(tuple(entry) for name, entry in report.user_properties if name == "hard_figure")
 
 
 def pytest_terminal_summary(terminalreporter):
