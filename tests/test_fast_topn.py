@@ -191,6 +191,27 @@ def test_the_kernels_cayley_map_is_orthogonal_to_round_off_at_any_step(rng):
         u[0, 1] = np.nan
         _cayley_into(u, Q, L)
         assert np.isnan(Q).all()
+        # a huge u: NaN (reported, or a rejected trial step) or a finite map, never an error
+        huge = random_skew(rng, n) * 1e307
+        _cayley_into(huge, Q, L)
+        assert np.isnan(Q).all() or np.isfinite(Q).all()
+        bad, good = random_skew(rng, n), random_skew(rng, n)
+        bad[0, 1], bad[1, 0] = np.inf, -np.inf
+        both = SO(n).cay(np.stack([bad, good]))  # the generic map: one bad element spoils no other
+        assert not np.isfinite(both[0]).all() and np.allclose(both[1], SO(n).cay(good), rtol=0, atol=1e-15)
+
+
+def test_a_loose_adaptive_cayley_run_rejects_its_overflowing_trial_steps(rng):
+    # rtol 1e-2 on a fast 6D top: trial steps overflow the state; both paths reject them and
+    # finish (the compiled elimination once divided by a zero pivot, the generic path's LAPACK
+    # solve raised "Singular matrix")
+    system = lieint.EulerTop(top(6, np.random.default_rng(5), diagonal=False))
+    y0 = system.initial_state(Omega=random_skew(np.random.default_rng(6), 6, (3,)))
+    for backend in ("numba", "numpy"):
+        kw = dict(method="rkmk853", coordinates="cayley", rtol=1e-2, atol=1e-2, backend=backend)
+        sol = lieint.integrate(system, y0, (0.0, 100.0), **kw)
+        assert sol.success and sol.t[-1] == 100.0 and sol.stats.nrejected > 0, (backend, sol.message)
+        assert np.isfinite(sol.states["A"]).all()
 
 
 def test_the_kernel_range_test_and_exponential_against_numpy_and_mpmath(rng):

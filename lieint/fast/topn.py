@@ -108,7 +108,8 @@ def _exp_into(u, Q, work):
 
 @njit(cache=True)
 def _cayley_into(u, Q, L):
-    """``Q = cay(u) = (I − u/2)⁻¹(I + u/2)``, or NaN when u is not finite; ``L`` is scratch.
+    """``Q = cay(u) = (I − u/2)⁻¹(I + u/2)``, or NaN when u is not finite (or so large that
+    the unit diagonal is lost and the elimination meets a zero pivot); ``L`` is scratch.
 
     ``I − u/2`` is invertible for skew u (eigenvalues ``1 ∓ iθ_k/2``, singular values ≥ 1):
     Gaussian elimination with partial pivoting on it, the right-hand side ``I + u/2`` carried
@@ -128,6 +129,9 @@ def _cayley_into(u, Q, L):
         for r in range(c + 1, n):
             if abs(L[r, c]) > abs(L[p, c]):
                 p = r
+        if L[p, c] == 0.0:  # u ≳ 1e16: the unit diagonal lost, the elimination cancels — NaN
+            Q[:, :] = np.nan
+            return
         if p != c:
             for j in range(c, n):
                 L[c, j], L[p, j] = L[p, j], L[c, j]

@@ -178,7 +178,15 @@ class MatrixLieGroup(LieGroup):
         """Cayley map ``cay(X) = (I − X/2)⁻¹ (I + X/2)`` (exactly in the group for
         quadratic groups such as SO(n), and for SE(n))."""
         eye = np.eye(self.matrix_size)
-        return np.linalg.solve(eye - 0.5 * X, eye + 0.5 * X)
+        try:
+            return np.linalg.solve(eye - 0.5 * X, eye + 0.5 * X)
+        except np.linalg.LinAlgError:
+            # I − X/2 is invertible for every X of so(n) or se(n) (singular values ≥ 1), but in
+            # floating point its unit diagonal is lost beside entries ≳ 1e16 (a loose adaptive
+            # trial step can get there) and the elimination may meet an exact zero pivot. NaN
+            # there, as a non-finite X gives, so that the caller rejects the step or reports the
+            # state, instead of LAPACK's error.
+            return _solve_or_nan(eye - 0.5 * X, eye + 0.5 * X)
 
     def cay_inv(self, g: np.ndarray) -> np.ndarray:
         """Inverse Cayley map ``X = 2 (g − I)(g + I)⁻¹``."""
@@ -252,3 +260,16 @@ class MatrixLieGroup(LieGroup):
 
     def __hash__(self) -> int:
         return hash((type(self).__name__, self.n))
+
+
+def _solve_or_nan(A: np.ndarray, B: np.ndarray) -> np.ndarray:
+    """``A⁻¹B`` matrix by matrix, NaN where ``A`` is singular or not finite."""
+    A, B = np.broadcast_arrays(A, B)
+    out = np.full(A.shape, np.nan)
+    for index in np.ndindex(A.shape[:-2]):
+        if np.isfinite(A[index]).all():
+            try:
+                out[index] = np.linalg.solve(A[index], B[index])
+            except np.linalg.LinAlgError:
+                pass
+    return out
