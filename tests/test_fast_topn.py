@@ -169,7 +169,7 @@ def test_the_kernels_cayley_map_is_orthogonal_to_round_off_at_any_step(rng):
     # partial pivoting: I − u/2 has singular values ≥ 1, and the map stays orthogonal to the
     # solve's accuracy from tiny to absurd steps (the Cayley path has no range limit); the exact dcay⁻¹
     # against the generic group's formula; a non-finite u gives NaN (the state is reported)
-    from lieint.fast.topn import _cayley_into, _dcayinv_into
+    from lieint.fast.cayley import cayley_into, dcayinv_into
     from lieint.groups.so import SO
 
     for n in (4, 6, 9):
@@ -177,7 +177,7 @@ def test_the_kernels_cayley_map_is_orthogonal_to_round_off_at_any_step(rng):
         for scale in (1e-8, 0.3, 3.0, 100.0, 1e4):
             u = random_skew(rng, n)
             u *= scale / np.linalg.norm(u, 2)
-            _cayley_into(u, Q, L)
+            cayley_into(u, Q, L)
             exact = np.linalg.solve(np.eye(n) - u / 2, np.eye(n) + u / 2)
             # both solves are backward stable: they agree to ε times cond(I − u/2) ≈ θ₁/2
             np.testing.assert_allclose(Q, exact, rtol=0, atol=1e-15 * n * max(1.0, scale))
@@ -185,15 +185,15 @@ def test_the_kernels_cayley_map_is_orthogonal_to_round_off_at_any_step(rng):
             # 2e-13 at n = 9, θ₁ = 1e4; without pivoting 2e-12 already at n = 6)
             assert np.abs(Q.T @ Q - np.eye(n)).max() < 2e-16 * n * max(1.0, scale), (n, scale)
             xi = random_skew(rng, n)
-            _dcayinv_into(u, xi, out, W, tmp)
+            dcayinv_into(u, xi, out, W, tmp)
             expected = SO(n).dcayinv(-u, xi)
             np.testing.assert_allclose(out, expected, rtol=0, atol=1e-14 * max(1.0, scale**2))
         u[0, 1] = np.nan
-        _cayley_into(u, Q, L)
+        cayley_into(u, Q, L)
         assert np.isnan(Q).all()
         # a huge u: NaN (reported, or a rejected trial step) or a finite map, never an error
         huge = random_skew(rng, n) * 1e307
-        _cayley_into(huge, Q, L)
+        cayley_into(huge, Q, L)
         assert np.isnan(Q).all() or np.isfinite(Q).all()
         bad, good = random_skew(rng, n), random_skew(rng, n)
         bad[0, 1], bad[1, 0] = np.inf, -np.inf

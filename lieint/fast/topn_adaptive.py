@@ -37,9 +37,10 @@ import math
 import numpy as np
 from numba import njit
 
+from .cayley import cayley_into
 from .controller import advanced_time, error_norm, step_factor
 from .skew import _project, mm_small_into
-from .topn import _accumulate, _act_into, _cayley_into, _exp_into, _lie_step
+from .topn import _accumulate, _act_into, _exp_into, _lie_step
 
 __all__ = ["adaptive_topn"]
 
@@ -52,7 +53,7 @@ def _embedded(A0, R0, orient, M, K, w, h, cayley, W, E, out_A, out_R):
     u[:, :] = 0.0
     _accumulate(u, K, w, w.shape[0], h)
     if cayley:
-        _cayley_into(u, Q, E[0])
+        cayley_into(u, Q, E[0])
     else:
         _exp_into(u, Q, E)
     _act_into(Q, A0, M, out_A, acc, C, tmp)
