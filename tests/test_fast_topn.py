@@ -201,6 +201,47 @@ def test_the_kernels_cayley_map_is_orthogonal_to_round_off_at_any_step(rng):
         assert not np.isfinite(both[0]).all() and np.allclose(both[1], SO(n).cay(good), rtol=0, atol=1e-15)
 
 
+def test_the_cayley_maps_unpivoted_shortcut_is_partial_pivotings_own_result(rng):
+    # I − u/2 column diagonally dominant (Σ_r |u_rc| < 2): elimination keeps the dominance, so
+    # partial pivoting would not swap and the shortcut that skips its search is the same
+    # operations — the same bits — on both sides of the threshold and at random dominant steps
+    from lieint.fast.cayley import _column_dominant, _eliminate, cayley_into
+
+    for n in (4, 6, 8):
+        Q, L, ref = np.empty((n, n)), np.empty((n, n)), np.empty((n, n))
+        for target in (1e-6, 0.5, 1.99, 2.01, 4.0):
+            u = random_skew(rng, n)
+            u *= target / np.abs(u).sum(axis=0).max()  # the largest column sum is the target
+            assert _column_dominant(u) == (target < 2.0)
+            cayley_into(u, Q, L)
+            _eliminate(u, ref, L, True)
+            assert np.array_equal(Q, ref), (n, target)
+        assert not _column_dominant(np.full((n, n), np.nan)) and not _column_dominant(np.full((n, n), np.inf))
+
+
+def test_the_principal_frame_conversions_are_numpys_and_skew(rng):
+    # skew(PᵀAP), RP in and skew(PÃPᵀ), R̃Pᵀ out, for stacks of any n: the numpy expressions to
+    # round-off, A exactly skew, and out ∘ in the identity to round-off
+    from lieint.fast.principal import to_principal, to_user
+
+    for n in (4, 6, 9, 12):
+        P = random_rotation(rng, n)
+        A = np.stack([random_skew(rng, n) for _ in range(5)]).reshape(5, 1, n, n)
+        R = np.stack([random_rotation(rng, n) for _ in range(5)]).reshape(5, 1, n, n)
+        At, Rt = to_principal(A, R, P)
+        assert At.shape == Rt.shape == (5, n, n)
+        expected = P.T @ A.reshape(5, n, n) @ P
+        np.testing.assert_allclose(At, 0.5 * (expected - np.swapaxes(expected, -1, -2)), rtol=0, atol=1e-14)
+        np.testing.assert_allclose(Rt, R.reshape(5, n, n) @ P, rtol=0, atol=1e-14)
+        assert np.array_equal(At, -np.swapaxes(At, -1, -2))
+        Au, Ru = to_user(At, Rt, P)
+        np.testing.assert_allclose(Au, A.reshape(5, n, n), rtol=0, atol=1e-14)
+        np.testing.assert_allclose(Ru, R.reshape(5, n, n), rtol=0, atol=1e-14)
+        assert np.array_equal(Au, -np.swapaxes(Au, -1, -2))
+        alone, none = to_user(At, None, P)
+        assert none is None and np.array_equal(alone, Au)
+
+
 def test_a_loose_adaptive_cayley_run_rejects_its_overflowing_trial_steps(rng):
     # rtol 1e-2 on a fast 6D top: trial steps overflow the state; both paths reject them and
     # finish (the compiled elimination once divided by a zero pivot, the generic path's LAPACK
@@ -278,3 +319,34 @@ def test_the_kernels_generator_radius_is_the_generic_one_over_the_rows(rng, diag
         assert generic * (1 - 1e-13) <= bound < 10 * generic
         rows["A"][picks[1], 0, 1] = np.nan
         assert kernel.generator_radius(rows) is None
+
+
+@pytest.mark.parametrize("diagonal", [True, False])
+def test_the_bound_a_run_keeps_is_above_the_radius_of_its_rows(rng, diagonal):
+    # the compiled loop keeps max ‖M ∘ Ã‖_F over the states it saves; below π/h it answers the
+    # step check without the rows: it must bound the generic radius of every row of the run,
+    # and a step that reaches π/h must still be reported (the rows are looked at then)
+    from lieint.loops import _KernelLoop
+
+    n = 5
+    system = lieint.EulerTop(top(n, rng, diagonal=diagonal))
+    y0 = system.initial_state(Omega=np.stack([random_skew(rng, n, scale=s) for s in (0.5, 2.0, 1.0)]))
+    seen = []
+    original = _KernelLoop.generator_radius
+
+    def spy(self, states, limit=0.0):
+        seen.append((self.kernel._radius_bound, original(self, states, limit)))
+        return seen[-1][1]
+
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(_KernelLoop, "generator_radius", spy)
+        sol = lieint.integrate(system, y0, (0.0, 3.0), method="rkmk4", h=0.05, save_every=7)
+        with pytest.warns(lieint.LieStepWarning):
+            lieint.integrate(system, y0, (0.0, 30.0), method="rkmk4", h=1.5, coordinates="cayley")
+    generic = so_ad_spectral_radius(system.generator(0.0, sol.states)).max()
+    (bound, answer), (big_bound, _) = seen
+    assert sol.stats.backend == "numba"
+    # ‖Ω‖_F² = 2 Σ θ_k² lies between (θ₁ + θ₂)² and 2⌊n/2⌋ θ₁² (= 4θ₁² for n = 5)
+    assert generic <= bound * (1 + 1e-13) and bound <= 2 * generic * (1 + 1e-13)
+    assert answer == bound  # below π/h: the kept bound answers
+    assert big_bound >= np.pi / 1.5

@@ -19,17 +19,42 @@ __all__ = ["cayley_into", "dcayinv_into"]
 
 
 @njit(cache=True)
+def _column_dominant(u):
+    """Whether ``I − u/2`` is strictly column diagonally dominant, ``Σ_r |u_rc| < 2`` for every
+    column c (u skew: zero diagonal), which also says that u is finite (a NaN or an infinite sum
+    fails the test). Elimination keeps the dominance, so partial pivoting would never swap."""
+    n = u.shape[0]
+    for c in range(n):
+        total = 0.0
+        for r in range(n):
+            total += abs(u[r, c])
+        if not total < 2.0:
+            return False
+    return True
+
+
+@njit(cache=True)
 def cayley_into(u, Q, L):
     """``Q = cay(u) = (I − u/2)⁻¹(I + u/2)``, or NaN when u is not finite (or so large that
     the unit diagonal is lost and the elimination meets a zero pivot); ``L`` is scratch.
 
     ``I − u/2`` is invertible for skew u (eigenvalues ``1 ∓ iθ_k/2``, singular values ≥ 1):
     Gaussian elimination with partial pivoting on it, the right-hand side ``I + u/2`` carried
-    along, then back substitution — about 4n³/3 multiply-adds, two thirds of a product."""
-    n = u.shape[0]
-    if not _finite(u):
+    along, then back substitution — about 4n³/3 multiply-adds, two thirds of a product. The
+    usual step (``I − u/2`` column diagonally dominant, :func:`_column_dominant`) skips the
+    pivot search, which would not swap: the same operations, so the same bits."""
+    pivot = not _column_dominant(u)
+    if pivot and not _finite(u):
         Q[:, :] = np.nan
         return
+    _eliminate(u, Q, L, pivot)
+
+
+@njit(cache=True)
+def _eliminate(u, Q, L, pivot):
+    """``Q = (I − u/2)⁻¹(I + u/2)`` by elimination (u finite), with partial pivoting when
+    ``pivot``; NaN on a zero pivot."""
+    n = u.shape[0]
     for a in range(n):
         for c in range(n):
             L[a, c] = -0.5 * u[a, c]
@@ -37,18 +62,19 @@ def cayley_into(u, Q, L):
         L[a, a] += 1.0
         Q[a, a] += 1.0
     for c in range(n):
-        p = c
-        for r in range(c + 1, n):
-            if abs(L[r, c]) > abs(L[p, c]):
-                p = r
-        if L[p, c] == 0.0:  # u ≳ 1e16: the unit diagonal lost, the elimination cancels — NaN
-            Q[:, :] = np.nan
-            return
-        if p != c:
-            for j in range(c, n):
-                L[c, j], L[p, j] = L[p, j], L[c, j]
-            for j in range(n):
-                Q[c, j], Q[p, j] = Q[p, j], Q[c, j]
+        if pivot:
+            p = c
+            for r in range(c + 1, n):
+                if abs(L[r, c]) > abs(L[p, c]):
+                    p = r
+            if L[p, c] == 0.0:  # u ≳ 1e16: the unit diagonal lost, the elimination cancels — NaN
+                Q[:, :] = np.nan
+                return
+            if p != c:
+                for j in range(c, n):
+                    L[c, j], L[p, j] = L[p, j], L[c, j]
+                for j in range(n):
+                    Q[c, j], Q[p, j] = Q[p, j], Q[c, j]
         for r in range(c + 1, n):
             f = L[r, c] / L[c, c]
             if f != 0.0:

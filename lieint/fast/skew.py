@@ -412,7 +412,8 @@ def _bracket(X, Y):
 
 @njit(cache=True)
 def _finite(X):
-    for x in X.ravel():
+    """Whether every entry of X is finite (``.flat``: ``ravel`` copies a strided array)."""
+    for x in X.flat:
         if not np.isfinite(x):
             return False
     return True

@@ -50,6 +50,7 @@ installation (cached on disk).
 
 from __future__ import annotations
 
+import math
 from concurrent.futures import ThreadPoolExecutor
 from functools import lru_cache
 
@@ -58,6 +59,7 @@ from numba import njit
 
 from . import _dexpinv_coefficients, _proper_frame, range_error, use_threads
 from .cayley import cayley_into, dcayinv_into
+from .principal import to_principal, to_user
 from .skew import (
     _bracket,
     _finite,
@@ -124,6 +126,28 @@ def _accumulate(out, K, weights, upto, h):
 
 
 @njit(cache=True)
+def _combine(out, K, weights, upto, h):
+    """``out = Σ_{j < upto} (h w_j) K[j]`` over the nonzero weights, in the order of j (the
+    generic path's linear combinations; the first term written, not added to zero); returns
+    whether any weight was nonzero (out is left as it was if none)."""
+    n, r = out.shape[0], out.shape[1]
+    first = True
+    for j in range(upto):
+        if weights[j] != 0.0:
+            w = h * weights[j]
+            if first:
+                for a in range(n):
+                    for c in range(r):
+                        out[a, c] = w * K[j, a, c]
+                first = False
+            else:
+                for a in range(n):
+                    for c in range(r):
+                        out[a, c] += w * K[j, a, c]
+    return not first
+
+
+@njit(cache=True)
 def _store(K, i, X):
     """``K[i] = X``."""
     for a in range(X.shape[0]):
@@ -145,8 +169,7 @@ def _lie_step(A, R, orient, M, tab, b, h, coeffs, cayley, K, W, E):
     degree = coeffs.shape[0] - 1
     u, Q, C, tmp, acc, term, other, minus_u = W[0], W[1], W[2], W[3], W[4], W[5], W[6], W[7]
     for i in range(s):
-        u[:, :] = 0.0
-        if not _accumulate(u, K, tab[i], i, h):
+        if not _combine(u, K, tab[i], i, h):
             for a in range(n):  # u = 0: ξ = Ω̃(Ã)
                 for c in range(n):
                     K[i, a, c] = A[a, c] * M[a, c]
@@ -154,8 +177,7 @@ def _lie_step(A, R, orient, M, tab, b, h, coeffs, cayley, K, W, E):
         if cayley:
             cayley_into(u, Q, E[0])
             _act_into(Q, A, M, other, acc, C, tmp)  # acc = Ω̃(QᵀÃQ) = ξ
-            dcayinv_into(u, acc, term, C, tmp)
-            _store(K, i, term)
+            dcayinv_into(u, acc, K[i], C, tmp)
             continue
         if so_ad_radius_exceeds(u) == 1:
             return False
@@ -175,8 +197,8 @@ def _lie_step(A, R, orient, M, tab, b, h, coeffs, cayley, K, W, E):
                     for c in range(n):
                         acc[a, c] += w * term[a, c]
         _store(K, i, acc)
-    u[:, :] = 0.0
-    _accumulate(u, K, b, s, h)
+    if not _combine(u, K, b, s, h):
+        u[:, :] = 0.0
     if cayley:
         cayley_into(u, Q, E[0])
     else:
@@ -225,16 +247,29 @@ def _save(out, slot, m, X):
             out[slot, m, a, c] = X[a, c]
 
 
+@njit(cache=True)
+def _generator_norm2(A, M):
+    """``‖Ω̃‖_F²`` of ``Ω̃ = M ∘ Ã`` (an upper bound of ``(θ₁ + θ₂)²``, the squared ad spectral
+    radius of Ω̃, which the step check compares with π/h)."""
+    total = 0.0
+    for a in range(A.shape[0]):
+        for c in range(A.shape[1]):
+            x = A[a, c] * M[a, c]
+            total += x * x
+    return total
+
+
 @njit(cache=True, nogil=True)
 def _run_bodies(
     lo, hi, A0, R0, orient, M, tab, b, coeffs, lie, cayley, h, h_last, k_from, k_to, nsteps, save_steps, project,
-    out_A, out_R, fin_A, fin_R, status,
+    out_A, out_R, fin_A, fin_R, status, norm2,
 ):  # fmt: skip
     """Steps ``k_from < k ≤ k_to`` of the bodies ``lo ≤ m < hi`` on the global grid (the last
     global step has size ``h_last``); states after the steps in ``save_steps`` go to
     ``out_*``, the states after ``k_to`` to ``fin_*``; ``status[m]`` is -1, or the step at which
-    a stage of body m left the dexp⁻¹ radius (that body stops there). Releases the GIL, so
-    that threads can run disjoint ranges of bodies."""
+    a stage of body m left the dexp⁻¹ radius (that body stops there); ``norm2[m]`` the largest
+    ``‖Ω̃‖_F²`` of body m over its starting state and its saved rows (the step check's bound).
+    Releases the GIL, so that threads can run disjoint ranges of bodies."""
     s = b.shape[0]
     n = A0.shape[1]
     r = R0.shape[1]
@@ -249,6 +284,7 @@ def _run_bodies(
         _load(R, R0, m)
         slot = 0
         status[m] = -1
+        norm2[m] = _generator_norm2(A, M)
         for k in range(k_from, k_to):
             hk = h if k < nsteps - 1 else h_last
             if lie:
@@ -262,6 +298,7 @@ def _run_bodies(
             if slot < save_steps.shape[0] and save_steps[slot] == k + 1:
                 _save(out_A, slot, m, A)
                 _save(out_R, slot, m, R)
+                norm2[m] = max(norm2[m], _generator_norm2(A, M))
                 slot += 1
         _store(fin_A, m, A)
         _store(fin_R, m, R)
@@ -303,6 +340,7 @@ def integrate_topn(
     cayley: bool = False,
     inertia: np.ndarray | None = None,
     start_row: bool = False,
+    norm2: np.ndarray | None = None,
 ):
     """Run the compiled loop over steps ``k_from < k ≤ k_to`` (bodies in ``threads`` threads).
 
@@ -338,6 +376,9 @@ def integrate_topn(
     start_row : bool
         Save the starting state as a first row (``m + 1`` rows), where the loop saves: a whole
         run's rows then need no concatenation.
+    norm2 : ndarray, shape (N,), optional
+        Filled with each body's largest ``‖M ∘ Ã‖_F²`` over its starting state and saved rows
+        (the step check's bound, :meth:`TopNKernel.generator_radius`).
 
     Returns
     -------
@@ -361,6 +402,7 @@ def integrate_topn(
     fin_A, fin_R = np.empty((N, n, n)), np.empty((N, r, r))
     M = inertia_factors(b_principal) if inertia is None else inertia
     status = np.empty(N, dtype=np.int64)
+    norm2 = np.empty(N) if norm2 is None else norm2
     args = (
         A0,
         R0,
@@ -383,6 +425,7 @@ def integrate_topn(
         fin_A,
         fin_R,
         status,
+        norm2,
     )
     threads = min(int(threads), N)
     if threads > 1:
@@ -434,6 +477,8 @@ class TopNKernel:
         self.batch = batch
         bodies = int(np.prod(batch)) if batch else 1
         self.parallel, self.threads = use_threads(bodies)
+        # the largest ‖Ω̃‖_F over the states of this run (from start, kept by advance); none yet
+        self._radius_bound = math.inf
 
     def describe(self) -> str:
         """Which kernel runs."""
@@ -445,11 +490,11 @@ class TopNKernel:
         n = self.n
         A = y["A"].reshape(-1, n, n)
         R = y["R"].reshape(-1, n, n) if self.orientation else None
-        if not self.identity_frame:
-            A = self.P.T @ A @ self.P
-            if self.orientation:
-                R = R @ self.P
-        A = 0.5 * (A - np.swapaxes(A, -1, -2))  # exactly skew (the identity on a skew A)
+        if self.identity_frame:
+            A = 0.5 * (A - np.swapaxes(A, -1, -2))  # exactly skew (the identity on a skew A)
+        else:
+            A, R = to_principal(A, R, self.P)  # skew(PᵀAP), RP (compiled: microseconds saved)
+        self._radius_bound = 0.0
         internal = {"A": np.ascontiguousarray(A, dtype=float)}
         if self.orientation:
             internal["R"] = np.ascontiguousarray(R, dtype=float)
@@ -460,6 +505,7 @@ class TopNKernel:
         A = internal["A"]
         # without orientation the kernel steps an empty R (one type signature for both cases)
         R = internal["R"] if self.orientation else np.empty((A.shape[0], 0, 0))
+        norm2 = np.empty(A.shape[0])
         out_A, out_R, fin_A, fin_R, bad = integrate_topn(
             A,
             R,
@@ -479,7 +525,12 @@ class TopNKernel:
             self.cayley,
             self.M,
             with_start,
+            norm2,
         )
+        # the step check's bound over every state this run has saved (or started a segment from);
+        # a non-finite state makes it infinite (the check then looks at the rows themselves)
+        largest = float(np.sqrt(np.maximum.reduce(norm2, initial=0.0)))
+        self._radius_bound = max(self._radius_bound, largest) if math.isfinite(largest) else math.inf
         if bad >= 0:
             raise range_error(bad, plan, f"so({self.n})")
         new = {"A": fin_A, "R": fin_R} if self.orientation else {"A": fin_A}
@@ -488,12 +539,9 @@ class TopNKernel:
     def _user(self, A, R) -> dict:
         lead, n = A.shape[:-3], self.n
         if not self.identity_frame:
-            A = self.P @ A @ self.P.T
-            A = 0.5 * (A - np.swapaxes(A, -1, -2))
+            A, R = to_user(A, R if self.orientation else None, self.P)  # skew(PÃPᵀ), R̃Pᵀ
         states = {"A": A.reshape(lead + self.batch + (n, n))}
         if self.orientation:
-            if not self.identity_frame:
-                R = R @ self.P.T
             states["R"] = R.reshape(lead + self.batch + (n, n))
         return states
 
@@ -503,11 +551,16 @@ class TopNKernel:
         what ``lieint.integrate``'s step check needs, without the generic evaluation of ξ; None
         when a row is not finite (the generic check then handles it).
 
-        As the generic check, it looks at most at ``_WARN_SAMPLES`` rows, evenly spaced. When
-        every Frobenius bound ``‖Ω̃‖_F ≥ θ₁ + θ₂`` is below ``limit`` the largest bound is
-        returned (an upper bound: the check only asks whether the radius reaches its limit, π/h);
-        otherwise the angles (a singular value decomposition) are computed only for the rows whose
-        bound exceeds the largest radius found so far, largest bound first."""
+        When the Frobenius bound ``‖Ω̃‖_F ≥ θ₁ + θ₂`` that the compiled loop kept over every
+        state of this run (its start and its saved rows, :meth:`advance`) is below ``limit``, that
+        bound is returned (an upper bound: the check only asks whether the radius reaches its
+        limit, π/h), without looking at the rows again. Otherwise, as the generic check, it looks
+        at most at ``_WARN_SAMPLES`` rows, evenly spaced: when every row's bound is below
+        ``limit`` the largest is returned, else the angles (a singular value decomposition) are
+        computed only for the rows whose bound exceeds the largest radius found so far, largest
+        bound first."""
+        if self._radius_bound < limit:
+            return self._radius_bound
         from ..groups.so import so_ad_spectral_radius
         from ..ivp import _WARN_SAMPLES
 

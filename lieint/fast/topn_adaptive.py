@@ -40,7 +40,7 @@ from numba import njit
 from .cayley import cayley_into
 from .controller import advanced_time, error_norm, step_factor
 from .skew import _project, mm_small_into
-from .topn import _accumulate, _act_into, _exp_into, _lie_step
+from .topn import _act_into, _combine, _exp_into, _lie_step
 
 __all__ = ["adaptive_topn"]
 
@@ -50,8 +50,8 @@ def _embedded(A0, R0, orient, M, K, w, h, cayley, W, E, out_A, out_R):
     """``ρ(φ(h Σ_j w_j k_j), (Ã₀, R̃₀))`` into out_A, out_R, φ = exp or cay (``cayley``);
     ``W``, ``E``: scratch."""
     u, Q, C, tmp, acc = W[0], W[1], W[2], W[3], W[4]
-    u[:, :] = 0.0
-    _accumulate(u, K, w, w.shape[0], h)
+    if not _combine(u, K, w, w.shape[0], h):
+        u[:, :] = 0.0
     if cayley:
         cayley_into(u, Q, E[0])
     else:
