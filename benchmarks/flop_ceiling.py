@@ -120,7 +120,8 @@ def _kernel_call(bodies: int = 4096, steps: int = 1000):
     tab = get_method("rkmk4").compiled()
     coeffs = np.array(bernoulli_dexpinv_coefficients(tab["dexpinv_degree"]), dtype=float)
     save = np.array([steps], dtype=np.int64)
-    out_pi, out_q = np.empty((1, 3, bodies)), np.empty((1, 4, bodies))
+    # the rows the call keeps, the starting state's and the last, in the user's frame
+    out_A, out_R = np.empty((2, bodies, 3, 3)), np.empty((2, bodies, 3, 3))
     parallel = use_threads(-(-bodies // _BLOCK))[0]
 
     A, b, c = (np.asarray(tab[key], dtype=float) for key in ("A", "b", "c"))
@@ -128,7 +129,7 @@ def _kernel_call(bodies: int = 4096, steps: int = 1000):
     def call():
         run_lanes(
             pi0.copy(), q0.copy(), 1.0 / moments, A, b, c, coeffs, 0.01, 0.01, 0, steps, steps, save, False,
-            out_pi, out_q, parallel,
+            np.eye(3), True, 1, out_A, out_R, parallel,
         )  # fmt: skip
 
     return call, float(FLOPS_PER_RKMK4_STEP) * bodies * steps

@@ -87,6 +87,24 @@ def test_ensemble_lanes_match_the_generic_path(rng, method, project):
     np.testing.assert_allclose(fast.states["R"], ref.states["R"], atol=1e-13)
 
 
+@pytest.mark.parametrize("orientation", [True, False])
+def test_the_lanes_write_the_users_rows_themselves(rng, orientation):
+    # the kernel writes A = −(PΠ)^ and R = R(q)Pᵀ where it keeps a row (the starting state's
+    # first): exactly skew in a turned principal frame, the generic path's values, and no R for
+    # a top without one
+    top = lieint.EulerTop(well_conditioned_top(rng, diagonal=False).B, orientation=orientation)
+    n = 70
+    y0 = top.initial_state(angular_velocity=rng.normal(size=(n, 3)))
+    kw = dict(t_span=(0.0, 1.0), h=0.01, method="rkmk4", save_every=30)
+    fast = lieint.integrate(top, y0, backend="numba", **kw)
+    ref = lieint.integrate(top, y0, backend="numpy", **kw)
+    assert "SIMD lanes" in fast.stats.backend_reason and list(fast.states) == list(ref.states)
+    A = fast.states["A"]
+    assert A.shape == (5, n, 3, 3) and np.array_equal(A, -np.swapaxes(A, -1, -2))
+    for name in ref.states:
+        np.testing.assert_allclose(fast.states[name], ref.states[name], rtol=0, atol=1e-13 * max(1.0, np.abs(A).max()))
+
+
 @pytest.mark.parametrize("method", ["rkmk4", "rkmk6"])
 def test_a_lanes_result_depends_on_neither_its_position_nor_its_neighbours(rng, method):
     """The SIMD lanes' arithmetic (explicit fused multiply-adds, strict IEEE otherwise) rounds

@@ -186,14 +186,14 @@ class Top3Kernel:
 
     def _advance_lanes(self, internal, k_from, k_to, plan, save_steps, project, with_start=False):
         from .lanes import run_lanes
-        from .quaternions import matrices_from_lanes
 
         tab = self.method
         pi, q = internal["pi"].copy(), internal["q"].copy()
         m, N, s = len(save_steps), pi.shape[1], int(bool(with_start))
-        out_pi, out_q = np.empty((m + s, 3, N)), np.empty((m + s, 4, N))
-        if s:  # the starting state's row, where the loop saves (no concatenation of rows later)
-            out_pi[0], out_q[0] = pi, q
+        # the kernel writes the user's rows (the starting state's first when asked): no arrays
+        # of momenta and quaternions to convert, copy and concatenate afterwards
+        out_A = np.empty((m + s, N, 3, 3))
+        out_R = np.empty((m + s, N if self.orientation else 0, 3, 3))
         bad = run_lanes(
             pi,
             q,
@@ -209,14 +209,20 @@ class Top3Kernel:
             plan.nsteps,
             np.asarray(save_steps, dtype=np.int64),
             project,
-            out_pi[s:],  # C-contiguous views
-            out_q[s:],
+            self.P,
+            self.identity_frame,
+            s,
+            out_A,
+            out_R,
             self.parallel,
         )
         if bad >= 0:
             raise range_error(bad, plan)
-        R = matrices_from_lanes(out_q)
-        return {"pi": pi, "q": q}, self._user(np.swapaxes(out_pi, -1, -2), R)
+        shape = (m + s,) + self.batch + (3, 3)
+        states = {"A": out_A.reshape(shape)}
+        if self.orientation:
+            states["R"] = out_R.reshape(shape)
+        return {"pi": pi, "q": q}, states
 
     def _user(self, pi, R) -> dict:
         minus_hat = _top3().minus_hat

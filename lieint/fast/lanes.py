@@ -206,12 +206,56 @@ def _finish_lane(u, P, qb, ca, cb, ch, sh, project, l):
     qb[0, l], qb[1, l], qb[2, l], qb[3, l] = r0, r1, r2, r3
 
 
+@njit(cache=True)
+def _save_rows(row, l0, L, P, qb, frame, identity, out_A, out_R):
+    """Row ``row`` of the user's states for the block's lanes: ``A = −(frame Π)^`` (the
+    principal frame's ``P(−Π̂)Pᵀ``, exactly skew) and, when ``out_R`` holds bodies,
+    ``R = R(q) frameᵀ`` (the rotation of the unit quaternion as
+    :func:`lieint.fast.quaternions._to_matrices` writes it); written where the rows are kept, so
+    no array of quaternions or momenta is kept for the conversion after the run."""
+    orient = out_R.shape[1] > 0
+    for l in range(L):
+        m = l0 + l
+        x, y, z = P[0, l], P[1, l], P[2, l]
+        if not identity:
+            x, y, z = (
+                frame[0, 0] * P[0, l] + frame[0, 1] * P[1, l] + frame[0, 2] * P[2, l],
+                frame[1, 0] * P[0, l] + frame[1, 1] * P[1, l] + frame[1, 2] * P[2, l],
+                frame[2, 0] * P[0, l] + frame[2, 1] * P[1, l] + frame[2, 2] * P[2, l],
+            )
+        A = out_A[row, m]
+        A[0, 0], A[0, 1], A[0, 2] = 0.0, z, -y
+        A[1, 0], A[1, 1], A[1, 2] = -z, 0.0, x
+        A[2, 0], A[2, 1], A[2, 2] = y, -x, 0.0
+        if not orient:
+            continue
+        w, a, b, c = qb[0, l], qb[1, l], qb[2, l], qb[3, l]
+        R = out_R[row, m]
+        R[0, 0] = 1 - 2 * (b * b + c * c)
+        R[0, 1] = 2 * (a * b - w * c)
+        R[0, 2] = 2 * (a * c + w * b)
+        R[1, 0] = 2 * (a * b + w * c)
+        R[1, 1] = 1 - 2 * (a * a + c * c)
+        R[1, 2] = 2 * (b * c - w * a)
+        R[2, 0] = 2 * (a * c - w * b)
+        R[2, 1] = 2 * (b * c + w * a)
+        R[2, 2] = 1 - 2 * (a * a + b * b)
+        if not identity:
+            for i in range(3):
+                r0, r1, r2 = R[i, 0], R[i, 1], R[i, 2]
+                for j in range(3):
+                    R[i, j] = r0 * frame[j, 0] + r1 * frame[j, 1] + r2 * frame[j, 2]
+
+
 @njit(cache=True, error_model="numpy")  # no Python division checks: they would stop the SIMD passes
 def _lanes_block(
-    blk, pi, q, Iinv, A, b, c, coeffs, h, h_last, k_from, k_to, nsteps, save_steps, project, out_pi, out_q
-):
+    blk, pi, q, Iinv, A, b, c, coeffs, h, h_last, k_from, k_to, nsteps, save_steps, project, frame, identity, first,
+    out_A, out_R,
+):  # fmt: skip
     """Block ``blk`` of lanes over steps k_from < k ≤ k_to; returns -1 or the step at which a
-    stage increment reached the dexp⁻¹ radius ``|u| = 2π`` (the block stops there).
+    stage increment reached the dexp⁻¹ radius ``|u| = 2π`` (the block stops there). The
+    user's rows (:func:`_save_rows`) go to ``out_A``, ``out_R``: the starting state first when
+    ``first`` is 1, then the state after each step of ``save_steps``.
 
     Each pass over the lanes is a loop of local arithmetic writing one or two arrays, so that
     it compiles to SIMD instructions; lanes beyond θ = 0.1 (rare: coarse steps) are redone in
@@ -242,6 +286,8 @@ def _lanes_block(
     for i in range(4):
         for l in range(L):
             qb[i, l] = q[i, l0 + l]
+    if first:
+        _save_rows(0, l0, L, P, qb, frame, identity, out_A, out_R)
     slot = 0
     bad = False
     for k in range(k_from, k_to):
@@ -303,12 +349,7 @@ def _lanes_block(
             for l in range(L):
                 _finish_lane(u, P, qb, ca, cb, ch, sh, False, l)
         if slot < save_steps.shape[0] and save_steps[slot] == k + 1:
-            for i in range(3):
-                for l in range(L):
-                    out_pi[slot, i, l0 + l] = P[i, l]
-            for i in range(4):
-                for l in range(L):
-                    out_q[slot, i, l0 + l] = qb[i, l]
+            _save_rows(first + slot, l0, L, P, qb, frame, identity, out_A, out_R)
             slot += 1
     for i in range(3):
         for l in range(L):
@@ -320,35 +361,49 @@ def _lanes_block(
 
 
 @njit(cache=True, parallel=True)
-def _lanes_parallel(pi, q, Iinv, A, b, c, coeffs, h, h_last, k_from, k_to, nsteps, save_steps, project, out_pi, out_q):
+def _lanes_parallel(
+    pi, q, Iinv, A, b, c, coeffs, h, h_last, k_from, k_to, nsteps, save_steps, project, frame, identity, first,
+    out_A, out_R,
+):  # fmt: skip
     nblocks = (pi.shape[1] + _BLOCK - 1) // _BLOCK
     status = np.empty(nblocks, dtype=np.int64)
     for blk in prange(nblocks):
         status[blk] = _lanes_block(
-            blk, pi, q, Iinv, A, b, c, coeffs, h, h_last, k_from, k_to, nsteps, save_steps, project, out_pi, out_q
-        )
+            blk, pi, q, Iinv, A, b, c, coeffs, h, h_last, k_from, k_to, nsteps, save_steps, project, frame, identity,
+            first, out_A, out_R,
+        )  # fmt: skip
     return status
 
 
 @njit(cache=True)
-def _lanes_serial(pi, q, Iinv, A, b, c, coeffs, h, h_last, k_from, k_to, nsteps, save_steps, project, out_pi, out_q):
+def _lanes_serial(
+    pi, q, Iinv, A, b, c, coeffs, h, h_last, k_from, k_to, nsteps, save_steps, project, frame, identity, first,
+    out_A, out_R,
+):  # fmt: skip
     nblocks = (pi.shape[1] + _BLOCK - 1) // _BLOCK
     status = np.empty(nblocks, dtype=np.int64)
     for blk in range(nblocks):
         status[blk] = _lanes_block(
-            blk, pi, q, Iinv, A, b, c, coeffs, h, h_last, k_from, k_to, nsteps, save_steps, project, out_pi, out_q
-        )
+            blk, pi, q, Iinv, A, b, c, coeffs, h, h_last, k_from, k_to, nsteps, save_steps, project, frame, identity,
+            first, out_A, out_R,
+        )  # fmt: skip
     return status
 
 
 def run_lanes(
-    pi, q, Iinv, A, b, c, coeffs, h, h_last, k_from, k_to, nsteps, save_steps, project, out_pi, out_q, parallel
-):
+    pi, q, Iinv, A, b, c, coeffs, h, h_last, k_from, k_to, nsteps, save_steps, project, frame, identity, first,
+    out_A, out_R, parallel,
+):  # fmt: skip
     """RKMK (exp coordinates) on bodies in lanes. ``pi`` (3, N) and the quaternions ``q`` (4, N)
-    are updated in place; states after the listed global save steps go to ``out_pi`` (m, 3, N)
-    and ``out_q`` (m, 4, N). Blocks of lanes run in threads when ``parallel``. Returns -1, or
-    the first step at which a stage left the dexp⁻¹ radius."""
+    are updated in place; the user's states ``A`` and ``R`` (``frame``: the principal frame P,
+    ``identity`` when it is I) go to ``out_A`` and ``out_R`` (rows, N, 3, 3) — the starting state
+    as row 0 when ``first`` is 1, then the state after each listed global save step; ``out_R``
+    of shape (rows, 0, 3, 3) keeps no attitude. Blocks of lanes run in threads when
+    ``parallel``. Returns -1, or the first step at which a stage left the dexp⁻¹ radius."""
     run = _lanes_parallel if parallel else _lanes_serial
-    status = run(pi, q, Iinv, A, b, c, coeffs, h, h_last, k_from, k_to, nsteps, save_steps, project, out_pi, out_q)
+    status = run(
+        pi, q, Iinv, A, b, c, coeffs, h, h_last, k_from, k_to, nsteps, save_steps, project, frame, bool(identity),
+        int(first), out_A, out_R,
+    )  # fmt: skip
     bad = status[status >= 0]
     return int(bad.min()) if bad.size else -1
