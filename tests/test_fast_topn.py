@@ -205,9 +205,10 @@ def test_the_cayley_maps_unpivoted_shortcut_is_partial_pivotings_own_result(rng)
     # I − u/2 column diagonally dominant (Σ_r |u_rc| < 2): elimination keeps the dominance, so
     # partial pivoting would not swap and the shortcut that skips its search is the same
     # operations — the same bits — on both sides of the threshold and at random dominant steps
+    # (4 ≤ n ≤ 6: the unrolled elimination of lieint.fast.small_cayley; 7, 8: the loops)
     from lieint.fast.cayley import _column_dominant, _eliminate, cayley_into
 
-    for n in (4, 6, 8):
+    for n in (4, 5, 6, 7, 8):
         Q, L, ref = np.empty((n, n)), np.empty((n, n)), np.empty((n, n))
         for target in (1e-6, 0.5, 1.99, 2.01, 4.0):
             u = random_skew(rng, n)
@@ -216,6 +217,12 @@ def test_the_cayley_maps_unpivoted_shortcut_is_partial_pivotings_own_result(rng)
             cayley_into(u, Q, L)
             _eliminate(u, ref, L, True)
             assert np.array_equal(Q, ref), (n, target)
+            assert np.array_equal(np.signbit(Q), np.signbit(ref)), (n, target)  # zeros' signs too
+        sparse = np.zeros((n, n))  # zero multipliers and signed zeros in the elimination
+        sparse[0, 1], sparse[1, 0], sparse[2, n - 1], sparse[n - 1, 2] = 0.3, -0.3, -0.0, 0.0
+        cayley_into(sparse, Q, L)
+        _eliminate(sparse, ref, L, True)
+        assert np.array_equal(Q, ref) and np.array_equal(np.signbit(Q), np.signbit(ref)), n
         assert not _column_dominant(np.full((n, n), np.nan)) and not _column_dominant(np.full((n, n), np.inf))
 
 

@@ -6,13 +6,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from lieint.fast import _generate_products
+from lieint.fast import _generate_cayley, _generate_products
 from lieint.fast.skew import _loops_into
 from lieint.fast.small_products import square_into
 
 
 def test_the_module_is_the_generators_output():
     assert _generate_products.TARGET.read_text() == _generate_products.source()
+    assert _generate_cayley.TARGET.read_text() == _generate_cayley.source()
 
 
 @pytest.mark.parametrize("n", list(_generate_products.SIZES))

@@ -14,6 +14,7 @@ import numpy as np
 from numba import njit
 
 from .skew import _finite, mm_small_into
+from .small_cayley import cayley_square_into
 
 __all__ = ["cayley_into", "dcayinv_into"]
 
@@ -42,12 +43,16 @@ def cayley_into(u, Q, L):
     Gaussian elimination with partial pivoting on it, the right-hand side ``I + u/2`` carried
     along, then back substitution — about 4n³/3 multiply-adds, two thirds of a product. The
     usual step (``I − u/2`` column diagonally dominant, :func:`_column_dominant`) skips the
-    pivot search, which would not swap: the same operations, so the same bits."""
-    pivot = not _column_dominant(u)
-    if pivot and not _finite(u):
+    pivot search, which would not swap: the same operations, so the same bits — for
+    4 ≤ n ≤ 6 in the unrolled code of :mod:`lieint.fast.small_cayley`."""
+    if _column_dominant(u):
+        if not cayley_square_into(u, Q):  # unrolled for 4 ≤ n ≤ 6 (the same operations)
+            _eliminate(u, Q, L, False)
+        return
+    if not _finite(u):
         Q[:, :] = np.nan
         return
-    _eliminate(u, Q, L, pivot)
+    _eliminate(u, Q, L, True)
 
 
 @njit(cache=True)
@@ -77,11 +82,10 @@ def _eliminate(u, Q, L, pivot):
                     Q[c, j], Q[p, j] = Q[p, j], Q[c, j]
         for r in range(c + 1, n):
             f = L[r, c] / L[c, c]
-            if f != 0.0:
-                for j in range(c + 1, n):
-                    L[r, j] -= f * L[c, j]
-                for j in range(n):
-                    Q[r, j] -= f * Q[c, j]
+            for j in range(c + 1, n):
+                L[r, j] -= f * L[c, j]
+            for j in range(n):
+                Q[r, j] -= f * Q[c, j]
     for r in range(n - 1, -1, -1):
         for k in range(r + 1, n):
             f = L[r, k]
