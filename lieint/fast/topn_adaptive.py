@@ -7,7 +7,7 @@ batch sharing one step size, with the generic path's controller
 
 * a trial step from ``y₀ = (Ã, R̃)`` in the principal frame of ``B = P diag(b) Pᵀ`` computes
   the stages ``k_i`` of the order-p tableau with the stage code of the fixed-step kernel
-  (:func:`lieint.fast.topn._lie_step`: the Taylor exponential, the action
+  (:func:`lieint.fast.topn_step._lie_step`: the Taylor exponential, the action
   ``(QᵀÃQ, R̃Q)``, dexp⁻¹ truncated at the method's degree, brackets of one product — or in
   Cayley coordinates, ``cay`` by elimination and the exact dcay⁻¹), the
   propagated solution ``y₁ = ρ(φ(h Σ b_j k_j), y₀)`` and the embedded one(s)
@@ -40,7 +40,7 @@ from numba import njit
 from .cayley import cayley_into
 from .controller import advanced_time, error_norm, step_factor
 from .skew import _project, mm_small_into
-from .topn import _act_into, _combine, _exp_into, _lie_step
+from .topn_step import _act_into, _combine, _exp_into, _lie_step
 
 __all__ = ["adaptive_topn"]
 

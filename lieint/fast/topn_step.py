@@ -1,0 +1,179 @@
+"""One step of the n-dimensional top in its principal frame, compiled (numba, cached on disk):
+the stage code of the fixed-step kernel (:mod:`lieint.fast.topn`) and of the adaptive one
+(:mod:`lieint.fast.topn_adaptive`).
+
+* :func:`_lie_step`: RKMK from an explicit tableau on ``(Ã, R̃)`` under the right action
+  ``Q · (Ã, R̃) = (QᵀÃQ, R̃Q)``, in exponential coordinates (dexp⁻¹ truncated, its range checked)
+  or in Cayley coordinates (exact dcay⁻¹, :mod:`lieint.fast.cayley`), allocating nothing;
+* :func:`_classical_step`: classical RK on the embedded equations ``Ã' = [Ã, Ω̃]``, ``R̃' = R̃Ω̃``;
+* the pieces: the action with the inertia operator ``Ω̃ = M ∘ Ã`` (:func:`_act_into`), a bracket
+  of skew matrices in one product, the stages' linear combinations.
+
+The equations, the frame and the choices behind them are :mod:`lieint.fast.topn`'s docstring.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from .cayley import cayley_into, dcayinv_into
+from .skew import _bracket, _finite, expm_skew_small_into, mm_small_into, so_ad_radius_exceeds
+
+
+@njit(cache=True)
+def _act_into(Q, A, M, A1, Om, C, tmp):
+    """``(Ã', Ω̃') = (skew(QᵀAQ), Ã' ∘ M)`` into ``A1`` and ``Om``: the action on the momentum,
+    made exactly skew as the generic action does (``skew_part``), and the inertia operator
+    ``Ω̃_ij = M_ij Ã'_ij`` (M symmetric, so Ω̃' is exactly skew too). ``C`` and ``tmp`` are
+    scratch; A1 may be A (A is read before A1 is written)."""
+    mm_small_into(A, Q, tmp)
+    mm_small_into(Q.T, tmp, C)
+    n = C.shape[0]
+    for a in range(n):
+        for c in range(n):
+            d = 0.5 * (C[a, c] - C[c, a])
+            A1[a, c] = d
+            Om[a, c] = d * M[a, c]
+
+
+@njit(cache=True)
+def _bracket_into(X, Y, out, tmp):
+    """``out = [X, Y] = W − Wᵀ`` with ``W = XY`` (tmp), for skew X, Y: one product, exactly
+    skew."""
+    mm_small_into(X, Y, tmp)
+    n = out.shape[0]
+    for a in range(n):
+        for c in range(n):
+            out[a, c] = tmp[a, c] - tmp[c, a]
+
+
+@njit(cache=True)
+def _exp_into(u, Q, work):
+    """``Q = exp(u)``, or NaN when u is not finite (the driver reports the state)."""
+    if _finite(u):
+        expm_skew_small_into(u, Q, work)
+    else:
+        Q[:, :] = np.nan
+
+
+@njit(cache=True)
+def _accumulate(out, K, weights, upto, h):
+    """``out += Σ_{j < upto} (h w_j) K[j]`` over the nonzero weights, in the order of j (the
+    generic path's linear combinations); returns whether any weight was nonzero."""
+    n, r = out.shape[0], out.shape[1]
+    any_weight = False
+    for j in range(upto):
+        if weights[j] != 0.0:
+            any_weight = True
+            w = h * weights[j]
+            for a in range(n):
+                for c in range(r):
+                    out[a, c] += w * K[j, a, c]
+    return any_weight
+
+
+@njit(cache=True)
+def _combine(out, K, weights, upto, h):
+    """``out = Σ_{j < upto} (h w_j) K[j]`` over the nonzero weights, in the order of j (the
+    generic path's linear combinations; the first term written, not added to zero); returns
+    whether any weight was nonzero (out is left as it was if none)."""
+    n, r = out.shape[0], out.shape[1]
+    first = True
+    for j in range(upto):
+        if weights[j] != 0.0:
+            w = h * weights[j]
+            if first:
+                for a in range(n):
+                    for c in range(r):
+                        out[a, c] = w * K[j, a, c]
+                first = False
+            else:
+                for a in range(n):
+                    for c in range(r):
+                        out[a, c] += w * K[j, a, c]
+    return not first
+
+
+@njit(cache=True)
+def _store(K, i, X):
+    """``K[i] = X``."""
+    for a in range(X.shape[0]):
+        for c in range(X.shape[1]):
+            K[i, a, c] = X[a, c]
+
+
+@njit(cache=True)
+def _lie_step(A, R, orient, M, tab, b, h, coeffs, cayley, K, W, E):
+    """One RKMK step (right action) of ``(A, R)`` in place, in exponential coordinates (dexp⁻¹
+    truncated at ``coeffs``) or in Cayley coordinates (``cayley``: exact dcay⁻¹, no range);
+    returns False, leaving A and R as they were, when a stage increment reaches the dexp⁻¹
+    radius.
+
+    ``K`` (stages, n, n) holds the stage slopes, ``W`` (8, n, n) and ``E`` (5, n, n) are
+    scratch (the coordinate map's): a step allocates nothing."""
+    s = b.shape[0]
+    n = A.shape[0]
+    degree = coeffs.shape[0] - 1
+    u, Q, C, tmp, acc, term, other, minus_u = W[0], W[1], W[2], W[3], W[4], W[5], W[6], W[7]
+    for i in range(s):
+        if not _combine(u, K, tab[i], i, h):
+            for a in range(n):  # u = 0: ξ = Ω̃(Ã)
+                for c in range(n):
+                    K[i, a, c] = A[a, c] * M[a, c]
+            continue
+        if cayley:
+            cayley_into(u, Q, E[0])
+            _act_into(Q, A, M, other, acc, C, tmp)  # acc = Ω̃(QᵀÃQ) = ξ
+            dcayinv_into(u, acc, K[i], C, tmp)
+            continue
+        if so_ad_radius_exceeds(u) == 1:
+            return False
+        _exp_into(u, Q, E)
+        _act_into(Q, A, M, other, acc, C, tmp)  # acc = Ω̃(QᵀÃQ) = ξ
+        # k = Σ_d (B_d/d!) ad_{−u}^d ξ, the terms by repeated brackets
+        for a in range(n):
+            for c in range(n):
+                term[a, c] = acc[a, c]
+                minus_u[a, c] = -u[a, c]
+        for d in range(1, degree + 1):
+            _bracket_into(minus_u, term, other, tmp)
+            term, other = other, term
+            if coeffs[d] != 0.0:
+                w = coeffs[d]
+                for a in range(n):
+                    for c in range(n):
+                        acc[a, c] += w * term[a, c]
+        _store(K, i, acc)
+    if not _combine(u, K, b, s, h):
+        u[:, :] = 0.0
+    if cayley:
+        cayley_into(u, Q, E[0])
+    else:
+        _exp_into(u, Q, E)
+    _act_into(Q, A, M, A, acc, C, tmp)
+    if orient:
+        mm_small_into(R, Q, C)
+        R[:, :] = C
+    return True
+
+
+@njit(cache=True)
+def _classical_step(A, R, orient, M, tab, b, h, KA, KR):
+    """One classical RK step on ``Ã' = [Ã, Ω̃]``, ``R̃' = R̃ Ω̃`` (Ã stays exactly skew)."""
+    s = b.shape[0]
+    for i in range(s):
+        Ai = A.copy()
+        _accumulate(Ai, KA, tab[i], i, h)
+        Om = Ai * M
+        _store(KA, i, _bracket(Ai, Om))
+        if orient:
+            Ri = R.copy()
+            _accumulate(Ri, KR, tab[i], i, h)
+            _store(KR, i, Ri @ Om)
+    A1 = A.copy()
+    _accumulate(A1, KA, b, s, h)
+    R1 = R.copy()
+    if orient:
+        _accumulate(R1, KR, b, s, h)
+    return A1, R1
