@@ -12,8 +12,9 @@ Each has ``start(y0) -> Carry``, ``first_row(carry)``, ``user_state(carry)`` and
 ``advance(carry, max_steps) -> Segment``; :class:`_KernelLoop` also has
 ``advance_from_start(carry)``, a whole run with its first row in one segment (the kernel writes
 that row beside the others: no concatenation of an ensemble's rows). :func:`fixed_loop` and
-:func:`adaptive_loop` pick the compiled loop where a kernel covers the run. A :class:`Carry` is the exact state of a run
-between steps, so a run split into segments gives the bits of one that is not.
+:func:`adaptive_loop` pick the compiled loop where a kernel covers the run. A :class:`Carry` is
+the exact state of a run between steps, so a run split into segments gives the bits of one that
+is not.
 """
 
 from __future__ import annotations

@@ -10,6 +10,8 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
+from ._generate_products import dispatch_source
+
 #: the sizes of the tops the benchmarks and the issue track (4D, 6D; 5 between): each size costs
 #: its compilation once per installation (0.4, 0.8, 1.2 s; n = 7 and 8 would add 1.9 and 2.7 s)
 SIZES = range(4, 7)
@@ -63,19 +65,11 @@ def cayley(n: int) -> str:
 
 
 def dispatch() -> str:
-    lines = [
-        "",
-        "",
-        "@njit(_DISPATCH, cache=True)",
-        "def cayley_square_into(u, Q):",
+    doc = [
         f'    """``Q = cay(u)`` unpivoted for {SIZES.start} ≤ n ≤ {SIZES.stop - 1}; returns False (Q untouched)',
         '    for any other size."""',
-        "    n = u.shape[0]",
     ]
-    for n in SIZES:
-        lines += [f"    {'if' if n == SIZES.start else 'elif'} n == {n}:", f"        _cay{n}(u, Q)"]
-    lines += ["    else:", "        return False", "    return True"]
-    return "\n".join(lines) + "\n"
+    return dispatch_source("cayley_square_into", "u, Q", "_cay", SIZES, doc, ["    n = u.shape[0]"])
 
 
 def source() -> str:

@@ -49,22 +49,29 @@ def product(n: int) -> str:
     return "\n".join(lines) + "\n"
 
 
+def dispatch_source(name: str, args: str, prefix: str, sizes: range, doc: list[str], guard: list[str]) -> str:
+    """A compiled dispatcher ``name(args)`` calling ``{prefix}{n}(args)`` for each n in
+    ``sizes`` and returning True, False (nothing written) for any other size; ``doc`` its
+    docstring's lines, ``guard`` lines that set n and may return False first (shared with
+    :mod:`lieint.fast._generate_cayley`)."""
+    lines = ["", "", "@njit(_DISPATCH, cache=True)", f"def {name}({args}):", *doc, *guard]
+    for n in sizes:
+        lines += [f"    {'if' if n == sizes.start else 'elif'} n == {n}:", f"        {prefix}{n}({args})"]
+    lines += ["    else:", "        return False", "    return True"]
+    return "\n".join(lines) + "\n"
+
+
 def dispatch() -> str:
-    lines = [
-        "",
-        "",
-        "@njit(_DISPATCH, cache=True)",
-        "def square_into(A, B, out):",
+    doc = [
         f'    """``out = A B`` for n × n matrices with {SIZES.start} ≤ n ≤ {SIZES.stop - 1}; returns False',
         '    (out untouched) for any other shape."""',
+    ]
+    guard = [
         "    n = A.shape[0]",
         "    if A.shape[1] != n or B.shape[0] != n or B.shape[1] != n:",
         "        return False",
     ]
-    for n in SIZES:
-        lines += [f"    {'if' if n == SIZES.start else 'elif'} n == {n}:", f"        _mm{n}(A, B, out)"]
-    lines += ["    else:", "        return False", "    return True"]
-    return "\n".join(lines) + "\n"
+    return dispatch_source("square_into", "A, B, out", "_mm", SIZES, doc, guard)
 
 
 def source() -> str:

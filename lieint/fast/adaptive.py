@@ -6,7 +6,8 @@ Chosen, like the fixed-step kernels, by declaration: the method declares an RKMK
 :mod:`lieint.fast.top3_adaptive`, for exponential coordinates), the top in n ≥ 4 dimensions
 (``"topn"``: :mod:`lieint.fast.topn_adaptive`, exponential and Cayley coordinates) or compiled
 pieces (``"lie"``, or the 3D top's declaration under ``"lie"`` for its Cayley runs:
-:mod:`lieint.fast.generic_adaptive`, exponential and Cayley coordinates). The numba code is imported on the first step.
+:mod:`lieint.fast.generic_adaptive`, exponential and Cayley coordinates). The numba code is
+imported on the first step.
 """
 
 from __future__ import annotations

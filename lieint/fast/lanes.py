@@ -36,6 +36,7 @@ from numba import njit, prange
 
 from . import LANES_BLOCK
 from .fused import fma
+from .quaternions import rotation_into
 
 __all__ = ["run_lanes"]
 
@@ -210,9 +211,8 @@ def _finish_lane(u, P, qb, ca, cb, ch, sh, project, l):
 def _save_rows(row, l0, L, P, qb, frame, identity, out_A, out_R):
     """Row ``row`` of the user's states for the block's lanes: ``A = −(frame Π)^`` (the
     principal frame's ``P(−Π̂)Pᵀ``, exactly skew) and, when ``out_R`` holds bodies,
-    ``R = R(q) frameᵀ`` (the rotation of the unit quaternion as
-    :func:`lieint.fast.quaternions._to_matrices` writes it); written where the rows are kept, so
-    no array of quaternions or momenta is kept for the conversion after the run."""
+    ``R = R(q) frameᵀ`` (:func:`lieint.fast.quaternions.rotation_into`); written where the rows
+    are kept, so no array of quaternions or momenta is kept for the conversion after the run."""
     orient = out_R.shape[1] > 0
     for l in range(L):
         m = l0 + l
@@ -229,17 +229,8 @@ def _save_rows(row, l0, L, P, qb, frame, identity, out_A, out_R):
         A[2, 0], A[2, 1], A[2, 2] = y, -x, 0.0
         if not orient:
             continue
-        w, a, b, c = qb[0, l], qb[1, l], qb[2, l], qb[3, l]
         R = out_R[row, m]
-        R[0, 0] = 1 - 2 * (b * b + c * c)
-        R[0, 1] = 2 * (a * b - w * c)
-        R[0, 2] = 2 * (a * c + w * b)
-        R[1, 0] = 2 * (a * b + w * c)
-        R[1, 1] = 1 - 2 * (a * a + c * c)
-        R[1, 2] = 2 * (b * c - w * a)
-        R[2, 0] = 2 * (a * c - w * b)
-        R[2, 1] = 2 * (b * c + w * a)
-        R[2, 2] = 1 - 2 * (a * a + b * b)
+        rotation_into(qb[0, l], qb[1, l], qb[2, l], qb[3, l], R)
         if not identity:
             for i in range(3):
                 r0, r1, r2 = R[i, 0], R[i, 1], R[i, 2]

@@ -12,7 +12,21 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-__all__ = ["lanes_from_matrices", "matrices_from_lanes"]
+__all__ = ["lanes_from_matrices", "matrices_from_lanes", "rotation_into"]
+
+
+@njit(cache=True, inline="always")
+def rotation_into(w, x, y, z, R):
+    """``R = R(q)``, the rotation of the unit quaternion ``q = (w, x, y, z)``."""
+    R[0, 0] = 1 - 2 * (y * y + z * z)
+    R[0, 1] = 2 * (x * y - w * z)
+    R[0, 2] = 2 * (x * z + w * y)
+    R[1, 0] = 2 * (x * y + w * z)
+    R[1, 1] = 1 - 2 * (x * x + z * z)
+    R[1, 2] = 2 * (y * z - w * x)
+    R[2, 0] = 2 * (x * z - w * y)
+    R[2, 1] = 2 * (y * z + w * x)
+    R[2, 2] = 1 - 2 * (x * x + y * y)
 
 
 @njit(cache=True)
@@ -20,17 +34,7 @@ def _to_matrices(q, out):
     """``out[s, i] = R(q[s, :, i])`` for quaternions ``q`` (m, 4, N) and matrices ``out`` (m, N, 3, 3)."""
     for s in range(q.shape[0]):
         for i in range(q.shape[2]):
-            w, x, y, z = q[s, 0, i], q[s, 1, i], q[s, 2, i], q[s, 3, i]
-            R = out[s, i]
-            R[0, 0] = 1 - 2 * (y * y + z * z)
-            R[0, 1] = 2 * (x * y - w * z)
-            R[0, 2] = 2 * (x * z + w * y)
-            R[1, 0] = 2 * (x * y + w * z)
-            R[1, 1] = 1 - 2 * (x * x + z * z)
-            R[1, 2] = 2 * (y * z - w * x)
-            R[2, 0] = 2 * (x * z - w * y)
-            R[2, 1] = 2 * (y * z + w * x)
-            R[2, 2] = 1 - 2 * (x * x + y * y)
+            rotation_into(q[s, 0, i], q[s, 1, i], q[s, 2, i], q[s, 3, i], out[s, i])
 
 
 @njit(cache=True)
