@@ -4,6 +4,12 @@ A kernel loop checks every saved row and the final state for NaN and infinity be
 a segment (a non-finite state is reported with the step at which it appeared). For a single
 trajectory those are a few small arrays, and numpy's ``isfinite`` and reduction cost a
 microsecond or two per array in calls alone; one compiled pass over all of them costs a fraction.
+
+Why the bits. A double is NaN or infinite exactly when its eleven exponent bits are all set.
+Testing them is integer arithmetic, which the compiler vectorises, OR-ing the test over a chunk
+of 512 values before one branch; ``np.isfinite`` on each value with an early return compiled to
+a scalar loop with a branch per value (about 1.5 ns a value: 0.2 ms for the two saved rows of
+4,096 3D tops, A and R, and their final state; now a tenth of that).
 """
 
 from __future__ import annotations
@@ -13,16 +19,27 @@ from numba import njit
 
 __all__ = ["all_finite"]
 
+#: the exponent bits of an IEEE 754 double: all set for NaN and ±inf only
+_EXPONENT = np.uint64(0x7FF0000000000000)
+_CHUNK = 512
+
 
 @njit(cache=True)
 def _all_finite(arrays):
     for arr in arrays:
-        for x in arr:
-            if not np.isfinite(x):
+        bits = arr.view(np.uint64)
+        n = np.uint64(bits.shape[0])
+        for start in range(np.uint64(0), n, np.uint64(_CHUNK)):
+            nonfinite = 0
+            # unsigned indices: a signed one may be negative (wrapped around) as far as the
+            # compiler knows, which turns the loads into gathers
+            for i in range(start, min(start + np.uint64(_CHUNK), n)):
+                nonfinite |= (bits[i] & _EXPONENT) == _EXPONENT
+            if nonfinite:
                 return False
     return True
 
 
 def all_finite(arrays) -> bool:
     """True when every entry of every array in ``arrays`` (float64, as the kernels write them) is finite."""
-    return bool(_all_finite(tuple(a.ravel() for a in arrays)))
+    return bool(_all_finite(tuple(np.ascontiguousarray(a).ravel() for a in arrays)))
