@@ -84,6 +84,52 @@ def test_one_bad_rotation_in_an_ensemble_is_found(top, defect, match, bodies):
         top.initial_state(angular_velocity=np.ones((bodies, 3)), R=R)
 
 
+@pytest.mark.parametrize("bodies", [3, 200])  # numpy / the compiled check of many 3 × 3
+def test_one_bad_bivector_in_an_ensemble_is_found(top, bodies):
+    A = np.broadcast_to(hat([0.1, 1.0, 0.1]), (bodies, 3, 3)).copy()
+    A[bodies - 2, 0, 1] += 0.5
+    with pytest.raises(
+        ValueError, match=r"`A` must be skew-symmetric .* got max \|X \+ X\^T\| = 0.5 for max \|X\| = 1\."
+    ):
+        top.initial_state(A=A)
+
+
+def test_the_compiled_checks_of_many_3x3_measure_what_numpy_measures(rng):
+    """The largest ``‖RᵀR − I‖_F``, the smallest det and the skew defect of a stack, against
+    stacked matmul, LAPACK's det and numpy's reductions; a NaN or inf anywhere makes them NaN."""
+    from scipy.spatial.transform import Rotation
+
+    from lieint.fast.checks import rotation_defects_3, skew_defect_3
+
+    R = Rotation.random(300, random_state=4).as_matrix() + 1e-9 * rng.normal(size=(300, 3, 3))
+    R[17] = np.diag([1.0, 1.0, -1.0])
+    D = np.swapaxes(R, -1, -2) @ R - np.eye(3)
+    worst, smallest_det = rotation_defects_3(R.reshape(3, 100, 3, 3))
+    assert worst == pytest.approx(np.linalg.norm(D, axis=(-2, -1)).max(), rel=1e-12)
+    assert smallest_det == pytest.approx(np.linalg.det(R).min(), rel=1e-12)
+    X = hat(rng.normal(size=(300, 3))) + 1e-7 * rng.normal(size=(300, 3, 3))
+    err, scale = skew_defect_3(X[:, ::-1])  # a strided view is checked as it is
+    assert err == np.abs(X[:, ::-1] + np.swapaxes(X[:, ::-1], -1, -2)).max()
+    assert scale == np.abs(X).max()
+    for bad in (np.nan, np.inf, -np.inf):
+        Rb, Xb = R.copy(), X.copy()
+        Rb[250, 2, 1], Xb[250, 1, 2] = bad, bad
+        assert all(np.isnan(v) for v in (*rotation_defects_3(Rb), *skew_defect_3(Xb)))
+
+
+def test_the_compiled_finiteness_check_finds_every_nan_and_inf():
+    from lieint.fast.finite import all_finite
+
+    arrays = [(1.7e308 * np.linspace(-1.0, 1.0, 1500)).reshape(3, 500), np.array([5e-324, -0.0, 0.0]), np.zeros(0)]
+    assert all_finite(arrays)
+    assert all_finite([arrays[0][:, ::3]])  # strided views are checked as they are
+    for bad in (np.nan, -np.nan, np.inf, -np.inf):
+        for where in (0, 511, 512, 1499):  # the first, the chunks' edges, the last
+            damaged = [a.copy() for a in arrays]
+            damaged[0].ravel()[where] = bad
+            assert not all_finite(damaged)
+
+
 @pytest.mark.parametrize(
     ("kwargs", "exc", "match"),
     [
