@@ -148,14 +148,15 @@ class Top3Kernel:
         A = y["A"].reshape(-1, 3, 3)
         R = y["R"].reshape(-1, 3, 3) if "R" in y else np.broadcast_to(np.eye(3), A.shape)
         if self.identity_frame:
-            pi, R = minus_vee(A), np.array(R)  # a copy: the run never holds the caller's arrays
+            pi = minus_vee(A)
         else:
             pi, R = minus_vee(self.P.T @ A @ self.P), R @ self.P
-        if self.lanes:
+        if self.lanes:  # new arrays of momenta and quaternions: no copy of R needed
             from .quaternions import lanes_from_matrices
 
             return {"pi": np.ascontiguousarray(pi.T), "q": lanes_from_matrices(R)}
-        return {"pi": pi, "R": np.ascontiguousarray(R)}
+        # a copy of the caller's R: the run never holds the caller's arrays
+        return {"pi": pi, "R": np.array(R) if self.identity_frame else np.ascontiguousarray(R)}
 
     def advance(self, internal: dict, k_from: int, k_to: int, plan, save_steps, project: bool, with_start=False):
         """Steps ``k_from < k ≤ k_to``: the state after them and the user's rows after the steps
