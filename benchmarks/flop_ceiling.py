@@ -4,9 +4,13 @@ Run: ``OPENBLAS_NUM_THREADS=1 python benchmarks/flop_ceiling.py`` (about half a 
 printed by ``benchmarks/systems_speed.py --ensembles``).
 
 Three rates in GFLOP per CPU-second (process time of all threads, numba's default thread count),
-measured in seven interleaved rounds (one call of each per round, so that a neighbour's load on
-a shared machine falls on all three alike), the best of the rounds printed with the median of
-the rounds' ratios:
+measured in fifteen interleaved rounds (one call of each per round, so that a neighbour's load
+on a shared machine falls on all three alike), the best of the rounds printed with the median of
+the rounds' ratios. Every call does the same work, the ensemble's flops (about 30 ms here): the
+best of short calls is the best of more, shorter windows of a noisy host, and a 6 ms loop against
+a 30 ms ensemble — the sizes before — made the ceiling look higher by a tenth or more per
+CPU-second (its threads' start-up counted less; measured side by side, 11 rounds, 2 runs: FMA
+loop best 54.0 and 43.8 GFLOP per CPU-second short, 40.8 and 40.0 at the ensemble's size):
 
 * **FMA ceiling**: a numba loop ``x ← a x + b`` over independent lanes (rows of 64 doubles,
   four threads' worth per thread, resident in L1; four updates per load and store, the variant
@@ -77,10 +81,11 @@ def _rate(call, flops: float) -> tuple[float, float]:
     return flops / (time.process_time() - c0) / 1e9, flops / (time.perf_counter() - w0) / 1e9
 
 
-def _ceiling_calls(reps: int = 100_000) -> dict:
-    """The fused and strict loops as ``(call, flops)``."""
+def _ceiling_calls(work: float) -> dict:
+    """The fused and strict loops as ``(call, flops)``, each about ``work`` flops."""
     rows = 4 * get_num_threads()
     x = np.ones((rows, LANES))
+    reps = max(1, round(work / (2.0 * rows * LANES * UPDATES)))
     flops = 2.0 * rows * LANES * UPDATES * reps
     return {
         "fma": (lambda: _fused(x, 0.999999, 1e-6, reps), flops),
@@ -135,10 +140,11 @@ def _kernel_call(bodies: int = 4096, steps: int = 1000):
     return call, float(FLOPS_PER_RKMK4_STEP) * bodies * steps
 
 
-def measure(rounds: int = 7) -> tuple[dict, str]:
+def measure(rounds: int = 15) -> tuple[dict, str]:
     """Per-round rates ``{name: [(cpu, wall), …]}`` of the two loops and the ensemble, interleaved."""
-    calls = _ceiling_calls()
-    calls["ensemble"], backend = _ensemble_call()
+    ensemble, backend = _ensemble_call()
+    calls = _ceiling_calls(work=ensemble[1])
+    calls["ensemble"] = ensemble
     calls["kernel"] = _kernel_call()
     for call, _ in calls.values():
         call()  # compile / warm up
@@ -154,7 +160,7 @@ def report() -> None:
     print(
         f"\nFloating-point ceiling ({get_num_threads()} numba threads, {os.cpu_count()} cores, "
         f"load average {os.getloadavg()[0]:.2f}); GFLOP per CPU-second / per wall-second, "
-        "best of 7 interleaved rounds"
+        "best of 15 interleaved rounds of equal work"
     )
     rates, backend = measure()
     best = {name: (max(r[0] for r in rs), max(r[1] for r in rs)) for name, rs in rates.items()}
