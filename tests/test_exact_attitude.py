@@ -139,11 +139,18 @@ def test_exact_flow_method_is_exact_at_any_step_and_composes(name):
     # state, so the composition also checks the group property of the flow. Near the separatrix
     # the problem itself is ill-conditioned (a state perturbation δ moves p by δ and the phase by
     # ~ t δ/p: 1e-10 per ulp at p = 4e-6 over t = 40), so there only the single step is compared.
+    #
+    # The bound is round-off: each step restarts from a state rounded to a few ulps, and a
+    # perturbation of the state moves the phase of the rest of the motion, so the error grows
+    # with the number of steps — n · 64 ε · max(1, |A|). Measured on 12 random states of this
+    # top (T = 40): err / (n ε max(1, |A|)) has median 8.5 and max 25.3 at n = 5, median 2.1 and
+    # max 12.4 at n = 80 (a flat 1e-13 allowed 2.7 per step at n = 80 and failed here at 3.2).
+    scale = max(1.0, float(np.abs(exact["A"]).max()))
     for n in (1, 5, 80) if name == "generic" else (1,):
         sol = lieint.integrate(top, y0, (0.0, T), h=T / n, method="exact_flow")
         for field in ("A", "R"):
             err = np.max(np.abs(sol.states[field][-1] - exact[field][-1]))
-            assert err < 1e-13, (n, field, err)
+            assert err < n * 64 * np.finfo(float).eps * scale, (n, field, err)
 
 
 def test_exact_flow_applies_to_the_3d_free_top_only():
