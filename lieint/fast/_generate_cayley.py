@@ -33,6 +33,8 @@ from __future__ import annotations
 
 from numba import njit
 
+from ._jit import NO_REFCOUNT
+
 __all__ = ["cayley_square_into"]
 
 # one type signature for every layout, compiled once per installation
@@ -44,7 +46,7 @@ _DISPATCH = "boolean(float64[:, :], float64[:, :])"
 def cayley(n: int) -> str:
     L = [[f"l{i}_{j}" for j in range(n)] for i in range(n)]
     Q = [[f"q{i}_{j}" for j in range(n)] for i in range(n)]
-    lines = ["", "", "@njit(_MAP, cache=True)", f"def _cay{n}(u, Q):"]
+    lines = ["", "", "@njit(_MAP, cache=True, **NO_REFCOUNT)", f"def _cay{n}(u, Q):"]
     for i in range(n):
         for j in range(n):
             one = " + 1.0" if i == j else ""

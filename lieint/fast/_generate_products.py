@@ -29,6 +29,8 @@ from __future__ import annotations
 
 from numba import njit
 
+from ._jit import NO_REFCOUNT
+
 __all__ = ["square_into"]
 
 # One type signature for every layout (strided arrays: Qᵀ is a transposed view), compiled once
@@ -39,7 +41,7 @@ _DISPATCH = "boolean(float64[:, :], float64[:, :], float64[:, :])"
 
 
 def product(n: int) -> str:
-    lines = ["", "", "@njit(_PRODUCT, cache=True)", f"def _mm{n}(A, B, out):"]
+    lines = ["", "", "@njit(_PRODUCT, cache=True, **NO_REFCOUNT)", f"def _mm{n}(A, B, out):"]
     lines += [f"    b{j}{c} = B[{j}, {c}]" for j in range(n) for c in range(n)]
     lines.append(f"    for i in range({n}):")
     lines += [f"        x{j} = A[i, {j}]" for j in range(n)]
@@ -54,7 +56,7 @@ def dispatch_source(name: str, args: str, prefix: str, sizes: range, doc: list[s
     ``sizes`` and returning True, False (nothing written) for any other size; ``doc`` its
     docstring's lines, ``guard`` lines that set n and may return False first (shared with
     :mod:`lieint.fast._generate_cayley`)."""
-    lines = ["", "", "@njit(_DISPATCH, cache=True)", f"def {name}({args}):", *doc, *guard]
+    lines = ["", "", "@njit(_DISPATCH, cache=True, **NO_REFCOUNT)", f"def {name}({args}):", *doc, *guard]
     for n in sizes:
         lines += [f"    {'if' if n == sizes.start else 'elif'} n == {n}:", f"        {prefix}{n}({args})"]
     lines += ["    else:", "        return False", "    return True"]

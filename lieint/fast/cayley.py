@@ -13,13 +13,14 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from ._jit import NO_REFCOUNT
 from .skew import _finite, mm_small_into
 from .small_cayley import cayley_square_into
 
 __all__ = ["cayley_into", "dcayinv_into"]
 
 
-@njit(cache=True)
+@njit(cache=True, **NO_REFCOUNT)
 def _column_dominant(u):
     """Whether ``I − u/2`` is strictly column diagonally dominant, ``Σ_r |u_rc| < 2`` for every
     column c (u skew: zero diagonal), which also says that u is finite (a NaN or an infinite sum
@@ -34,7 +35,7 @@ def _column_dominant(u):
     return True
 
 
-@njit(cache=True)
+@njit(cache=True, **NO_REFCOUNT)
 def cayley_into(u, Q, L):
     """``Q = cay(u) = (I − u/2)⁻¹(I + u/2)``, or NaN when u is not finite (or so large that
     the unit diagonal is lost and the elimination meets a zero pivot); ``L`` is scratch.
@@ -55,7 +56,7 @@ def cayley_into(u, Q, L):
     _eliminate(u, Q, L, True)
 
 
-@njit(cache=True)
+@njit(cache=True, **NO_REFCOUNT)
 def _eliminate(u, Q, L, pivot):
     """``Q = (I − u/2)⁻¹(I + u/2)`` by elimination (u finite), with partial pivoting when
     ``pivot``; NaN on a zero pivot."""
@@ -96,7 +97,9 @@ def _eliminate(u, Q, L, pivot):
             Q[r, j] *= inverse
 
 
-@njit(cache=True)
+# inlined into its callers, not called: a product here may fall back on BLAS (which copies),
+# so it cannot drop reference counts, and a call would pay them (lieint.fast._jit)
+@njit(cache=True, inline="always")
 def dcayinv_into(u, xi, out, W, tmp):
     """``out = dcay⁻¹_{−u}(ξ) = ξ + ½[u, ξ] − ¼ uξu`` (exact), for skew u, ξ: with ``W = uξ``,
     ``[u, ξ] = W − Wᵀ`` and ``uξu = Wu`` — two products; W and tmp are scratch."""

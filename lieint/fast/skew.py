@@ -15,6 +15,7 @@ import types
 import numpy as np
 from numba import njit
 
+from ._jit import NO_REFCOUNT
 from .small_products import square_into
 
 __all__ = [
@@ -80,7 +81,9 @@ def mm_into(A, B, out):
         _loops_into(A, B, out)
 
 
-@njit(cache=True)
+# inlined into its callers, not called: a product here may fall back on BLAS (which copies),
+# so it cannot drop reference counts, and a call would pay them (lieint.fast._jit)
+@njit(cache=True, inline="always")
 def mm_small_into(A, B, out):
     """:func:`mm_into` with the unrolled n × n products of :mod:`lieint.fast.small_products`
     for 3 ≤ n ≤ 8 (the same bits; 73 against 125 ns at n = 6), the product of the n-dimensional
@@ -90,7 +93,7 @@ def mm_small_into(A, B, out):
         mm_into(A, B, out)
 
 
-@njit(cache=True)
+@njit(cache=True, **NO_REFCOUNT)
 def _loops_into(A, B, out):
     """``out = A B`` by loops, each entry a dot product summed over j in order from 0.
 
@@ -410,7 +413,7 @@ def _bracket(X, Y):
     return out
 
 
-@njit(cache=True)
+@njit(cache=True, **NO_REFCOUNT)
 def _finite(X):
     """Whether every entry of X is finite (``.flat``: ``ravel`` copies a strided array)."""
     for x in X.flat:

@@ -14,6 +14,8 @@ from __future__ import annotations
 
 from numba import njit
 
+from ._jit import NO_REFCOUNT
+
 __all__ = ["cayley_square_into"]
 
 # one type signature for every layout, compiled once per installation
@@ -21,7 +23,7 @@ _MAP = "void(float64[:, :], float64[:, :])"
 _DISPATCH = "boolean(float64[:, :], float64[:, :])"
 
 
-@njit(_MAP, cache=True)
+@njit(_MAP, cache=True, **NO_REFCOUNT)
 def _cay4(u, Q):
     l0_0 = -0.5 * u[0, 0] + 1.0
     q0_0 = 0.5 * u[0, 0] + 1.0
@@ -161,7 +163,7 @@ def _cay4(u, Q):
     Q[3, 3] = q3_3
 
 
-@njit(_MAP, cache=True)
+@njit(_MAP, cache=True, **NO_REFCOUNT)
 def _cay5(u, Q):
     l0_0 = -0.5 * u[0, 0] + 1.0
     q0_0 = 0.5 * u[0, 0] + 1.0
@@ -410,7 +412,7 @@ def _cay5(u, Q):
     Q[4, 4] = q4_4
 
 
-@njit(_MAP, cache=True)
+@njit(_MAP, cache=True, **NO_REFCOUNT)
 def _cay6(u, Q):
     l0_0 = -0.5 * u[0, 0] + 1.0
     q0_0 = 0.5 * u[0, 0] + 1.0
@@ -814,7 +816,7 @@ def _cay6(u, Q):
     Q[5, 5] = q5_5
 
 
-@njit(_DISPATCH, cache=True)
+@njit(_DISPATCH, cache=True, **NO_REFCOUNT)
 def cayley_square_into(u, Q):
     """``Q = cay(u)`` unpivoted for 4 ≤ n ≤ 6; returns False (Q untouched)
     for any other size."""

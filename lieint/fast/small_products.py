@@ -14,6 +14,8 @@ from __future__ import annotations
 
 from numba import njit
 
+from ._jit import NO_REFCOUNT
+
 __all__ = ["square_into"]
 
 # One type signature for every layout (strided arrays: Qᵀ is a transposed view), compiled once
@@ -22,7 +24,7 @@ _PRODUCT = "void(float64[:, :], float64[:, :], float64[:, :])"
 _DISPATCH = "boolean(float64[:, :], float64[:, :], float64[:, :])"
 
 
-@njit(_PRODUCT, cache=True)
+@njit(_PRODUCT, cache=True, **NO_REFCOUNT)
 def _mm3(A, B, out):
     b00 = B[0, 0]
     b01 = B[0, 1]
@@ -42,7 +44,7 @@ def _mm3(A, B, out):
         out[i, 2] = x0 * b02 + x1 * b12 + x2 * b22
 
 
-@njit(_PRODUCT, cache=True)
+@njit(_PRODUCT, cache=True, **NO_REFCOUNT)
 def _mm4(A, B, out):
     b00 = B[0, 0]
     b01 = B[0, 1]
@@ -71,7 +73,7 @@ def _mm4(A, B, out):
         out[i, 3] = x0 * b03 + x1 * b13 + x2 * b23 + x3 * b33
 
 
-@njit(_PRODUCT, cache=True)
+@njit(_PRODUCT, cache=True, **NO_REFCOUNT)
 def _mm5(A, B, out):
     b00 = B[0, 0]
     b01 = B[0, 1]
@@ -111,7 +113,7 @@ def _mm5(A, B, out):
         out[i, 4] = x0 * b04 + x1 * b14 + x2 * b24 + x3 * b34 + x4 * b44
 
 
-@njit(_PRODUCT, cache=True)
+@njit(_PRODUCT, cache=True, **NO_REFCOUNT)
 def _mm6(A, B, out):
     b00 = B[0, 0]
     b01 = B[0, 1]
@@ -164,7 +166,7 @@ def _mm6(A, B, out):
         out[i, 5] = x0 * b05 + x1 * b15 + x2 * b25 + x3 * b35 + x4 * b45 + x5 * b55
 
 
-@njit(_PRODUCT, cache=True)
+@njit(_PRODUCT, cache=True, **NO_REFCOUNT)
 def _mm7(A, B, out):
     b00 = B[0, 0]
     b01 = B[0, 1]
@@ -232,7 +234,7 @@ def _mm7(A, B, out):
         out[i, 6] = x0 * b06 + x1 * b16 + x2 * b26 + x3 * b36 + x4 * b46 + x5 * b56 + x6 * b66
 
 
-@njit(_PRODUCT, cache=True)
+@njit(_PRODUCT, cache=True, **NO_REFCOUNT)
 def _mm8(A, B, out):
     b00 = B[0, 0]
     b01 = B[0, 1]
@@ -317,7 +319,7 @@ def _mm8(A, B, out):
         out[i, 7] = x0 * b07 + x1 * b17 + x2 * b27 + x3 * b37 + x4 * b47 + x5 * b57 + x6 * b67 + x7 * b77
 
 
-@njit(_DISPATCH, cache=True)
+@njit(_DISPATCH, cache=True, **NO_REFCOUNT)
 def square_into(A, B, out):
     """``out = A B`` for n × n matrices with 3 ≤ n ≤ 8; returns False
     (out untouched) for any other shape."""

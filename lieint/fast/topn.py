@@ -59,6 +59,7 @@ import numpy as np
 from numba import njit
 
 from . import _dexpinv_coefficients, _proper_frame, range_error, use_threads
+from ._jit import NO_REFCOUNT
 from .principal import to_principal, to_user
 from .skew import _project, expm_skew, so_ad_radius_exceeds
 from .topn_step import _classical_step, _lie_step, _store
@@ -66,7 +67,7 @@ from .topn_step import _classical_step, _lie_step, _store
 __all__ = ["TopNKernel", "expm_skew", "inertia_factors", "integrate_topn", "so_ad_radius_exceeds"]
 
 
-@njit(cache=True)
+@njit(cache=True, **NO_REFCOUNT)
 def _load(X, stack, m):
     """``X = stack[m]``."""
     for a in range(X.shape[0]):
@@ -74,7 +75,7 @@ def _load(X, stack, m):
             X[a, c] = stack[m, a, c]
 
 
-@njit(cache=True)
+@njit(cache=True, **NO_REFCOUNT)
 def _save(out, slot, m, X):
     """``out[slot, m] = X``."""
     for a in range(X.shape[0]):
@@ -82,7 +83,7 @@ def _save(out, slot, m, X):
             out[slot, m, a, c] = X[a, c]
 
 
-@njit(cache=True)
+@njit(cache=True, **NO_REFCOUNT)
 def _generator_norm2(A, M):
     """``‖Ω̃‖_F²`` of ``Ω̃ = M ∘ Ã`` (an upper bound of ``(θ₁ + θ₂)²``, the squared ad spectral
     radius of Ω̃, which the step check compares with π/h)."""

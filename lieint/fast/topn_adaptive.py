@@ -37,6 +37,7 @@ import math
 import numpy as np
 from numba import njit
 
+from ._jit import NO_REFCOUNT
 from .cayley import cayley_into
 from .controller import advanced_time, error_norm, step_factor
 from .skew import _project, mm_small_into
@@ -45,7 +46,9 @@ from .topn_step import _act_into, _combine, _exp_into, _lie_step
 __all__ = ["adaptive_topn"]
 
 
-@njit(cache=True)
+# inlined into its callers, not called: a product here may fall back on BLAS (which copies),
+# so it cannot drop reference counts, and a call would pay them (lieint.fast._jit)
+@njit(cache=True, inline="always")
 def _embedded(A0, R0, orient, M, K, w, h, cayley, W, E, out_A, out_R):
     """``ρ(φ(h Σ_j w_j k_j), (Ã₀, R̃₀))`` into out_A, out_R, φ = exp or cay (``cayley``);
     ``W``, ``E``: scratch."""
@@ -61,7 +64,9 @@ def _embedded(A0, R0, orient, M, K, w, h, cayley, W, E, out_A, out_R):
         mm_small_into(R0, Q, out_R)
 
 
-@njit(cache=True)
+# inlined into its callers, not called: a product here may fall back on BLAS (which copies),
+# so it cannot drop reference counts, and a call would pay them (lieint.fast._jit)
+@njit(cache=True, inline="always")
 def _user(X, P, right_only, identity, out, tmp):
     """The user's frame of a principal-frame field: ``P X Pᵀ`` (A), or ``X Pᵀ`` (R, with
     ``right_only``); a copy when P is the identity."""
@@ -74,7 +79,7 @@ def _user(X, P, right_only, identity, out, tmp):
         mm_small_into(tmp, P.T, out)
 
 
-@njit(cache=True)
+@njit(cache=True, **NO_REFCOUNT)
 def _scaled_sum(Y0, Y1, Yh, rtol, atol):
     """``Σ_i r_i²``, ``r_i = (Y₁ − Ŷ)_i / (atol + rtol·max(|Y₀,i|, |Y₁,i|))``."""
     total = 0.0
@@ -85,7 +90,9 @@ def _scaled_sum(Y0, Y1, Yh, rtol, atol):
     return total
 
 
-@njit(cache=True)
+# inlined into its callers, not called: a product here may fall back on BLAS (which copies),
+# so it cannot drop reference counts, and a call would pay them (lieint.fast._jit)
+@njit(cache=True, inline="always")
 def _user_pair(A, R, orient, P, identity, UA, UR, tmp):
     """The user's ``A = P Ã Pᵀ`` into UA and ``R = R̃ Pᵀ`` into UR (when ``orient``)."""
     _user(A, P, False, identity, UA, tmp)
@@ -93,7 +100,9 @@ def _user_pair(A, R, orient, P, identity, UA, UR, tmp):
         _user(R, P, True, identity, UR, tmp)
 
 
-@njit(cache=True)
+# inlined into its callers, not called: a product here may fall back on BLAS (which copies),
+# so it cannot drop reference counts, and a call would pay them (lieint.fast._jit)
+@njit(cache=True, inline="always")
 def _error_sum(Ah, Rh, orient, P, identity, rtol, atol, U):
     """The scaled squares of one body over the user's A (and R), against the embedded
     ``(Ãh, R̃h)``; ``U`` holds the user's y₀ (U[0], U[1]) and y₁ (U[2], U[3]) and scratch."""

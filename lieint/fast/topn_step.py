@@ -17,11 +17,14 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from ._jit import NO_REFCOUNT
 from .cayley import cayley_into, dcayinv_into
 from .skew import _bracket, _finite, expm_skew_small_into, mm_small_into, so_ad_radius_exceeds
 
 
-@njit(cache=True)
+# inlined into its callers, not called: a product here may fall back on BLAS (which copies),
+# so it cannot drop reference counts, and a call would pay them (lieint.fast._jit)
+@njit(cache=True, inline="always")
 def _act_into(Q, A, M, A1, Om, C, tmp):
     """``(Ã', Ω̃') = (skew(QᵀAQ), Ã' ∘ M)`` into ``A1`` and ``Om``: the action on the momentum,
     made exactly skew as the generic action does (``skew_part``), and the inertia operator
@@ -37,7 +40,9 @@ def _act_into(Q, A, M, A1, Om, C, tmp):
             Om[a, c] = d * M[a, c]
 
 
-@njit(cache=True)
+# inlined into its callers, not called: a product here may fall back on BLAS (which copies),
+# so it cannot drop reference counts, and a call would pay them (lieint.fast._jit)
+@njit(cache=True, inline="always")
 def _bracket_into(X, Y, out, tmp):
     """``out = [X, Y] = W − Wᵀ`` with ``W = XY`` (tmp), for skew X, Y: one product, exactly
     skew."""
@@ -48,7 +53,9 @@ def _bracket_into(X, Y, out, tmp):
             out[a, c] = tmp[a, c] - tmp[c, a]
 
 
-@njit(cache=True)
+# inlined into its callers, not called: a product here may fall back on BLAS (which copies),
+# so it cannot drop reference counts, and a call would pay them (lieint.fast._jit)
+@njit(cache=True, inline="always")
 def _exp_into(u, Q, work):
     """``Q = exp(u)``, or NaN when u is not finite (the driver reports the state)."""
     if _finite(u):
@@ -57,7 +64,7 @@ def _exp_into(u, Q, work):
         Q[:, :] = np.nan
 
 
-@njit(cache=True)
+@njit(cache=True, **NO_REFCOUNT)
 def _accumulate(out, K, weights, upto, h):
     """``out += Σ_{j < upto} (h w_j) K[j]`` over the nonzero weights, in the order of j (the
     generic path's linear combinations); returns whether any weight was nonzero."""
@@ -73,7 +80,7 @@ def _accumulate(out, K, weights, upto, h):
     return any_weight
 
 
-@njit(cache=True)
+@njit(cache=True, **NO_REFCOUNT)
 def _combine(out, K, weights, upto, h):
     """``out = Σ_{j < upto} (h w_j) K[j]`` over the nonzero weights, in the order of j (the
     generic path's linear combinations; the first term written, not added to zero); returns
@@ -95,7 +102,7 @@ def _combine(out, K, weights, upto, h):
     return not first
 
 
-@njit(cache=True)
+@njit(cache=True, **NO_REFCOUNT)
 def _store(K, i, X):
     """``K[i] = X``."""
     for a in range(X.shape[0]):
