@@ -27,6 +27,7 @@ __all__ = [
     "mm_into",
     "mm_loops",
     "mm_small_into",
+    "mm_unrolled_into",
     "mv",
     "so_ad_radius_exceeds",
 ]
@@ -91,6 +92,15 @@ def mm_small_into(A, B, out):
     (:data:`expm_skew_small_into`). Other shapes go to :func:`mm_into`."""
     if not square_into(A, B, out):
         mm_into(A, B, out)
+
+
+@njit(cache=True, **NO_REFCOUNT)
+def mm_unrolled_into(A, B, out):
+    """``out = A B`` without BLAS: the unrolled products for 3 ≤ n ≤ 8, loops otherwise — so it
+    allocates nothing and runs without reference counts (:mod:`lieint.fast._jit`); the
+    n-dimensional top's small-n stage functions (:func:`lieint.fast.topn_step._act_small`, …)."""
+    if not square_into(A, B, out):
+        _loops_into(A, B, out)
 
 
 @njit(cache=True, **NO_REFCOUNT)

@@ -53,13 +53,13 @@ def _embedded(A0, R0, orient, M, K, w, h, cayley, W, E, out_A, out_R):
     """``ρ(φ(h Σ_j w_j k_j), (Ã₀, R̃₀))`` into out_A, out_R, φ = exp or cay (``cayley``);
     ``W``, ``E``: scratch."""
     u, Q, C, tmp, acc = W[0], W[1], W[2], W[3], W[4]
-    if not _combine(u, K, w, w.shape[0], h):
+    if not _combine(u, K, w.reshape((1, w.shape[0])), 0, w.shape[0], h):
         u[:, :] = 0.0
     if cayley:
         cayley_into(u, Q, E[0])
     else:
         _exp_into(u, Q, E)
-    _act_into(Q, A0, M, out_A, acc, C, tmp)
+    _act_into(Q, Q.T, A0, M, out_A, acc, C, tmp)
     if orient:
         mm_small_into(R0, Q, out_R)
 

@@ -14,24 +14,27 @@ The equations, the frame and the choices behind them are :mod:`lieint.fast.topn`
 
 from __future__ import annotations
 
+import types
+
 import numpy as np
 from numba import njit
 
 from ._jit import NO_REFCOUNT
 from .cayley import cayley_into, dcayinv_into
-from .skew import _bracket, _finite, expm_skew_small_into, mm_small_into, so_ad_radius_exceeds
+from .skew import _bracket, _finite, expm_skew_small_into, mm_small_into, mm_unrolled_into, so_ad_radius_exceeds
 
 
 # inlined into its callers, not called: a product here may fall back on BLAS (which copies),
 # so it cannot drop reference counts, and a call would pay them (lieint.fast._jit)
 @njit(cache=True, inline="always")
-def _act_into(Q, A, M, A1, Om, C, tmp):
+def _act_into(Q, QT, A, M, A1, Om, C, tmp):
     """``(Ã', Ω̃') = (skew(QᵀAQ), Ã' ∘ M)`` into ``A1`` and ``Om``: the action on the momentum,
     made exactly skew as the generic action does (``skew_part``), and the inertia operator
-    ``Ω̃_ij = M_ij Ã'_ij`` (M symmetric, so Ω̃' is exactly skew too). ``C`` and ``tmp`` are
-    scratch; A1 may be A (A is read before A1 is written)."""
+    ``Ω̃_ij = M_ij Ã'_ij`` (M symmetric, so Ω̃' is exactly skew too). ``QT`` is the view
+    ``Q.T``, made once by the caller (each view counts a reference: an atomic operation); ``C``
+    and ``tmp`` are scratch; A1 may be A (A is read before A1 is written)."""
     mm_small_into(A, Q, tmp)
-    mm_small_into(Q.T, tmp, C)
+    mm_small_into(QT, tmp, C)
     n = C.shape[0]
     for a in range(n):
         for c in range(n):
@@ -81,15 +84,16 @@ def _accumulate(out, K, weights, upto, h):
 
 
 @njit(cache=True, **NO_REFCOUNT)
-def _combine(out, K, weights, upto, h):
-    """``out = Σ_{j < upto} (h w_j) K[j]`` over the nonzero weights, in the order of j (the
-    generic path's linear combinations; the first term written, not added to zero); returns
-    whether any weight was nonzero (out is left as it was if none)."""
+def _combine(out, K, weights, row, upto, h):
+    """``out = Σ_{j < upto} (h w_j) K[j]``, ``w_j = weights[row, j]``, over the nonzero weights,
+    in the order of j (the generic path's linear combinations; the first term written, not
+    added to zero); returns whether any weight was nonzero (out is left as it was if none). The
+    row by index, not as a view: a view counts a reference (an atomic operation) per stage."""
     n, r = out.shape[0], out.shape[1]
     first = True
     for j in range(upto):
-        if weights[j] != 0.0:
-            w = h * weights[j]
+        if weights[row, j] != 0.0:
+            w = h * weights[row, j]
             if first:
                 for a in range(n):
                     for c in range(r):
@@ -110,6 +114,30 @@ def _store(K, i, X):
             K[i, a, c] = X[a, c]
 
 
+def _without_blas(dispatchers) -> tuple:
+    """Compiled copies of ``dispatchers`` whose product is :func:`mm_unrolled_into` (no BLAS
+    fallback), compiled without reference counts (:mod:`lieint.fast._jit`), for n ≤ 8.
+
+    One source, two sets of machine code: with BLAS behind their products the originals may
+    allocate, so they count a reference on every array they are given — about 120 atomic
+    increments and as many decrements a 6D RKMK6 step, a third of its time on this machine
+    (``perf``: 31 % of the samples in ``NRT_incref``/``NRT_decref``). Each copy has its own
+    qualified name, so numba caches it beside the original."""
+    copies = []
+    for dispatcher in dispatchers:
+        f = dispatcher.py_func
+        scope = dict(f.__globals__)
+        scope["mm_small_into"] = mm_unrolled_into
+        clone = types.FunctionType(f.__code__, scope, f.__name__ + "_small", f.__defaults__, f.__closure__)
+        clone.__qualname__ = f.__qualname__ + "_small"
+        clone.__module__, clone.__doc__ = f.__module__, f.__doc__
+        copies.append(njit(cache=True, **NO_REFCOUNT)(clone))
+    return tuple(copies)
+
+
+_act_small, _bracket_small, _dcayinv_small = _without_blas([_act_into, _bracket_into, dcayinv_into])
+
+
 @njit(cache=True)
 def _lie_step(A, R, orient, M, tab, b, h, coeffs, cayley, K, W, E):
     """One RKMK step (right action) of ``(A, R)`` in place, in exponential coordinates (dexp⁻¹
@@ -122,29 +150,42 @@ def _lie_step(A, R, orient, M, tab, b, h, coeffs, cayley, K, W, E):
     s = b.shape[0]
     n = A.shape[0]
     degree = coeffs.shape[0] - 1
+    # the views once per step: each counts a reference on W or E (an atomic operation)
     u, Q, C, tmp, acc, term, other, minus_u = W[0], W[1], W[2], W[3], W[4], W[5], W[6], W[7]
+    QT, E0 = Q.T, E[0]
+    small = n <= 8  # no BLAS behind the products: the copies without reference counts
     for i in range(s):
-        if not _combine(u, K, tab[i], i, h):
+        if not _combine(u, K, tab, i, i, h):
             for a in range(n):  # u = 0: ξ = Ω̃(Ã)
                 for c in range(n):
                     K[i, a, c] = A[a, c] * M[a, c]
             continue
         if cayley:
-            cayley_into(u, Q, E[0])
-            _act_into(Q, A, M, other, acc, C, tmp)  # acc = Ω̃(QᵀÃQ) = ξ
-            dcayinv_into(u, acc, K[i], C, tmp)
+            cayley_into(u, Q, E0)
+            if small:
+                _act_small(Q, QT, A, M, other, acc, C, tmp)  # acc = Ω̃(QᵀÃQ) = ξ
+                _dcayinv_small(u, acc, K[i], C, tmp)
+            else:
+                _act_into(Q, QT, A, M, other, acc, C, tmp)
+                dcayinv_into(u, acc, K[i], C, tmp)
             continue
         if so_ad_radius_exceeds(u) == 1:
             return False
         _exp_into(u, Q, E)
-        _act_into(Q, A, M, other, acc, C, tmp)  # acc = Ω̃(QᵀÃQ) = ξ
+        if small:
+            _act_small(Q, QT, A, M, other, acc, C, tmp)  # acc = Ω̃(QᵀÃQ) = ξ
+        else:
+            _act_into(Q, QT, A, M, other, acc, C, tmp)
         # k = Σ_d (B_d/d!) ad_{−u}^d ξ, the terms by repeated brackets
         for a in range(n):
             for c in range(n):
                 term[a, c] = acc[a, c]
                 minus_u[a, c] = -u[a, c]
         for d in range(1, degree + 1):
-            _bracket_into(minus_u, term, other, tmp)
+            if small:
+                _bracket_small(minus_u, term, other, tmp)
+            else:
+                _bracket_into(minus_u, term, other, tmp)
             term, other = other, term
             if coeffs[d] != 0.0:
                 w = coeffs[d]
@@ -152,13 +193,16 @@ def _lie_step(A, R, orient, M, tab, b, h, coeffs, cayley, K, W, E):
                     for c in range(n):
                         acc[a, c] += w * term[a, c]
         _store(K, i, acc)
-    if not _combine(u, K, b, s, h):
+    if not _combine(u, K, b.reshape((1, s)), 0, s, h):
         u[:, :] = 0.0
     if cayley:
-        cayley_into(u, Q, E[0])
+        cayley_into(u, Q, E0)
     else:
         _exp_into(u, Q, E)
-    _act_into(Q, A, M, A, acc, C, tmp)
+    if small:
+        _act_small(Q, QT, A, M, A, acc, C, tmp)
+    else:
+        _act_into(Q, QT, A, M, A, acc, C, tmp)
     if orient:
         mm_small_into(R, Q, C)
         R[:, :] = C
