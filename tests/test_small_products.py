@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from lieint.fast import _generate_cayley, _generate_products
-from lieint.fast.skew import _loops_into
+from lieint.fast.products import _loops_into
 from lieint.fast.small_products import square_into
 
 

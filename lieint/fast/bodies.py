@@ -36,8 +36,8 @@ from .flat import (
     wedge,
 )
 from .generic import CompiledPieces
-from .skew import mm_loops as mm
-from .skew import mv
+from .products import mm_loops as mm
+from .products import mv
 
 __all__ = ["PIECES"]
 

@@ -14,7 +14,8 @@ import numpy as np
 from numba import njit
 
 from ._jit import NO_REFCOUNT
-from .skew import _finite, mm_small_into
+from .products import mm_small_into
+from .skew import _finite
 from .small_cayley import cayley_square_into
 
 __all__ = ["cayley_into", "dcayinv_into"]

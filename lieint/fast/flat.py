@@ -12,8 +12,9 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .skew import _project, mv
-from .skew import mm_loops as mm
+from .products import mm_loops as mm
+from .products import mv
+from .skew import _project
 
 __all__ = [
     "conj_into",

@@ -5,7 +5,7 @@ The kernels of the n-D top (:mod:`lieint.fast.topn`, :mod:`lieint.fast.topn_adap
 operator is an entrywise product. A run converts the user's state in once and every saved row
 out; for one body the numpy expressions (``P.T @ A @ P`` on a stack, a skew part, copies) cost
 about ten microseconds a conversion, more than the arithmetic, so the rows are converted here,
-two products a matrix (:func:`lieint.fast.skew.mm_small_into`), the momentum made exactly skew as
+two products a matrix (:func:`lieint.fast.products.mm_small_into`), the momentum made exactly skew as
 the generic action makes it (``skew_part``).
 """
 
@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .skew import mm_small_into
+from .products import mm_small_into
 
 __all__ = ["to_principal", "to_user"]
 

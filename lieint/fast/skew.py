@@ -10,25 +10,18 @@
 from __future__ import annotations
 
 import math
-import types
 
 import numpy as np
 from numba import njit
 
-from ._jit import NO_REFCOUNT
-from .small_products import square_into
+from ._jit import NO_REFCOUNT, compiled_copies
+from .products import mm, mm_into, mm_small_into
 
 __all__ = [
     "expm_se",
     "expm_skew",
     "expm_skew_into",
     "expm_skew_small_into",
-    "mm",
-    "mm_into",
-    "mm_loops",
-    "mm_small_into",
-    "mm_unrolled_into",
-    "mv",
     "so_ad_radius_exceeds",
 ]
 
@@ -45,93 +38,6 @@ _THETAS = np.array([(math.factorial(p * q + 1) * 2.0**-53) ** (1.0 / (p * q + 1)
 #: the same for the translation of an se(n) element ``(W, v)``: its Taylor error is
 #: ``|Σ_{k>m} W^{k−1}v/k!| ≤ |v| θ^m/(m+1)!``, below ``2⁻⁵³|v|`` for θ ≤ θ'_m
 _THETAS_SE = np.array([(math.factorial(p * q + 1) * 2.0**-53) ** (1.0 / (p * q)) for p, q in _SHAPES])
-
-
-#: up to this size, matrix products run as loops: a BLAS call costs more than the arithmetic
-_SMALL = 8
-
-
-@njit(cache=True)
-def mm(A, B):
-    """``A B``: loops for matrices up to :data:`_SMALL`, BLAS above."""
-    n, k = A.shape
-    m = B.shape[1]
-    if n > _SMALL or k > _SMALL or m > _SMALL:
-        return np.ascontiguousarray(A) @ np.ascontiguousarray(B)
-    return mm_loops(A, B)
-
-
-@njit(cache=True)
-def mm_loops(A, B):
-    """``A B`` by loops only (no BLAS: the small matrices of the generic kernel's pieces, and
-    much less to compile)."""
-    out = np.empty((A.shape[0], B.shape[1]))
-    _loops_into(A, B, out)
-    return out
-
-
-@njit(cache=True)
-def mm_into(A, B, out):
-    """``out = A B``: loops up to :data:`_SMALL`, BLAS above (out must not share memory with
-    A or B; ``A`` may be a transposed view, ``mm_into(Q.T, X, out)`` for ``QᵀX``)."""
-    n, k = A.shape
-    m = B.shape[1]
-    if n > _SMALL or k > _SMALL or m > _SMALL:
-        out[:, :] = np.ascontiguousarray(A) @ np.ascontiguousarray(B)
-    else:
-        _loops_into(A, B, out)
-
-
-# inlined into its callers, not called: a product here may fall back on BLAS (which copies),
-# so it cannot drop reference counts, and a call would pay them (lieint.fast._jit)
-@njit(cache=True, inline="always")
-def mm_small_into(A, B, out):
-    """:func:`mm_into` with the unrolled n × n products of :mod:`lieint.fast.small_products`
-    for 3 ≤ n ≤ 8 (the same bits; 73 against 125 ns at n = 6), the product of the n-dimensional
-    top's kernels, whose step is matrix products, and of their exponential
-    (:data:`expm_skew_small_into`). Other shapes go to :func:`mm_into`."""
-    if not square_into(A, B, out):
-        mm_into(A, B, out)
-
-
-@njit(cache=True, **NO_REFCOUNT)
-def mm_unrolled_into(A, B, out):
-    """``out = A B`` without BLAS: the unrolled products for 3 ≤ n ≤ 8, loops otherwise — so it
-    allocates nothing and runs without reference counts (:mod:`lieint.fast._jit`); the
-    n-dimensional top's small-n stage functions (:func:`lieint.fast.topn_step._act_small`, …)."""
-    if not square_into(A, B, out):
-        _loops_into(A, B, out)
-
-
-@njit(cache=True, **NO_REFCOUNT)
-def _loops_into(A, B, out):
-    """``out = A B`` by loops, each entry a dot product summed over j in order from 0.
-
-    The sum sits in a register: accumulated in ``out`` (row by row, ``out[i, :] += a B[j, :]``),
-    every term was a load and a store, since out might share memory with B for the compiler.
-    The same additions in the same order, so the same bits; 1.5× faster at n = 6, 1.3× at n = 8,
-    1.15× at n = 4."""
-    n, k = A.shape
-    m = B.shape[1]
-    for i in range(n):
-        for c in range(m):
-            acc = 0.0
-            for j in range(k):
-                acc += A[i, j] * B[j, c]
-            out[i, c] = acc
-
-
-@njit(cache=True)
-def mv(A, x):
-    """``A x`` by loops."""
-    n, k = A.shape
-    out = np.zeros(n)
-    for i in range(n):
-        acc = 0.0
-        for j in range(k):
-            acc += A[i, j] * x[j]
-        out[i] = acc
-    return out
 
 
 @njit(cache=True)
@@ -493,28 +399,9 @@ def _gram_defect(R):
     return E, worst
 
 
-def _with_product(dispatchers, product, suffix: str) -> dict:
-    """Compiled copies of ``dispatchers`` whose matrix product ``mm_into`` is ``product`` (and
-    whose calls among themselves go to the copies), keyed by name.
-
-    One source for the Taylor exponential, two sets of machine code: the n-dimensional top's
-    kernels take the unrolled products, every other kernel keeps the loops (which do not
-    dominate those kernels' steps, and compile faster). Each copy has its own qualified name,
-    so numba caches it beside the original."""
-    scope = dict(globals())
-    scope["mm_into"] = product
-    copies = {}
-    for dispatcher in dispatchers:
-        f = dispatcher.py_func
-        clone = types.FunctionType(f.__code__, scope, f.__name__ + suffix, f.__defaults__, f.__closure__)
-        clone.__qualname__ = f.__qualname__ + suffix
-        clone.__module__, clone.__doc__ = f.__module__, f.__doc__
-        copies[f.__name__] = njit(cache=True)(clone)
-    scope.update(copies)
-    return copies
-
-
-#: :func:`expm_skew_into` with the unrolled products (:func:`mm_small_into`)
-expm_skew_small_into = _with_product([expm_skew_into, _scaled_taylor_into], mm_small_into, "_unrolled")[
+#: :func:`expm_skew_into` with the unrolled products (:func:`mm_small_into`): the n-dimensional
+#: top's kernels take them, every other kernel keeps the loops (which do not dominate those
+#: kernels' steps, and compile faster)
+expm_skew_small_into = compiled_copies([expm_skew_into, _scaled_taylor_into], {"mm_into": mm_small_into}, "_unrolled")[
     "expm_skew_into"
 ]

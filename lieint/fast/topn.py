@@ -25,7 +25,7 @@ kernel, is :mod:`lieint.fast.topn_step`:
   numba's ``np.linalg.solve`` alone would add about 5 s to the one-time compilation;
 * the stage slopes and the scratch of the exponential, the action and the brackets are held
   per body for the whole run, and the products are written into them, unrolled up to n = 8
-  (:func:`lieint.fast.skew.mm_small_into`; BLAS above, where the arithmetic outweighs a call);
+  (:func:`lieint.fast.products.mm_small_into`; BLAS above, where the arithmetic outweighs a call);
 * brackets of skew matrices cost one product, ``[X, Y] = XY − (XY)ᵀ``;
 * the dexp⁻¹ series converges only while the spectral radius of ``ad_u`` on so(n),
   ``θ₁ + θ₂`` (the two largest rotation angles of u), is below 2π; the Frobenius norm settles

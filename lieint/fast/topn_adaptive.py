@@ -40,7 +40,8 @@ from numba import njit
 from ._jit import NO_REFCOUNT
 from .cayley import cayley_into
 from .controller import advanced_time, error_norm, step_factor
-from .skew import _project, mm_small_into
+from .products import mm_small_into
+from .skew import _project
 from .topn_step import _act_into, _combine, _exp_into, _lie_step
 
 __all__ = ["adaptive_topn"]

@@ -14,14 +14,13 @@ The equations, the frame and the choices behind them are :mod:`lieint.fast.topn`
 
 from __future__ import annotations
 
-import types
-
 import numpy as np
 from numba import njit
 
-from ._jit import NO_REFCOUNT
+from ._jit import NO_REFCOUNT, compiled_copies
 from .cayley import cayley_into, dcayinv_into
-from .skew import _bracket, _finite, expm_skew_small_into, mm_small_into, mm_unrolled_into, so_ad_radius_exceeds
+from .products import mm_small_into, mm_unrolled_into
+from .skew import _bracket, _finite, expm_skew_small_into, so_ad_radius_exceeds
 
 
 # inlined into its callers, not called: a product here may fall back on BLAS (which copies),
@@ -114,28 +113,15 @@ def _store(K, i, X):
             K[i, a, c] = X[a, c]
 
 
-def _without_blas(dispatchers) -> tuple:
-    """Compiled copies of ``dispatchers`` whose product is :func:`mm_unrolled_into` (no BLAS
-    fallback), compiled without reference counts (:mod:`lieint.fast._jit`), for n ≤ 8.
-
-    One source, two sets of machine code: with BLAS behind their products the originals may
-    allocate, so they count a reference on every array they are given — about 120 atomic
-    increments and as many decrements a 6D RKMK6 step, a third of its time on this machine
-    (``perf``: 31 % of the samples in ``NRT_incref``/``NRT_decref``). Each copy has its own
-    qualified name, so numba caches it beside the original."""
-    copies = []
-    for dispatcher in dispatchers:
-        f = dispatcher.py_func
-        scope = dict(f.__globals__)
-        scope["mm_small_into"] = mm_unrolled_into
-        clone = types.FunctionType(f.__code__, scope, f.__name__ + "_small", f.__defaults__, f.__closure__)
-        clone.__qualname__ = f.__qualname__ + "_small"
-        clone.__module__, clone.__doc__ = f.__module__, f.__doc__
-        copies.append(njit(cache=True, **NO_REFCOUNT)(clone))
-    return tuple(copies)
-
-
-_act_small, _bracket_small, _dcayinv_small = _without_blas([_act_into, _bracket_into, dcayinv_into])
+# For n ≤ 8, copies of the stage functions whose product never reaches BLAS, compiled without
+# reference counts (lieint.fast._jit): with BLAS behind their products the originals may
+# allocate, so they count a reference on every array they are given — about 120 atomic
+# increments and as many decrements a 6D RKMK6 step, a third of its time on a virtual machine
+# (perf: 31 % of the samples in NRT_incref/NRT_decref).
+_SMALL = compiled_copies(
+    [_act_into, _bracket_into, dcayinv_into], {"mm_small_into": mm_unrolled_into}, "_small", **NO_REFCOUNT
+)
+_act_small, _bracket_small, _dcayinv_small = _SMALL["_act_into"], _SMALL["_bracket_into"], _SMALL["dcayinv_into"]
 
 
 @njit(cache=True)
