@@ -199,16 +199,29 @@ _RUN_SIGNATURE = types.void(
     types.float64[:, :, ::1],  # out (saves, N, d)
     _mat,  # fin (N, d)
     types.int64[::1],  # status (N,)
+    _vec,  # norm2 (N,)
 )
+
+
+@njit(cache=True)
+def _norm2(W):
+    """``‖W‖_F²``: ``‖W‖_F ≥ θ₁ + θ₂``, the ad spectral radius of W on so(n), and on se(n) × Rᵐ
+    (whose translations and vector factor add no larger eigenvalue), the step check's bound."""
+    total = 0.0
+    for i in range(W.shape[0]):
+        for j in range(W.shape[1]):
+            total += W[i, j] * W[i, j]
+    return total
 
 
 @njit(_RUN_SIGNATURE, cache=True, nogil=True)
 def _run_bodies(
     gen, act, field, proj, lo, hi, Y0, par, n, nv, m, tab, b, coeffs, lie, cayley, h, h_last, k_from, k_to,
-    nsteps, save_steps, project, out, fin, status,
+    nsteps, save_steps, project, out, fin, status, norm2,
 ):  # fmt: skip
-    """Steps ``k_from < k ≤ k_to`` of the bodies ``lo ≤ m < hi`` (see :func:`integrate_lie`).
-    Releases the GIL, so that threads can run disjoint ranges of bodies."""
+    """Steps ``k_from < k ≤ k_to`` of the bodies ``lo ≤ m < hi`` (see :func:`integrate_lie`);
+    ``norm2[m]`` the largest ``‖W‖_F²`` of ``ξ = (W, v, a)`` over body m's starting state and
+    saved rows. Releases the GIL, so that threads can run disjoint ranges of bodies."""
     s = b.shape[0]
     d = Y0.shape[1]
     KW = np.zeros((s, n, n))
@@ -221,12 +234,24 @@ def _run_bodies(
         y = Y0[body].copy()
         slot = 0
         status[body] = -1
+        norm2[body] = 0.0
+        # ξ(y) of the state that starts a Lie step is its first stage (u = 0): a saved row's ξ is
+        # read there when another step follows, evaluated once otherwise
+        pending = True
+        if not lie:
+            gen(y, par, KW[0], Kv[0], Ka[0])
+            norm2[body] = _norm2(KW[0])
+            pending = False
         for k in range(k_from, k_to):
             hk = h if k < nsteps - 1 else h_last
             if lie:
                 if not lie_step(gen, act, y, par, nv, tab, b, hk, coeffs, KW, Kv, Ka, y_stage, y1, cayley):
                     status[body] = k
+                    pending = False
                     break
+                if pending:
+                    norm2[body] = max(norm2[body], _norm2(KW[0]))
+                    pending = False
             else:
                 _classical_step(field, y, par, tab, b, hk, K, y_stage, y1)
             if project:
@@ -236,6 +261,14 @@ def _run_bodies(
             if slot < save_steps.shape[0] and save_steps[slot] == k + 1:
                 out[slot, body] = y
                 slot += 1
+                pending = True
+                if not lie:
+                    gen(y, par, KW[0], Kv[0], Ka[0])
+                    norm2[body] = max(norm2[body], _norm2(KW[0]))
+                    pending = False
+        if pending:
+            gen(y, par, KW[0], Kv[0], Ka[0])
+            norm2[body] = max(norm2[body], _norm2(KW[0]))
         fin[body] = y
 
 
@@ -260,6 +293,7 @@ def integrate_lie(
     threads: int = 1,
     cayley: bool = False,
     start_row: bool = False,
+    norm2=None,
 ):
     """Run the compiled loop over steps ``k_from < k ≤ k_to`` of N bodies.
 
@@ -279,6 +313,9 @@ def integrate_lie(
         RKMK in Cayley coordinates (exact dcay⁻¹; ``coeffs`` unused).
     start_row : bool
         Save the starting states as a first row (``saves + 1`` rows).
+    norm2 : ndarray, shape (N,), optional
+        Filled with each body's largest ``‖W‖_F²`` of ``ξ = (W, v, a)`` over its starting state
+        and its saved rows (``‖W‖_F`` bounds the ad spectral radius: the step check's bound).
 
     Returns
     -------
@@ -296,6 +333,7 @@ def integrate_lie(
         out[0] = Y0
     fin = np.empty((N, d))
     status = np.empty(N, dtype=np.int64)
+    norm2 = np.empty(N) if norm2 is None else norm2
     args = (
         Y0,
         np.require(params, float, ["C", "W"]),
@@ -318,6 +356,7 @@ def integrate_lie(
         out[s:],  # a C-contiguous view
         fin,
         status,
+        norm2,
     )
     fns = pieces.functions
     threads = min(int(threads), N)
@@ -366,6 +405,8 @@ class LieKernel:
         self.coeffs = np.array(_dexpinv_coefficients(degree))  # writable, as the compiled signature has it
         self.batch = batch
         self.parallel, self.threads = use_threads(math.prod(batch))
+        # the largest ‖W‖_F over the states of this run (from start, kept by advance); none yet
+        self._radius_bound = math.inf
 
     def describe(self) -> str:
         """Which kernel runs."""
@@ -375,10 +416,12 @@ class LieKernel:
 
     def start(self, y: dict) -> dict:
         N = math.prod(self.batch)
+        self._radius_bound = 0.0
         return {"Y": np.concatenate([np.asarray(y[name], dtype=float).reshape(N, -1) for name in self.fields], axis=1)}
 
     def advance(self, internal: dict, k_from: int, k_to: int, plan, save_steps, project: bool, with_start=False):
         tab = self.method
+        norm2 = np.empty(internal["Y"].shape[0])
         out, fin, bad = integrate_lie(
             self.pieces,
             internal["Y"],
@@ -400,10 +443,26 @@ class LieKernel:
             self.threads,
             self.cayley,
             with_start,
+            norm2,
         )
+        # the step check's bound over every state this run has saved (or started a segment from);
+        # a non-finite state makes it infinite (the check then looks at the rows themselves)
+        largest = float(np.sqrt(np.maximum.reduce(norm2, initial=0.0)))
+        self._radius_bound = max(self._radius_bound, largest) if math.isfinite(largest) else math.inf
         if bad >= 0:
             raise range_error(bad, plan, self.group)
         return {"Y": fin}, self._user(out)
+
+    def generator_radius(self, states: dict, limit: float = 0.0) -> float | None:
+        """An upper bound of the largest ad spectral radius of ξ(y) over the rows ``states``
+        when it is below ``limit`` (π/h: all the step check asks), else None (the generic check
+        then evaluates ξ at the rows).
+
+        The bound is ``max ‖W‖_F`` over every state this run saved or started a segment from,
+        kept by the compiled loop (:func:`integrate_lie`'s ``norm2``): ``‖W‖_F² = 2 Σ θ_k² ≥
+        (θ₁ + θ₂)²``, and neither the translation of se(n) nor the vector factor adds a larger
+        eigenvalue of ad."""
+        return self._radius_bound if self._radius_bound < limit else None
 
     def _user(self, Y) -> dict:
         lead = Y.shape[:-2]

@@ -166,6 +166,10 @@ class LieAdaptiveKernel(LieKernel):
         kind = "adaptive RKMK (Cayley)" if self.cayley else "adaptive RKMK"
         return f"compiled Lie-group kernel on {self.group}, {kind} (whole controller loop), per body, serial"
 
+    def generator_radius(self, states: dict, limit: float = 0.0) -> None:
+        """None: this loop keeps no bound of ξ (the fixed-step check does not apply to it)."""
+        return None
+
     def advance_adaptive(self, internal: dict, t, t1, h, k, max_accept, save_every, project, controller, h_min):
         """Accepted steps from ``(t, h)`` at step ``k`` until ``t1``, ``max_accept`` accepted
         steps or :data:`lieint.fast.pairs.ROWS_PER_CALL` saved rows (see
