@@ -27,7 +27,7 @@ import numpy as np
 from numba import njit, types
 
 from .controller import advanced_time, error_norm, step_factor
-from .generic import ACTION, FIELD, GENERATOR, LieKernel, lie_step, move
+from .generic import BUNDLE, LieKernel, lie_step, move
 from .pairs import CompiledPair, row_capacity
 
 __all__ = ["LieAdaptiveKernel", "adaptive_lie"]
@@ -47,9 +47,7 @@ def _scaled(y0, y1, yh, rtol, atol):
 
 
 _SIGNATURE = types.Tuple((types.int64, types.float64, types.float64) + (types.int64,) * 5)(
-    types.FunctionType(GENERATOR),
-    types.FunctionType(ACTION),
-    types.FunctionType(FIELD),
+    BUNDLE,
     _mat,  # Y (N, d), moved in place
     _vec,  # params
     types.int64,  # nv
@@ -82,16 +80,20 @@ _SIGNATURE = types.Tuple((types.int64, types.float64, types.float64) + (types.in
 
 @njit(_SIGNATURE, cache=True)
 def adaptive_lie(
-    gen, act, proj, Y, par, nv, m, A, b, b_hat, b_low, has_low, coeffs, rtol, atol, q, safety, fmin, fmax, h_min,
+    pieces, Y, par, nv, m, A, b, b_hat, b_low, has_low, coeffs, rtol, atol, q, safety, fmin, fmax, h_min,
     t, t1, h, k, max_accept, save_every, project, cayley, out_t, out_Y,
 ):  # fmt: skip
     """Adaptive RKMK steps from ``t`` in place on the flattened states ``Y`` (N, d).
 
     Arguments and results as :func:`lieint.fast.top3_adaptive.adaptive_top3`, with the
-    system's compiled generator, action and projection, its parameters ``par``, ``nv = n`` on
-    SE(n) (0 on SO(n)) and m the size of its vector factor. Returns
-    ``(status, t, h, k, accepted, rejected, nfev, rows)``.
+    system's compiled pieces (:data:`lieint.fast.generic.BUNDLE`: its generator, action and
+    projection), its parameters ``par``, ``nv = n`` on SE(n) (0 on SO(n)) and m the size of its
+    vector factor. Returns ``(status, t, h, k, accepted, rejected, nfev, rows)``.
     """
+    # one by one: a tuple of function values makes numba unify their types (and warn)
+    gen = pieces.generator
+    act = pieces.action
+    proj = pieces.projection
     N, d = Y.shape
     n = int(par[0])
     s = b.shape[0]
@@ -179,8 +181,7 @@ class LieAdaptiveKernel(LieKernel):
         cap = row_capacity(8 * d * N, max_accept, save_every)
         out_t, out_Y = np.empty(cap), np.empty((cap, N, d))
         status, t, h, k, accepted, rejected, nfev, rows = adaptive_lie(
-            *self.pieces.functions[:2],
-            self.pieces.functions[3],
+            self.pieces.bundle,
             Y,
             self.params,
             self.n if self.translation else 0,
