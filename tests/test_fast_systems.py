@@ -186,61 +186,109 @@ def test_a_subclass_with_other_dynamics_runs_on_the_generic_path():
     assert run.stats.backend == "numpy"
 
 
-def test_a_system_outside_the_package_opts_in_with_its_own_pieces():
-    """The generic loop steps any system that declares compiled pieces: here a spinning body
-    whose angular velocity is fixed, ``Ṙ = RΩ₀`` on SO(3), against ``R(t) = R₀ exp(tΩ₀)``."""
+def _spinner_pieces(work_size=9):
+    """Compiled pieces of a body spinning at a fixed Ω₀, ``Ṙ = RΩ₀`` on SO(3) (params: 3, Ω₀);
+    the action takes its product in the scratch vector ``work``."""
     from numba import njit
-    from scipy.linalg import expm
 
     @njit(GENERATOR)
-    def generator(y, par, W, v, a):
+    def generator(y, par, W, v, a, work):
         for i in range(3):
             for j in range(3):
                 W[i, j] = par[1 + 3 * i + j]
 
     @njit(ACTION)
-    def action(Q, t, a, y, par, out):
-        out[:] = (y.reshape(3, 3) @ Q).reshape(9)
+    def action(Q, t, a, y, par, out, work):
+        for i in range(3):
+            for j in range(3):
+                work[3 * i + j] = y[3 * i] * Q[0, j] + y[3 * i + 1] * Q[1, j] + y[3 * i + 2] * Q[2, j]
+        out[:9] = work[:9]
 
     @njit(FIELD)
-    def field(y, par, out):
+    def field(y, par, out, work):
         out[:] = (y.reshape(3, 3) @ par[1:].reshape(3, 3)).reshape(9)
 
     @njit(FIELD)
-    def projection(y, par, out):
+    def projection(y, par, out, work):
         out[:] = y
 
-    Om = np.array([[0.0, -0.3, 0.2], [0.3, 0.0, -1.0], [-0.2, 1.0, 0.0]])
+    return CompiledPieces(generator, action, field, projection, work=work_size)
 
-    class Spinner(lieint.LieGroupSystem):
-        def __init__(self):
-            self.group = lieint.groups.SO(3)
-            self.fields = {"R": (3, 3)}
 
-        def generator(self, t, y):
-            return np.broadcast_to(Om, y["R"].shape)
+_OMEGA0 = np.array([[0.0, -0.3, 0.2], [0.3, 0.0, -1.0], [-0.2, 1.0, 0.0]])
 
-        def act(self, g, y):
-            return {"R": y["R"] @ g}
 
-        def infinitesimal_action(self, xi, y):
-            return {"R": y["R"] @ xi}
+class _Spinner(lieint.LieGroupSystem):
+    """A system from outside the package that declares compiled pieces."""
 
-        def compiled(self):
-            pieces = CompiledPieces(generator, action, field, projection)
-            return {
-                "kind": "lie",
-                "pieces": pieces,
-                "params": np.concatenate([[3.0], Om.ravel()]),
-                "n": 3,
-                "translation": False,
-                "abelian": 0,
-                "fields": self.fields,
-            }
+    def __init__(self, pieces):
+        self.group = lieint.groups.SO(3)
+        self.fields = {"R": (3, 3)}
+        self.pieces = pieces
 
-    run = lieint.integrate(Spinner(), {"R": np.eye(3)}, (0.0, 2.0), h=0.1, method="rkmk4", backend="numba")
+    def generator(self, t, y):
+        return np.broadcast_to(_OMEGA0, y["R"].shape)
+
+    def act(self, g, y):
+        return {"R": y["R"] @ g}
+
+    def infinitesimal_action(self, xi, y):
+        return {"R": y["R"] @ xi}
+
+    def compiled(self):
+        return {
+            "kind": "lie",
+            "pieces": self.pieces,
+            "params": np.concatenate([[3.0], _OMEGA0.ravel()]),
+            "n": 3,
+            "translation": False,
+            "abelian": 0,
+            "fields": self.fields,
+        }
+
+
+def test_a_system_outside_the_package_opts_in_with_its_own_pieces():
+    """The generic loop steps any system that declares compiled pieces: here a spinning body
+    whose angular velocity is fixed, ``Ṙ = RΩ₀`` on SO(3), against ``R(t) = R₀ exp(tΩ₀)``, with
+    every kind of method (fixed and adaptive, exp and Cayley, classical)."""
+    from scipy.linalg import expm
+
+    system = _Spinner(_spinner_pieces())
+    # RKMK in exponential coordinates is exact for a constant generator (u = tΩ₀ solves
+    # u' = dexp⁻¹_u(Ω₀) = Ω₀)
+    run = lieint.integrate(system, {"R": np.eye(3)}, (0.0, 2.0), h=0.1, method="rkmk4", backend="numba")
     assert run.stats.backend == "numba"
-    np.testing.assert_allclose(run.states["R"][-1], expm(2.0 * Om), atol=1e-13)
+    np.testing.assert_allclose(run.states["R"][-1], expm(2.0 * _OMEGA0), atol=1e-13)
+    # the other kinds of method (Cayley coordinates, an embedded pair, classical RK on Ṙ = RΩ₀)
+    # are not exact here: they take the generic path's steps
+    for kw in (
+        dict(h=0.1, method="rkmk4", coordinates="cayley"),
+        dict(rtol=1e-8, atol=1e-10, method="rkmk853"),
+        dict(h=0.1, method="rk4"),
+    ):
+        run = lieint.integrate(system, {"R": np.eye(3)}, (0.0, 2.0), backend="numba", **kw)
+        ref = lieint.integrate(system, {"R": np.eye(3)}, (0.0, 2.0), backend="numpy", **kw)
+        assert run.stats.backend == "numba" and ref.stats.backend == "numpy", kw
+        np.testing.assert_allclose(run.states["R"], ref.states["R"], rtol=0, atol=1e-13)
+
+
+def test_pieces_with_the_wrong_arguments_or_scratch_are_refused_clearly():
+    """Pieces written for other arguments (without the scratch vector ``work``, say) are refused
+    with the signature they must take, not a numba traceback from inside the loop; a scratch
+    length that is not a non-negative integer is refused too."""
+    from numba import njit
+
+    @njit
+    def old_generator(y, par, W, v, a):  # the signature before the scratch vector
+        W[0, 1] = 1.0
+
+    good = _spinner_pieces()
+    pieces = CompiledPieces(old_generator, good.action, good.vector_field, good.projection)
+    with pytest.raises(TypeError, match=r"must take the arguments .*scratch vector `work`"):
+        lieint.integrate(_Spinner(pieces), {"R": np.eye(3)}, (0.0, 1.0), h=0.1, backend="numba")
+    for bad in (-1, 2.5, lambda n: -n):
+        with pytest.raises(ValueError, match=r"`work` of compiled pieces must give a length >= 0"):
+            lieint.integrate(_Spinner(_spinner_pieces(bad)), {"R": np.eye(3)}, (0.0, 1.0), h=0.1, backend="numba")
 
 
 @pytest.mark.parametrize("n,name", CASES)

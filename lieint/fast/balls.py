@@ -9,19 +9,24 @@ The equations are the generic path's, in the lecture's notation (MATH.md §4–�
   of ``B_K(Γ)``).
 
 Parameters and state layouts are described above each system's pieces; the registry of every
-built-in system's pieces is :data:`lieint.fast.bodies.PIECES`. The Lyapunov equation
-``B X + X B = C`` is solved by the inertia tensor for n = 3 and in the eigenbasis of B otherwise
-(:func:`lieint.fast.flat.lyapunov`), and every Ω is made exactly skew.
+built-in system's pieces is :data:`lieint.fast.bodies.PIECES`. The generators and actions
+allocate nothing (their temporaries are in ``work``; compiled without reference counts): the
+Lyapunov equation ``B X + X B = C`` is solved on the n(n − 1)/2 unknowns of the skew X
+(:func:`lieint.fast.flat.lyapunov_pairs`). The vector fields and projections (classical RK,
+``project=True``) solve it by the inertia tensor for n = 3 and in the eigenbasis of B otherwise
+(:func:`lieint.fast.flat.lyapunov`). Every Ω is exactly skew.
 """
 
 from __future__ import annotations
 
 from numba import njit
 
+from ._jit import NO_REFCOUNT
 from .flat import (
-    conj_into,
+    conj_flat_into,
     copy_into,
     lyapunov,
+    lyapunov_pairs,
     mat,
     move_pose,
     normalized,
@@ -29,6 +34,8 @@ from .flat import (
     project_pose,
     put,
     rotate_back_into,
+    skew_from_pairs,
+    skew_matrix_from_pairs,
     skew_part,
     vec,
     wedge,
@@ -55,25 +62,42 @@ def _chaplygin_omega(y, par, n):
     return lyapunov(BK, -mat(y, 0, n)), G
 
 
-@njit(cache=True)
-def _chaplygin_generator(y, par, W, v, a):
+def _chaplygin_work(n: int) -> int:
+    """B_K, −A_K and the Lyapunov system."""
+    k = n * (n - 1) // 2
+    return 2 * n * n + k * (k + 1)
+
+
+@njit(cache=True, **NO_REFCOUNT)
+def _chaplygin_generator(y, par, W, v, a, work):
+    """``Ω`` from ``B_K Ω + Ω B_K = −A_K`` with ``B_K = B_C + M r² ΓΓᵀ``, and ``v = r ΩΓ``."""
     n = W.shape[0]
-    Om, G = _chaplygin_omega(y, par, n)
-    W[:, :] = Om
-    if v.size:
-        v[:] = par[4] * mv(Om, G)
+    nn = n * n
+    BK, C, L = work[:nn], work[nn : 2 * nn], work[2 * nn :]
+    for i in range(n):
+        for j in range(n):
+            BK[i * n + j] = par[5 + i * n + j] + par[3] * y[nn + i] * y[nn + j]
+            C[i * n + j] = -y[i * n + j]
+    lyapunov_pairs(BK, C, n, L)
+    skew_matrix_from_pairs(L, n, W)
+    if v.shape[0] > 0:
+        for i in range(n):
+            acc = 0.0
+            for k in range(n):
+                acc += W[i, k] * y[nn + k]
+            v[i] = par[4] * acc
 
 
-@njit(cache=True)
-def _chaplygin_action(Q, t, a, y, par, out):
+@njit(cache=True, **NO_REFCOUNT)
+def _chaplygin_action(Q, t, a, y, par, out, work):
     n = Q.shape[0]
-    conj_into(Q, mat(y, 0, n), out, 0)
+    conj_flat_into(Q, y, 0, out, 0, work)
     rotate_back_into(Q, y, n * n, out, n * n)
     move_pose(Q, t, y, out, int(par[1]), int(par[2]), n)
 
 
 @njit(cache=True)
-def _chaplygin_field(y, par, out):
+def _chaplygin_field(y, par, out, work):
     n = int(par[0])
     Om, G = _chaplygin_omega(y, par, n)
     A = mat(y, 0, n)
@@ -83,7 +107,7 @@ def _chaplygin_field(y, par, out):
 
 
 @njit(cache=True)
-def _chaplygin_projection(y, par, out):
+def _chaplygin_projection(y, par, out, work):
     n = int(par[0])
     copy_into(y, out)
     put(out, 0, skew_part(mat(y, 0, n)))
@@ -118,18 +142,69 @@ def _ball_acceleration(y, par, n):
     return lyapunov(BK, C)
 
 
-@njit(cache=True)
-def _ball_generator(y, par, W, v, a):
+def _ball_work(n: int) -> int:
+    """B_K, Ω², the right-hand side, κ, the force and the Lyapunov system."""
+    k = n * (n - 1) // 2
+    return 3 * n * n + 2 * n + k * (k + 1)
+
+
+@njit(cache=True, **NO_REFCOUNT)
+def _ball_acceleration_into(y, par, n, out, work):
+    """:func:`_ball_acceleration` into ``out`` (flat, n²), its temporaries in ``work``."""
+    nn = n * n
+    M, r = par[4], par[5]
+    BK, Om2, C = work[:nn], work[nn : 2 * nn], work[2 * nn : 3 * nn]
+    k, force, L = work[3 * nn : 3 * nn + n], work[3 * nn + n : 3 * nn + 2 * n], work[3 * nn + 2 * n :]
+    xg = 9 + nn  # X_G in par
+    for i in range(n):
+        k[i] = r * y[nn + i]
+    for i in range(n):
+        for j in range(n):
+            BK[i * n + j] = par[9 + i * n + j] + M * (k[i] * k[j] + par[xg + i] * k[j] + k[i] * par[xg + j])
+            acc = 0.0
+            for m in range(n):
+                acc += y[i * n + m] * y[m * n + j]
+            Om2[i * n + j] = acc
+    mode = par[6]
+    oG = int(par[3])
+    for i in range(n):
+        acc = 0.0
+        for m in range(n):
+            acc += Om2[i * n + m] * k[m]
+        if mode == 1.0:
+            acc += par[7] * y[nn + i]
+        elif mode == 2.0:
+            acc += y[oG + i]
+        force[i] = acc
+    for i in range(n):  # [B_K, Ω²] − M (κ + X_G) ∧ force
+        for j in range(n):
+            acc = 0.0
+            for m in range(n):
+                acc += BK[i * n + m] * Om2[m * n + j] - Om2[i * n + m] * BK[m * n + j]
+            ui, uj = k[i] + par[xg + i], k[j] + par[xg + j]
+            C[i * n + j] = acc - M * (ui * force[j] - force[i] * uj)
+    lyapunov_pairs(BK, C, n, L)
+    skew_from_pairs(L, n, out, 0)
+
+
+@njit(cache=True, **NO_REFCOUNT)
+def _ball_generator(y, par, W, v, a, work):
     n = W.shape[0]
-    Om = mat(y, 0, n)
-    W[:, :] = Om
-    if v.size:
-        v[:] = par[5] * mv(Om, vec(y, n * n, n))
-    put(a, 0, _ball_acceleration(y, par, n))
+    nn = n * n
+    for i in range(n):
+        for j in range(n):
+            W[i, j] = y[i * n + j]
+    if v.shape[0] > 0:
+        for i in range(n):
+            acc = 0.0
+            for k in range(n):
+                acc += y[i * n + k] * y[nn + k]
+            v[i] = par[5] * acc
+    _ball_acceleration_into(y, par, n, a, work)
 
 
-@njit(cache=True)
-def _ball_action(Q, t, a, y, par, out):
+@njit(cache=True, **NO_REFCOUNT)
+def _ball_action(Q, t, a, y, par, out, work):
     n = Q.shape[0]
     for i in range(n * n):
         out[i] = y[i] + a[i]
@@ -141,7 +216,7 @@ def _ball_action(Q, t, a, y, par, out):
 
 
 @njit(cache=True)
-def _ball_field(y, par, out):
+def _ball_field(y, par, out, work):
     n = int(par[0])
     Om = mat(y, 0, n)
     put(out, 0, _ball_acceleration(y, par, n))
@@ -154,7 +229,7 @@ def _ball_field(y, par, out):
 
 
 @njit(cache=True)
-def _ball_projection(y, par, out):
+def _ball_projection(y, par, out, work):
     n = int(par[0])
     copy_into(y, out)
     put(out, 0, skew_part(mat(y, 0, n)))
@@ -167,6 +242,8 @@ def _ball_projection(y, par, out):
 
 #: the balls' pieces, by the name their systems' ``compiled()`` declares
 BALL_PIECES = {
-    "chaplygin_ball": CompiledPieces(_chaplygin_generator, _chaplygin_action, _chaplygin_field, _chaplygin_projection),
-    "rolling_ball": CompiledPieces(_ball_generator, _ball_action, _ball_field, _ball_projection),
+    "chaplygin_ball": CompiledPieces(
+        _chaplygin_generator, _chaplygin_action, _chaplygin_field, _chaplygin_projection, _chaplygin_work
+    ),
+    "rolling_ball": CompiledPieces(_ball_generator, _ball_action, _ball_field, _ball_projection, _ball_work),
 }

@@ -21,9 +21,10 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from ._jit import NO_REFCOUNT
 from .balls import BALL_PIECES
 from .flat import (
-    conj_into,
+    conj_flat_into,
     copy_into,
     mat,
     normalized,
@@ -84,25 +85,54 @@ def _top_omega(A, par, n):
     return skew_part(X)
 
 
-@njit(cache=True)
-def _omega_into(y, par, W):
-    """``W = Ω(A)`` for the momentum A stored first in y."""
+@njit(cache=True, **NO_REFCOUNT)
+def _omega_into(y, par, W, work):
+    """``W = Ω(A)`` for the momentum A stored first in y, as :func:`_top_omega` (2n² of
+    ``work``)."""
     n = W.shape[0]
+    nn = n * n
+    m = 3 + nn  # M in par
     if par[2] != 0.0:  # diagonal B: Ω_ij = −A_ij/(b_i + b_j), made exactly skew
-        m = 3 + n * n
         for i in range(n):
             for j in range(n):
                 W[i, j] = 0.5 * (y[i * n + j] * par[m + i * n + j] - y[j * n + i] * par[m + j * n + i])
-    else:
-        W[:, :] = _top_omega(mat(y, 0, n), par, n)
+        return
+    T, U = work[:nn], work[nn : 2 * nn]
+    for i in range(n):  # T = A P
+        for j in range(n):
+            acc = 0.0
+            for k in range(n):
+                acc += y[i * n + k] * par[3 + k * n + j]
+            T[i * n + j] = acc
+    for i in range(n):  # U = (PᵀAP) ∘ M
+        for j in range(n):
+            acc = 0.0
+            for k in range(n):
+                acc += par[3 + k * n + i] * T[k * n + j]
+            U[i * n + j] = acc * par[m + i * n + j]
+    for i in range(n):  # T = U Pᵀ
+        for j in range(n):
+            acc = 0.0
+            for k in range(n):
+                acc += U[i * n + k] * par[3 + j * n + k]
+            T[i * n + j] = acc
+    for i in range(n):  # U = P T
+        for j in range(n):
+            acc = 0.0
+            for k in range(n):
+                acc += par[3 + i * n + k] * T[k * n + j]
+            U[i * n + j] = acc
+    for i in range(n):
+        for j in range(n):
+            W[i, j] = 0.5 * (U[i * n + j] - U[j * n + i])
 
 
-@njit(cache=True)
-def _conj_skew_into(Q, y, out):
+@njit(cache=True, **NO_REFCOUNT)
+def _conj_skew_into(Q, y, out, work):
     """``out[: n²] = skew(QᵀAQ)`` for the momentum A stored first in y (the Euler top's action,
-    made exactly skew as the generic one)."""
+    made exactly skew as the generic one); n² of ``work``."""
     n = Q.shape[0]
-    conj_into(Q, mat(y, 0, n), out, 0)
+    conj_flat_into(Q, y, 0, out, 0, work)
     for i in range(n):
         for j in range(i, n):
             d = 0.5 * (out[i * n + j] - out[j * n + i])
@@ -110,22 +140,27 @@ def _conj_skew_into(Q, y, out):
             out[j * n + i] = -d
 
 
+def _body_work(n: int) -> int:
+    """Two n × n temporaries."""
+    return 2 * n * n
+
+
 # Euler top (its adaptive pairs for n ≥ 4): fields A, [R]; no own params
-@njit(cache=True)
-def _top_generator(y, par, W, v, a):
-    _omega_into(y, par, W)
+@njit(cache=True, **NO_REFCOUNT)
+def _top_generator(y, par, W, v, a, work):
+    _omega_into(y, par, W, work)
 
 
-@njit(cache=True)
-def _top_action(Q, t, a, y, par, out):
-    _conj_skew_into(Q, y, out)
+@njit(cache=True, **NO_REFCOUNT)
+def _top_action(Q, t, a, y, par, out, work):
+    _conj_skew_into(Q, y, out, work)
     oR = int(par[1])
     if oR >= 0:
         times_into(y, oR, Q, out)
 
 
 @njit(cache=True)
-def _top_field(y, par, out):
+def _top_field(y, par, out, work):
     n = int(par[0])
     A = mat(y, 0, n)
     Om = _top_omega(A, par, n)
@@ -136,7 +171,7 @@ def _top_field(y, par, out):
 
 
 @njit(cache=True)
-def _top_projection(y, par, out):
+def _top_projection(y, par, out, work):
     n = int(par[0])
     copy_into(y, out)
     put(out, 0, skew_part(mat(y, 0, n)))
@@ -144,22 +179,23 @@ def _top_projection(y, par, out):
 
 
 # heavy top: fields A, Gamma, [R]; own params M X_G (n), |g|
-@njit(cache=True)
-def _heavy_generator(y, par, W, v, a):
+@njit(cache=True, **NO_REFCOUNT)
+def _heavy_generator(y, par, W, v, a, work):
     n = W.shape[0]
-    _omega_into(y, par, W)
-    v[:] = par[3 + 2 * n * n : 3 + 2 * n * n + n]
+    _omega_into(y, par, W, work)
+    for i in range(n):
+        v[i] = par[3 + 2 * n * n + i]
 
 
-@njit(cache=True)
-def _heavy_action(Q, t, a, y, par, out):
+@njit(cache=True, **NO_REFCOUNT)
+def _heavy_action(Q, t, a, y, par, out, work):
     n = Q.shape[0]
     nn = n * n
-    C = np.empty((n, n))  # A + t ∧ Γ
+    C = work[:nn]  # A + t ∧ Γ
     for i in range(n):
         for j in range(n):
-            C[i, j] = y[i * n + j] + t[i] * y[nn + j] - y[nn + i] * t[j]
-    conj_into(Q, C, out, 0)
+            C[i * n + j] = y[i * n + j] + t[i] * y[nn + j] - y[nn + i] * t[j]
+    conj_flat_into(Q, C, 0, out, 0, work[nn : 2 * nn])
     rotate_back_into(Q, y, nn, out, nn)
     oR = int(par[1])
     if oR >= 0:
@@ -167,7 +203,7 @@ def _heavy_action(Q, t, a, y, par, out):
 
 
 @njit(cache=True)
-def _heavy_field(y, par, out):
+def _heavy_field(y, par, out, work):
     n = int(par[0])
     A, G = mat(y, 0, n), vec(y, n * n, n)
     Om = _top_omega(A, par, n)
@@ -180,7 +216,7 @@ def _heavy_field(y, par, out):
 
 
 @njit(cache=True)
-def _heavy_projection(y, par, out):
+def _heavy_projection(y, par, out, work):
     n = int(par[0])
     put(out, 0, skew_part(mat(y, 0, n)))
     put(out, n * n, normalized(vec(y, n * n, n), par[3 + 2 * n * n + n]))
@@ -188,19 +224,20 @@ def _heavy_projection(y, par, out):
 
 
 # free body: fields A, [R], center, velocity; own params oC, g (n)
-@njit(cache=True)
-def _free_generator(y, par, W, v, a):
+@njit(cache=True, **NO_REFCOUNT)
+def _free_generator(y, par, W, v, a, work):
     n = W.shape[0]
-    _omega_into(y, par, W)
+    _omega_into(y, par, W, work)
     oC = int(par[3 + 2 * n * n])
-    a[:n] = y[oC + n : oC + 2 * n]
-    a[n:] = par[4 + 2 * n * n : 4 + 2 * n * n + n]
+    for i in range(n):
+        a[i] = y[oC + n + i]
+        a[n + i] = par[4 + 2 * n * n + i]
 
 
-@njit(cache=True)
-def _free_action(Q, t, a, y, par, out):
+@njit(cache=True, **NO_REFCOUNT)
+def _free_action(Q, t, a, y, par, out, work):
     n = Q.shape[0]
-    _conj_skew_into(Q, y, out)
+    _conj_skew_into(Q, y, out, work)
     oR, oC = int(par[1]), int(par[3 + 2 * n * n])
     if oR >= 0:
         times_into(y, oR, Q, out)
@@ -209,7 +246,7 @@ def _free_action(Q, t, a, y, par, out):
 
 
 @njit(cache=True)
-def _free_field(y, par, out):
+def _free_field(y, par, out, work):
     n = int(par[0])
     A = mat(y, 0, n)
     Om = _top_omega(A, par, n)
@@ -223,7 +260,7 @@ def _free_field(y, par, out):
 
 
 @njit(cache=True)
-def _free_projection(y, par, out):
+def _free_projection(y, par, out, work):
     n = int(par[0])
     copy_into(y, out)
     put(out, 0, skew_part(mat(y, 0, n)))
@@ -232,8 +269,8 @@ def _free_projection(y, par, out):
 
 #: the built-in systems' pieces, by the name their ``compiled()`` declares
 PIECES = {
-    "euler_top": CompiledPieces(_top_generator, _top_action, _top_field, _top_projection),
-    "heavy_top": CompiledPieces(_heavy_generator, _heavy_action, _heavy_field, _heavy_projection),
-    "free_body": CompiledPieces(_free_generator, _free_action, _free_field, _free_projection),
+    "euler_top": CompiledPieces(_top_generator, _top_action, _top_field, _top_projection, _body_work),
+    "heavy_top": CompiledPieces(_heavy_generator, _heavy_action, _heavy_field, _heavy_projection, _body_work),
+    "free_body": CompiledPieces(_free_generator, _free_action, _free_field, _free_projection, _body_work),
     **BALL_PIECES,
 }

@@ -4,11 +4,17 @@ A system moved by the right action of ``G = SO(n) × Rᵐ`` or ``G = SE(n) × R�
 top, the free body, the rolling and the Chaplygin ball, MATH.md §3–§5) supplies four compiled
 *pieces* (:class:`CompiledPieces`) working on its state flattened to one float vector y:
 
-* ``generator(y, params, W, v, a)`` writes ``ξ(y) = (W, v, a)``: W ∈ so(n), v ∈ Rⁿ the
+* ``generator(y, params, W, v, a, work)`` writes ``ξ(y) = (W, v, a)``: W ∈ so(n), v ∈ Rⁿ the
   translation of se(n) (length 0 on SO(n)), a ∈ Rᵐ (length 0 without a vector factor);
-* ``action(Q, t, a, y, params, out)`` writes ``ρ(g, y)`` for ``g = ((Q, t), a)``;
-* ``vector_field(y, params, out)`` writes ``ẏ`` (classical RK, on the flattened state);
-* ``projection(y, params, out)`` writes the projected state (``project=True``).
+* ``action(Q, t, a, y, params, out, work)`` writes ``ρ(g, y)`` for ``g = ((Q, t), a)``;
+* ``vector_field(y, params, out, work)`` writes ``ẏ`` (classical RK, on the flattened state);
+* ``projection(y, params, out, work)`` writes the projected state (``project=True``).
+
+``work`` is scratch memory of the length the pieces declare (:attr:`CompiledPieces.work`),
+allocated once per run and thread: a piece that takes its temporaries there allocates nothing
+per call, and can be compiled without reference counts (:data:`lieint.fast._jit.NO_REFCOUNT`),
+as the built-in pieces are — a per-call allocation and the counts on every array a compiled
+call passes cost more than the arithmetic of a small body's stage.
 
 Their signatures are fixed (:data:`GENERATOR`, :data:`ACTION`, :data:`FIELD`); the loop takes
 them as first-class function values, so it is compiled once per installation for every
@@ -34,6 +40,7 @@ no range limit.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from functools import cached_property
@@ -44,30 +51,47 @@ from numba.core.types.function_type import CompileResultWAP
 from numba.experimental import structref
 
 from . import _dexpinv_coefficients, range_error, use_threads
-from .se_algebra import coordinate_map, dcayinv, dexpinv, out_of_range
+from ._jit import NO_REFCOUNT, compiled_copies
+from .se_algebra import (
+    coordinate_map,
+    coordinate_map_uncounted,
+    dcayinv,
+    dexpinv,
+    out_of_range,
+    out_of_range_3,
+)
 
 __all__ = ["ACTION", "FIELD", "GENERATOR", "CompiledPieces", "LieKernel", "integrate_lie"]
 
 _vec = types.float64[::1]
 _mat = types.float64[:, ::1]
-#: ``generator(y, params, W, v, a)``: writes ξ(y) = (W, v, a)
-GENERATOR = types.void(_vec, _vec, _mat, _vec, _vec)
-#: ``action(Q, t, a, y, params, out)``: writes ρ(((Q, t), a), y)
-ACTION = types.void(_mat, _vec, _vec, _vec, _vec, _vec)
-#: ``vector_field(y, params, out)`` and ``projection(y, params, out)``
-FIELD = types.void(_vec, _vec, _vec)
+#: ``generator(y, params, W, v, a, work)``: writes ξ(y) = (W, v, a)
+GENERATOR = types.void(_vec, _vec, _mat, _vec, _vec, _vec)
+#: ``action(Q, t, a, y, params, out, work)``: writes ρ(((Q, t), a), y)
+ACTION = types.void(_mat, _vec, _vec, _vec, _vec, _vec, _vec)
+#: ``vector_field(y, params, out, work)`` and ``projection(y, params, out, work)``
+FIELD = types.void(_vec, _vec, _vec, _vec)
 
 
 @dataclass(frozen=True)
 class CompiledPieces:
     """A system's compiled generator, action, vector field and projection: numba functions,
     compiled for the signatures :data:`GENERATOR`, :data:`ACTION`, :data:`FIELD`, :data:`FIELD`
-    when first used (or declared with them)."""
+    when first used (or declared with them); ``work``: the length of the scratch vector they
+    are given, a number or a function of n."""
 
     generator: object
     action: object
     vector_field: object
     projection: object
+    work: int | Callable[[int], int] = 0
+
+    def work_size(self, n: int) -> int:
+        """The scratch length for bodies of dimension n."""
+        size = self.work(n) if callable(self.work) else self.work
+        if not isinstance(size, (int, np.integer)) or size < 0:
+            raise ValueError(f"`work` of compiled pieces must give a length >= 0; got {size!r} for n = {n}.")
+        return int(size)
 
     @cached_property
     def functions(self) -> tuple:
@@ -94,7 +118,16 @@ class _Piece:
     def __init__(self, function, signature):
         if not hasattr(function, "get_compile_result"):
             raise TypeError(f"a compiled piece must be a numba function; got {type(function).__name__}.")
-        self._address = CompileResultWAP(function.get_compile_result(signature)).address
+        try:
+            result = function.get_compile_result(signature)
+        except Exception as exc:  # numba's typing error: the piece does not take these arguments
+            name = getattr(function, "__name__", repr(function))
+            raise TypeError(
+                f"the compiled piece {name!r} must take the arguments {signature.args} "
+                f"(lieint.fast.generic.GENERATOR, ACTION or FIELD, the last one the scratch vector `work`); "
+                f"numba could not compile it for them: {str(exc).splitlines()[0]}"
+            ) from None
+        self._address = CompileResultWAP(result).address
         self._signature = signature
         self._numba_type_ = types.FunctionType(signature)
 
@@ -140,7 +173,7 @@ def _bundle(generator, action, vector_field, projection):
     return record
 
 
-@njit(cache=True)
+@njit(cache=True, **NO_REFCOUNT)
 def _combine(out, K, weights, upto, h):
     """``out = Σ_{j < upto} (h w_j) K[j]`` over the nonzero weights (zero if none), on flat
     views (out of shape (size,), K of shape (stages, size)); returns whether any weight was
@@ -159,59 +192,103 @@ def _combine(out, K, weights, upto, h):
 
 
 @njit(cache=True)
-def lie_step(gen, act, y, par, nv, tab, b, h, coeffs, KW, Kv, Ka, y_stage, y1, cayley):
+def step_work(n, nv, m, work_size):
+    """The work arrays of :func:`lie_step` and :func:`move`, allocated once per run and thread:
+    ``S`` (5, n, n) for ``uW, Q, tW, P`` and dcay⁻¹'s result, ``Sv`` (4, nv) for
+    ``uv, t, tv, nw``, ``ua`` (m,), ``aug`` (n, 2n + 1) for the Cayley map's elimination, and
+    the pieces' ``work`` (``work_size``,)."""
+    return np.empty((5, n, n)), np.empty((4, nv)), np.empty(m), np.empty((n, 2 * n + 1)), np.empty(work_size)
+
+
+@njit(cache=True)
+def lie_step(gen, act, y, par, nv, tab, b, h, coeffs, KW, Kv, Ka, y_stage, y1, cayley, S, Sv, ua, aug, work):
     """One RKMK step from y into ``y1`` in exponential (dexp⁻¹ truncated at ``coeffs``) or
-    Cayley coordinates (exact dcay⁻¹); False when a stage leaves the dexp⁻¹ radius."""
+    Cayley coordinates (exact dcay⁻¹); False when a stage leaves the dexp⁻¹ radius.
+    ``S, Sv, ua, aug, work``: :func:`step_work`'s arrays (nothing is allocated here)."""
     s = b.shape[0]
     n = KW.shape[1]
-    uW, Q = np.empty((n, n)), np.empty((n, n))
-    tW, P = np.empty((n, n)), np.empty((n, n))
-    uv, t, tv, nw = np.empty(nv), np.empty(nv), np.empty(nv), np.empty(nv)
-    ua = np.empty(Ka.shape[1])
+    uW, Q, tW, P, new = S[0], S[1], S[2], S[3], S[4]
+    uv, t, tv, nw = Sv[0], Sv[1], Sv[2], Sv[3]
     uW_flat, KW_flat = uW.reshape(n * n), KW.reshape(KW.shape[0], n * n)
     for i in range(s):
-        _combine(uW_flat, KW_flat, tab[i], i, h)
-        _combine(uv, Kv, tab[i], i, h)
-        if not _combine(ua, Ka, tab[i], i, h):
-            gen(y, par, KW[i], Kv[i], Ka[i])  # u = 0: k_i = ξ(y)
+        row = tab[i]
+        _combine(uW_flat, KW_flat, row, i, h)
+        _combine(uv, Kv, row, i, h)
+        kW, kv, ka = KW[i], Kv[i], Ka[i]
+        if not _combine(ua, Ka, row, i, h):
+            gen(y, par, kW, kv, ka, work)  # u = 0: k_i = ξ(y)
             continue
         if not cayley and out_of_range(uW, nv):
             return False
-        coordinate_map(uW, uv, nv, Q, t, cayley)
-        act(Q, t, ua, y, par, y_stage)
-        gen(y_stage, par, KW[i], Kv[i], Ka[i])
+        coordinate_map(uW, uv, nv, Q, t, cayley, aug)
+        act(Q, t, ua, y, par, y_stage, work)
+        gen(y_stage, par, kW, kv, ka, work)
         if cayley:
-            dcayinv(uW, uv, KW[i], Kv[i], tW, tv)
+            dcayinv(uW, uv, kW, kv, tW, tv, new)
         else:
-            dexpinv(uW, uv, KW[i], Kv[i], coeffs, tW, tv, P, nw)
-    move(act, y, par, nv, KW, Kv, Ka, b, h, y1, cayley)
+            dexpinv(uW, uv, kW, kv, coeffs, tW, tv, P, nw)
+    move(act, y, par, nv, KW, Kv, Ka, b, h, y1, cayley, S, Sv, ua, aug, work)
     return True
 
 
 @njit(cache=True)
-def move(act, y, par, nv, KW, Kv, Ka, w, h, out, cayley):
+def move(act, y, par, nv, KW, Kv, Ka, w, h, out, cayley, S, Sv, ua, aug, work):
     """``out = ρ(φ(h Σ_j w_j k_j), y)``: the step's new state (weights b) or an embedded
-    solution (weights b̂)."""
+    solution (weights b̂), in :func:`step_work`'s arrays."""
     n = KW.shape[1]
-    uW, Q = np.empty((n, n)), np.empty((n, n))
-    uv, t = np.empty(nv), np.empty(nv)
-    ua = np.empty(Ka.shape[1])
+    uW, Q = S[0], S[1]
+    uv, t = Sv[0], Sv[1]
     s = w.shape[0]
     _combine(uW.reshape(n * n), KW.reshape(KW.shape[0], n * n), w, s, h)
     _combine(uv, Kv, w, s, h)
     _combine(ua, Ka, w, s, h)
-    coordinate_map(uW, uv, nv, Q, t, cayley)
-    act(Q, t, ua, y, par, out)
+    coordinate_map(uW, uv, nv, Q, t, cayley, aug)
+    act(Q, t, ua, y, par, out, work)
+
+
+#: :func:`lie_step` and :func:`move` compiled without reference counts, for Cayley coordinates at
+#: every n and exponential coordinates at n = 3, where the coordinate map and the range test
+#: allocate nothing: each view of a stage and each call counted references (two atomic operations
+#: an array), ~100 a step, 18 % of a 3D heavy top's RKMK6 run
+_UNCOUNTED = compiled_copies(
+    [lie_step, move],
+    {"coordinate_map": coordinate_map_uncounted, "out_of_range": out_of_range_3},
+    "_uncounted",
+    **NO_REFCOUNT,
+)
+lie_step_uncounted, move_uncounted = _UNCOUNTED["lie_step"], _UNCOUNTED["move"]
+
+
+@njit(cache=True, inline="always")
+def step_either(
+    uncounted, gen, act, y, par, nv, tab, b, h, coeffs, KW, Kv, Ka, y_stage, y1, cayley, S, Sv, ua, aug, work
+):
+    """:func:`lie_step`, or its copy without reference counts when ``uncounted`` (Cayley
+    coordinates, or n = 3)."""
+    if uncounted:
+        return lie_step_uncounted(
+            gen, act, y, par, nv, tab, b, h, coeffs, KW, Kv, Ka, y_stage, y1, cayley, S, Sv, ua, aug, work
+        )
+    return lie_step(gen, act, y, par, nv, tab, b, h, coeffs, KW, Kv, Ka, y_stage, y1, cayley, S, Sv, ua, aug, work)
+
+
+@njit(cache=True, inline="always")
+def move_either(uncounted, act, y, par, nv, KW, Kv, Ka, w, h, out, cayley, S, Sv, ua, aug, work):
+    """:func:`move`, or its copy without reference counts when ``uncounted``."""
+    if uncounted:
+        move_uncounted(act, y, par, nv, KW, Kv, Ka, w, h, out, cayley, S, Sv, ua, aug, work)
+    else:
+        move(act, y, par, nv, KW, Kv, Ka, w, h, out, cayley, S, Sv, ua, aug, work)
 
 
 @njit(cache=True)
-def _classical_step(field, y, par, tab, b, h, K, y_stage, y1):
+def _classical_step(field, y, par, tab, b, h, K, y_stage, y1, work):
     """One classical RK step on the flattened state: ``y1 = y + h Σ_j b_j K_j``."""
     s = b.shape[0]
     for i in range(s):
         _combine(y_stage, K, tab[i], i, h)
         y_stage += y
-        field(y_stage, par, K[i])
+        field(y_stage, par, K[i], work)
     _combine(y1, K, b, s, h)
     y1 += y
 
@@ -241,6 +318,7 @@ _RUN_SIGNATURE = types.void(
     _mat,  # fin (N, d)
     types.int64[::1],  # status (N,)
     _vec,  # norm2 (N,)
+    types.int64,  # work_size: the pieces' scratch length
 )
 
 
@@ -258,7 +336,7 @@ def _norm2(W):
 @njit(_RUN_SIGNATURE, cache=True, nogil=True)
 def _run_bodies(
     pieces, lo, hi, Y0, par, n, nv, m, tab, b, coeffs, lie, cayley, h, h_last, k_from, k_to,
-    nsteps, save_steps, project, out, fin, status, norm2,
+    nsteps, save_steps, project, out, fin, status, norm2, work_size,
 ):  # fmt: skip
     """Steps ``k_from < k ≤ k_to`` of the bodies ``lo ≤ m < hi`` (see :func:`integrate_lie`);
     ``norm2[m]`` the largest ``‖W‖_F²`` of ``ξ = (W, v, a)`` over body m's starting state and
@@ -276,6 +354,8 @@ def _run_bodies(
     K = np.zeros((s, d))
     y_stage = np.empty(d)
     y1 = np.empty(d)
+    S, Sv, ua, aug, work = step_work(n, nv, m, work_size)
+    uncounted = cayley or n == 3
     for body in range(lo, hi):
         y = Y0[body].copy()
         slot = 0
@@ -285,13 +365,17 @@ def _run_bodies(
         # read there when another step follows, evaluated once otherwise
         pending = True
         if not lie:
-            gen(y, par, KW[0], Kv[0], Ka[0])
+            gen(y, par, KW[0], Kv[0], Ka[0], work)
             norm2[body] = _norm2(KW[0])
             pending = False
         for k in range(k_from, k_to):
             hk = h if k < nsteps - 1 else h_last
             if lie:
-                if not lie_step(gen, act, y, par, nv, tab, b, hk, coeffs, KW, Kv, Ka, y_stage, y1, cayley):
+                ok = step_either(
+                    uncounted, gen, act, y, par, nv, tab, b, hk, coeffs, KW, Kv, Ka, y_stage, y1, cayley,
+                    S, Sv, ua, aug, work,
+                )  # fmt: skip
+                if not ok:
                     status[body] = k
                     pending = False
                     break
@@ -299,9 +383,9 @@ def _run_bodies(
                     norm2[body] = max(norm2[body], _norm2(KW[0]))
                     pending = False
             else:
-                _classical_step(field, y, par, tab, b, hk, K, y_stage, y1)
+                _classical_step(field, y, par, tab, b, hk, K, y_stage, y1, work)
             if project:
-                proj(y1, par, y)
+                proj(y1, par, y, work)
             else:
                 y[:] = y1
             if slot < save_steps.shape[0] and save_steps[slot] == k + 1:
@@ -309,11 +393,11 @@ def _run_bodies(
                 slot += 1
                 pending = True
                 if not lie:
-                    gen(y, par, KW[0], Kv[0], Ka[0])
+                    gen(y, par, KW[0], Kv[0], Ka[0], work)
                     norm2[body] = max(norm2[body], _norm2(KW[0]))
                     pending = False
         if pending:
-            gen(y, par, KW[0], Kv[0], Ka[0])
+            gen(y, par, KW[0], Kv[0], Ka[0], work)
             norm2[body] = max(norm2[body], _norm2(KW[0]))
         fin[body] = y
 
@@ -403,6 +487,7 @@ def integrate_lie(
         fin,
         status,
         norm2,
+        pieces.work_size(int(n)),
     )
     bundle = pieces.bundle
     threads = min(int(threads), N)

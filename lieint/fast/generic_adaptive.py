@@ -27,7 +27,7 @@ import numpy as np
 from numba import njit, types
 
 from .controller import advanced_time, error_norm, step_factor
-from .generic import BUNDLE, LieKernel, lie_step, move
+from .generic import BUNDLE, LieKernel, move_either, step_either, step_work
 from .pairs import CompiledPair, row_capacity
 
 __all__ = ["LieAdaptiveKernel", "adaptive_lie"]
@@ -75,13 +75,14 @@ _SIGNATURE = types.Tuple((types.int64, types.float64, types.float64) + (types.in
     types.boolean,  # cayley
     _vec,  # out_t
     types.float64[:, :, ::1],  # out_Y (cap, N, d)
+    types.int64,  # work_size: the pieces' scratch length
 )
 
 
 @njit(_SIGNATURE, cache=True)
 def adaptive_lie(
     pieces, Y, par, nv, m, A, b, b_hat, b_low, has_low, coeffs, rtol, atol, q, safety, fmin, fmax, h_min,
-    t, t1, h, k, max_accept, save_every, project, cayley, out_t, out_Y,
+    t, t1, h, k, max_accept, save_every, project, cayley, out_t, out_Y, work_size,
 ):  # fmt: skip
     """Adaptive RKMK steps from ``t`` in place on the flattened states ``Y`` (N, d).
 
@@ -103,6 +104,8 @@ def adaptive_lie(
     Ka = np.zeros((s, m))
     y_stage = np.empty(d)
     yh = np.empty(d)
+    S, Sv, ua, aug, work = step_work(n, nv, m, work_size)
+    uncounted = cayley or n == 3  # the step's copy without reference counts applies
     Y1 = np.empty((N, d))
     count = float(N * d)
     accepted = 0
@@ -117,13 +120,18 @@ def adaptive_lie(
         s5 = 0.0
         s3 = 0.0
         for body in range(N):
-            if not lie_step(gen, act, Y[body], par, nv, A, b, h, coeffs, KW, Kv, Ka, y_stage, Y1[body], cayley):
+            y0, y1 = Y[body], Y1[body]
+            stepped = step_either(
+                uncounted, gen, act, y0, par, nv, A, b, h, coeffs, KW, Kv, Ka, y_stage, y1, cayley,
+                S, Sv, ua, aug, work,
+            )  # fmt: skip
+            if not stepped:
                 ok = False
                 break
-            move(act, Y[body], par, nv, KW, Kv, Ka, b_hat, h, yh, cayley)
+            move_either(uncounted, act, y0, par, nv, KW, Kv, Ka, b_hat, h, yh, cayley, S, Sv, ua, aug, work)
             s5 += _scaled(Y[body], Y1[body], yh, rtol, atol)
             if has_low:
-                move(act, Y[body], par, nv, KW, Kv, Ka, b_low, h, yh, cayley)
+                move_either(uncounted, act, y0, par, nv, KW, Kv, Ka, b_low, h, yh, cayley, S, Sv, ua, aug, work)
                 s3 += _scaled(Y[body], Y1[body], yh, rtol, atol)
         if ok:
             nfev += s
@@ -139,7 +147,7 @@ def adaptive_lie(
         t = advanced_time(t, h, t1, h_min)
         for body in range(N):
             if project:
-                proj(Y1[body], par, Y[body])
+                proj(Y1[body], par, Y[body], work)
             else:
                 Y[body] = Y1[body]
         k += 1
@@ -209,6 +217,7 @@ class LieAdaptiveKernel(LieKernel):
             self.cayley,
             out_t,
             out_Y,
+            self.pieces.work_size(self.n),
         )
         saved = self._user(out_Y[:rows])
         return {"Y": Y}, (t, h, k), (accepted, rejected, nfev), out_t[:rows].copy(), saved, status == 1

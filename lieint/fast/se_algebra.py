@@ -17,9 +17,18 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .skew import _finite, cayley_se_into, exp_se3_into, expm_se, expm_skew, so_ad_radius_exceeds
+from ._jit import NO_REFCOUNT
+from .skew import _cayley_se3_into, _finite, cayley_se_elim_into, exp_se3_into, expm_se, expm_skew, so_ad_radius_exceeds
 
-__all__ = ["coordinate_map", "dcayinv", "dexpinv", "exponential", "out_of_range"]
+__all__ = [
+    "coordinate_map",
+    "coordinate_map_uncounted",
+    "dcayinv",
+    "dexpinv",
+    "exponential",
+    "out_of_range",
+    "out_of_range_3",
+]
 
 
 @njit(cache=True)
@@ -49,15 +58,18 @@ def out_of_range(uW, nv):
     return so_ad_radius_exceeds(uW) == 1
 
 
-@njit(cache=True)
+@njit(cache=True, **NO_REFCOUNT)
 def dexpinv(uW, uv, kW, kv, coeffs, tW, tv, P, nw):
     """``k ← Σ_{d ≤ degree} (B_d/d!) ad_{−u}^d k`` in place, with
     ``ad_{−u}(W, v) = ([−uW, W], −uW v + W uv)`` and ``[−uW, W] = Pᵀ − P``, ``P = uW W`` (both
     skew); tW, tv, P, nw are work arrays."""
     n = uW.shape[0]
     m = uv.shape[0]
-    tW[:, :] = kW
-    tv[:] = kv
+    for a in range(n):  # copies by loops: numba's array assignment may allocate
+        for c in range(n):
+            tW[a, c] = kW[a, c]
+    for a in range(m):
+        tv[a] = kv[a]
     for d in range(1, coeffs.shape[0]):
         for a in range(n):
             for c in range(n):
@@ -73,7 +85,8 @@ def dexpinv(uW, uv, kW, kv, coeffs, tW, tv, P, nw):
         for a in range(n):
             for c in range(n):
                 tW[a, c] = P[c, a] - P[a, c]
-        tv[:] = nw
+        for a in range(m):
+            tv[a] = nw[a]
         coeff = coeffs[d]
         if coeff != 0.0:
             for a in range(n):
@@ -83,12 +96,12 @@ def dexpinv(uW, uv, kW, kv, coeffs, tW, tv, P, nw):
                 kv[a] += coeff * tv[a]
 
 
-@njit(cache=True)
-def dcayinv(uW, uv, kW, kv, tW, tv):
+@njit(cache=True, **NO_REFCOUNT)
+def dcayinv(uW, uv, kW, kv, tW, tv, new):
     """``k ← dcay⁻¹_{−u}(k) = k + ½[u, k] − ¼ u k u`` in place (exact, no series), in the
     homogeneous matrices of se(n): for ``u = (W, x)``, ``k = (U, v)``,
     ``U ← U + ½(WU − UW) − ¼ WUW``, ``v ← v + ½(Wv − Ux) − ¼ WUx`` (the vector factor's
-    dcay⁻¹ is the identity)."""
+    dcay⁻¹ is the identity); tW, tv, new are work arrays."""
     n = uW.shape[0]
     m = uv.shape[0]
     for a in range(n):  # tW = W U
@@ -112,7 +125,6 @@ def dcayinv(uW, uv, kW, kv, tW, tv):
                 ux_e += kW[e, f] * uv[f]
             acc += uW[a, e] * ux_e
         tv[a] -= 0.25 * acc
-    new = np.empty((n, n))
     for a in range(n):  # U + ½(WU − UW) − ¼ (WU)W, UW from the old U
         for c in range(n):
             uw = 0.0
@@ -121,15 +133,59 @@ def dcayinv(uW, uv, kW, kv, tW, tv):
                 uw += kW[a, e] * uW[e, c]
                 wuw += tW[a, e] * uW[e, c]
             new[a, c] = kW[a, c] + 0.5 * (tW[a, c] - uw) - 0.25 * wuw
-    kW[:, :] = new
+    for a in range(n):  # a copy by loops: numba's array assignment may allocate
+        for c in range(n):
+            kW[a, c] = new[a, c]
     for a in range(m):
         kv[a] += tv[a]
 
 
-@njit(cache=True)
-def coordinate_map(uW, uv, nv, Q, t, cayley):
-    """φ(u) into Q and t: the exponential or the Cayley map."""
+# inlined into the step, not called: for n = 3 and in Cayley coordinates it calls only functions
+# without reference counts, where a call of its own would count one on each of its six arrays
+@njit(cache=True, inline="always")
+def coordinate_map(uW, uv, nv, Q, t, cayley, aug):
+    """φ(u) into Q and t: the exponential or the Cayley map (``aug``: an ``(n, 2n + 1)`` work
+    array for the Cayley map's elimination, n ≠ 3)."""
     if cayley and _finite(uW) and _finite(uv):
-        cayley_se_into(uW, uv, Q, t)
+        if uW.shape[0] == 3:
+            _cayley_se3_into(uW, uv, Q, t)
+        else:
+            cayley_se_elim_into(uW, uv, Q, t, aug)
+    elif uW.shape[0] == 3 and _finite(uW) and _finite(uv):
+        exp_se3_into(uW, uv, Q, t)
     else:
         exponential(uW, uv, nv, Q, t)
+
+
+# The step's copy without reference counts (lieint.fast.generic.lie_step_uncounted) takes these
+# two in place of out_of_range and coordinate_map: it runs in Cayley coordinates at every n and in
+# exponential coordinates at n = 3, where neither allocates.
+
+
+@njit(cache=True, **NO_REFCOUNT)
+def out_of_range_3(uW, nv):
+    """:func:`out_of_range` on so(3) and se(3), where ``θ₁ + θ₂ = θ = |w|`` (one plane turns):
+    ``‖u‖_F² = 2θ² ≥ 8π²`` (not called at other n)."""
+    ss = 0.0
+    for i in range(3):
+        for j in range(3):
+            ss += uW[i, j] * uW[i, j]
+    return np.sqrt(0.5 * ss) >= 2.0 * np.pi
+
+
+@njit(cache=True, inline="always")
+def coordinate_map_uncounted(uW, uv, nv, Q, t, cayley, aug):
+    """:func:`coordinate_map` in Cayley coordinates (any n) and in exponential coordinates at
+    n = 3, allocating nothing; NaN when u is not finite."""
+    if not (_finite(uW) and _finite(uv)):
+        for i in range(Q.shape[0]):
+            for j in range(Q.shape[1]):
+                Q[i, j] = np.nan
+        for i in range(t.shape[0]):
+            t[i] = np.nan
+    elif cayley and uW.shape[0] != 3:
+        cayley_se_elim_into(uW, uv, Q, t, aug)
+    elif cayley:
+        _cayley_se3_into(uW, uv, Q, t)
+    else:
+        exp_se3_into(uW, uv, Q, t)

@@ -113,7 +113,7 @@ def _exp_se3(W, v):
     return Q, t
 
 
-@njit(cache=True)
+@njit(cache=True, **NO_REFCOUNT)
 def exp_se3_into(W, v, Q, t):
     """Closed forms on se(3) into Q and t: ``exp W = I + (sin θ/θ) W + ((1 − cos θ)/θ²) W²``
     (Rodrigues) and ``t = φ₁(W) v``, ``φ₁(W) = I + ((1 − cos θ)/θ²) W + ((θ − sin θ)/θ³) W²``,
@@ -142,7 +142,7 @@ def exp_se3_into(W, v, Q, t):
         t[2] = v[2] + b * wv2 + c * (W[2, 0] * wv0 + W[2, 1] * wv1 + W[2, 2] * wv2)
 
 
-@njit(cache=True)
+@njit(cache=True, **NO_REFCOUNT)
 def _cayley_se3_into(W, x, Q, t):
     """The Cayley map of se(3) in closed form: with ``w = vee(W)`` and ``s = 1 + |w|²/4``,
     ``cay W = I + (ŵ + ŵ²/2)/s`` and ``M⁻¹x = (x + ŵx/2 + w⟨w, x⟩/4)/s`` — orthogonal to
@@ -162,16 +162,23 @@ def _cayley_se3_into(W, x, Q, t):
 
 @njit(cache=True)
 def cayley_se_into(W, x, Q, t):
-    """The Cayley map of se(n) into Q and t: for ``X = [[W, x], [0, 0]]``,
-    ``cay X = (I − X/2)⁻¹(I + X/2) = [[M⁻¹(I + W/2), M⁻¹x], [0, 1]]`` with ``M = I − W/2`` (x of
-    length 0: the rotation alone). M is invertible for skew W (its eigenvalues are ``1 ∓ iθ_k/2``)
-    and well conditioned (singular values ≥ 1): Gaussian elimination with partial pivoting."""
+    """:func:`cayley_se_elim_into` with its own work array (closed forms for n = 3)."""
     n = W.shape[0]
-    m = x.shape[0]
     if n == 3:
         _cayley_se3_into(W, x, Q, t)
         return
-    aug = np.empty((n, n + 1 + n))
+    cayley_se_elim_into(W, x, Q, t, np.empty((n, 2 * n + 1)))
+
+
+@njit(cache=True, **NO_REFCOUNT)
+def cayley_se_elim_into(W, x, Q, t, aug):
+    """The Cayley map of se(n) into Q and t: for ``X = [[W, x], [0, 0]]``,
+    ``cay X = (I − X/2)⁻¹(I + X/2) = [[M⁻¹(I + W/2), M⁻¹x], [0, 1]]`` with ``M = I − W/2`` (x of
+    length 0: the rotation alone). M is invertible for skew W (its eigenvalues are ``1 ∓ iθ_k/2``)
+    and well conditioned (singular values ≥ 1): Gaussian elimination with partial pivoting on
+    ``aug``, an ``(n, 2n + 1)`` work array."""
+    n = W.shape[0]
+    m = x.shape[0]
     for i in range(n):
         for j in range(n):
             aug[i, j] = -0.5 * W[i, j]
