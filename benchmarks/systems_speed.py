@@ -56,6 +56,8 @@ import lieint
 from lieint.groups import project_to_so
 
 TARGETS = (1e-6, 1e-10)
+
+
 #: the fixed-step and the adaptive series, each in both coordinate maps
 def _registry_series(adaptive: bool) -> tuple[str, ...]:
     """Every method of the registry with a compiled form, in each of its coordinate maps

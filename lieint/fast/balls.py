@@ -5,16 +5,16 @@ The equations are the generic path's, in the lecture's notation (MATH.md §4–�
 * Chaplygin ball, ``(Q, v)·(A_K, Γ, R, q) = (QᵀA_KQ, QᵀΓ, RQ, q + Rv)``,
   ``ξ = (Ω, rΩΓ)`` with ``A_K = −(B_K Ω + Ω B_K)``, ``B_K = B_C + M r² ΓΓᵀ``;
 * rolling ball, ``((Q, v), δ)·(Ω, Γ, G, R, q) = (Ω + δ, QᵀΓ, QᵀG, RQ, q + Rv)``,
-  ``ξ = ((Ω, rΩΓ), Ω̇)`` with Ω̇ from the rolling equation (a Lyapunov solve in the eigenbasis
-  of ``B_K(Γ)``).
+  ``ξ = ((Ω, rΩΓ), Ω̇)`` with Ω̇ from the rolling equation (a Lyapunov equation in
+  ``B_K(Γ)``).
 
 Parameters and state layouts are described above each system's pieces; the registry of every
 built-in system's pieces is :data:`lieint.fast.bodies.PIECES`. The generators and actions
-allocate nothing (their temporaries are in ``work``; compiled without reference counts): the
-Lyapunov equation ``B X + X B = C`` is solved on the n(n − 1)/2 unknowns of the skew X
-(:func:`lieint.fast.flat.lyapunov_pairs`). The vector fields and projections (classical RK,
-``project=True``) solve it by the inertia tensor for n = 3 and in the eigenbasis of B otherwise
-(:func:`lieint.fast.flat.lyapunov`). Every Ω is exactly skew.
+allocate nothing (their temporaries are in ``work``; compiled without reference counts); the
+vector fields and projections (classical RK, ``project=True``) allocate. Both solve the
+Lyapunov equation ``B X + X B = C`` on the n(n − 1)/2 unknowns of the skew X by elimination
+(:func:`lieint.fast.flat.lyapunov_pairs`; NaN, reported as a non-finite state, when B is not
+positive definite). Every Ω is exactly skew.
 """
 
 from __future__ import annotations

@@ -4,7 +4,7 @@ systems' pieces share (numba, cached on disk).
 A state is one float vector, field after field (:meth:`lieint.LieGroupSystem.field_offsets`):
 :func:`mat`, :func:`vec` read an n × n or n-long field at an offset, :func:`put` writes one; the
 pose helpers move, differentiate and project the orientation R and the centre q that several
-bodies carry; :func:`lyapunov` solves ``B X + X B = C`` for the balls' rolling equation.
+bodies carry; :func:`lyapunov_pairs` solves ``B X + X B = C`` for the balls' rolling equation.
 
 The generators and actions — called at every stage — use the helpers that allocate nothing and
 take their temporaries in the pieces' ``work`` vector (:func:`conj_flat_into`,
@@ -27,7 +27,6 @@ __all__ = [
     "conj_flat_into",
     "copy_into",
     "lyapunov",
-    "lyapunov3",
     "lyapunov_pairs",
     "mat",
     "move_pose",
@@ -102,52 +101,14 @@ def wedge(u, v):
 
 @njit(cache=True)
 def lyapunov(B, C):
-    """X with ``B X + X B = C`` for skew C and symmetric B, exactly skew: for n = 3 by the
-    inertia tensor (:func:`lyapunov3`), else in the eigenbasis of B."""
+    """X with ``B X + X B = C`` for skew C and symmetric positive definite B (n × n, C-contiguous),
+    exactly skew: :func:`lyapunov_pairs` with work arrays of its own."""
     n = B.shape[0]
-    if n == 3:
-        return lyapunov3(B, C)
-    b, P = np.linalg.eigh(B)
-    Ct = mm(mm(P.T, C), P)
-    for i in range(n):
-        for j in range(n):
-            Ct[i, j] /= (b[i] + b[j]) if i != j else (2.0 * b[i] + 1.0)
-    return skew_part(mm(mm(P, Ct), P.T))
-
-
-@njit(cache=True)
-def lyapunov3(B, C):
-    """n = 3: with ``X = x̂``, ``B x̂ + x̂ B = ((tr B) I − B) x)^``, so x solves ``I x = c``
-    (``C = ĉ``, I = (tr B) 1 − B the inertia tensor, symmetric positive definite for a body that
-    is not a rod): Gaussian elimination with partial pivoting on the 3×3 system."""
-    tr = B[0, 0] + B[1, 1] + B[2, 2]
-    M = np.empty((3, 4))
-    for i in range(3):
-        for j in range(3):
-            M[i, j] = -B[i, j]
-        M[i, i] += tr
-    M[0, 3], M[1, 3], M[2, 3] = C[2, 1], C[0, 2], C[1, 0]
-    for col in range(3):
-        pivot = col
-        for r in range(col + 1, 3):
-            if abs(M[r, col]) > abs(M[pivot, col]):
-                pivot = r
-        if pivot != col:
-            for j in range(4):
-                M[col, j], M[pivot, j] = M[pivot, j], M[col, j]
-        for r in range(col + 1, 3):
-            f = M[r, col] / M[col, col]
-            for j in range(col, 4):
-                M[r, j] -= f * M[col, j]
-    x = np.empty(3)
-    for i in range(2, -1, -1):
-        acc = M[i, 3]
-        for j in range(i + 1, 3):
-            acc -= M[i, j] * x[j]
-        x[i] = acc / M[i, i]
-    X = np.zeros((3, 3))
-    X[0, 1], X[0, 2], X[1, 2] = -x[2], x[1], -x[0]
-    X[1, 0], X[2, 0], X[2, 1] = x[2], -x[1], x[0]
+    k = n * (n - 1) // 2
+    L = np.empty(k * (k + 1))
+    lyapunov_pairs(B.reshape(n * n), C.reshape(n * n), n, L)
+    X = np.empty((n, n))
+    skew_matrix_from_pairs(L, n, X)
     return X
 
 
@@ -215,6 +176,10 @@ def lyapunov_pairs(B, C, n, L):
         for r in range(c + 1, k):
             if abs(L[r * cols + c]) > abs(L[p * cols + c]):
                 p = r
+        if L[p * cols + c] == 0.0:  # B not positive definite (or not finite): X is NaN, reported
+            for r in range(k):
+                L[r * cols + k] = np.nan
+            return
         if p != c:
             for j in range(c, cols):
                 L[c * cols + j], L[p * cols + j] = L[p * cols + j], L[c * cols + j]
@@ -288,11 +253,11 @@ def times_into(y, off, Q, out):
 
 @njit(cache=True)
 def normalized(x, norm):
-    """x scaled to length ``norm``."""
+    """x scaled to length ``norm`` (NaN for x = 0: no direction to keep, the state is reported)."""
     ss = 0.0
     for i in range(x.shape[0]):
         ss += x[i] * x[i]
-    return x * (norm / np.sqrt(ss))
+    return x * (norm / np.sqrt(ss)) if ss > 0.0 else x * np.nan
 
 
 @njit(cache=True, **NO_REFCOUNT)

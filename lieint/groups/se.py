@@ -11,7 +11,7 @@ import numpy as np
 
 from .base import MatrixLieGroup
 from .bivectors import bivector_dimension, vee
-from .so import SO, project_to_so, so3_exp, so3_log, so_ad_spectral_radius
+from .so import SO, project_to_so, so3_angle_squared, so3_exp, so3_log, so_ad_spectral_radius
 
 __all__ = ["SE", "se_join", "se_split"]
 
@@ -73,6 +73,20 @@ class SE(MatrixLieGroup):
         from scipy.linalg import expm
 
         return expm(X)
+
+    def cay(self, X: np.ndarray) -> np.ndarray:
+        if self.n == 3:
+            # Closed form, as on SO(3): cay([[ŵ, x], [0, 0]]) = [[cay ŵ, M⁻¹x], [0, 1]] with
+            # M = I − ŵ/2, M⁻¹x = (x + ŵx/2 + w⟨w, x⟩/4)/s, s = 1 + θ²/4 — orthogonal to round-off
+            # at any step, where the solve on the homogeneous matrix loses the rotation's
+            # orthogonality with the skewness of a huge ŵ (the compiled kernel's map, to the bit
+            # of the formula)
+            Om, V = se_split(X)
+            w = np.stack([Om[..., 2, 1], Om[..., 0, 2], Om[..., 1, 0]], axis=-1)
+            s = 1.0 + 0.25 * so3_angle_squared(Om)
+            t = V + 0.5 * (Om @ V[..., None])[..., 0] + (0.25 * np.sum(w * V, axis=-1))[..., None] * w
+            return se_join(self.rotations.cay(Om), t / s[..., None])
+        return super().cay(X)
 
     def log(self, g: np.ndarray) -> np.ndarray:
         if self.n == 3:
