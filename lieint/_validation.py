@@ -148,6 +148,12 @@ def check_rotation(arr: np.ndarray, name: str, atol: float = 1e-10) -> None:
         from .fast.checks import rotation_defects_3
 
         worst, smallest_det = rotation_defects_3(arr)
+    elif arr.ndim == 2:  # one n × n matrix (a single body): 2-D products, a dot, no reductions
+        D = arr.T @ arr
+        D -= _eye(n)
+        flat = D.ravel()
+        worst = math.sqrt(float(flat @ flat))  # NaN for a non-finite R: it fails the test below
+        smallest_det = None
     else:
         worst = _largest_orthogonality_defect(arr)
         smallest_det = None
@@ -155,7 +161,9 @@ def check_rotation(arr: np.ndarray, name: str, atol: float = 1e-10) -> None:
         raise ValueError(
             f"`{name}` must be a rotation in SO({n}) (R^T R = I, det R = +1); got ||R^T R - I|| = {worst:.3g}."
         )
-    if smallest_det is None:
+    if smallest_det is None and arr.ndim == 2:
+        smallest_det = float(_det(arr))
+    elif smallest_det is None:
         smallest_det = np.minimum.reduce(_det(arr), axis=None, initial=np.inf)
     if smallest_det < 0:
         raise ValueError(
