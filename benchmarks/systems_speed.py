@@ -1,7 +1,7 @@
 """CPU time to reach an error, every built-in rigid system: lieint compiled against scipy DOP853.
 
-Run: ``OPENBLAS_NUM_THREADS=1 python benchmarks/systems_speed.py`` (about twenty minutes;
-``--quick`` for a smoke run; ``--only n=6`` for the systems whose label contains "n=6";
+Run: ``OPENBLAS_NUM_THREADS=1 python benchmarks/systems_speed.py`` (about five minutes, seven
+with ``--busy --ensembles``; ``--quick`` for a smoke run; ``--only n=6`` for the systems whose label contains "n=6";
 ``--busy`` times everything a second time while another CPU-bound process runs, as on a user's
 busy laptop; ``--ensembles`` adds the ensemble throughput).
 
