@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 import lieint
-from lieint.fast.generic import ACTION, FIELD, GENERATOR, CompiledPieces
+from lieint.fast.pieces import ACTION, FIELD, GENERATOR, CompiledPieces
 from lieint.methods.registry import get_method, method_specs
 from lieint.systems.catalog import _builtin
 

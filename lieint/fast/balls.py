@@ -40,7 +40,7 @@ from .flat import (
     vec,
     wedge,
 )
-from .generic import CompiledPieces
+from .pieces import CompiledPieces
 from .products import mm_loops as mm
 from .products import mv
 

@@ -10,8 +10,8 @@ path's, in the lecture's notation (MATH.md §3–§5):
 * free body, ``(Q, p, w)·(A, R, q, v) = (QᵀAQ, RQ, q + p, v + w)``, ``ξ = (Ω(A), v, g)``;
 * the Chaplygin ball and the rolling ball: :mod:`lieint.fast.balls`.
 
-The pieces are compiled lazily, for the signatures of :mod:`lieint.fast.generic`, when a run of
-their system first needs them (:class:`lieint.fast.generic.CompiledPieces`), so a run of one
+The pieces are compiled lazily, for the signatures of :mod:`lieint.fast.pieces`, when a run of
+their system first needs them (:class:`lieint.fast.pieces.CompiledPieces`), so a run of one
 system never compiles another's. Every Ω is made exactly skew. The flattened state's readers and
 writers and the shared small linear algebra are in :mod:`lieint.fast.flat`.
 """
@@ -36,7 +36,7 @@ from .flat import (
     vec,
     wedge,
 )
-from .generic import CompiledPieces
+from .pieces import CompiledPieces
 from .products import mm_loops as mm
 from .products import mv
 

@@ -2,24 +2,18 @@
 
 A system moved by the right action of ``G = SO(n) × Rᵐ`` or ``G = SE(n) × Rᵐ`` (the heavy
 top, the free body, the rolling and the Chaplygin ball, MATH.md §3–§5) supplies four compiled
-*pieces* (:class:`CompiledPieces`) working on its state flattened to one float vector y:
+*pieces* working on its state flattened to one float vector y — its generator, action, vector
+field and projection, each given a scratch vector ``work`` of the length it declares (the
+contract: :mod:`lieint.fast.pieces`). A piece that takes its temporaries there allocates nothing
+per call and can be compiled without reference counts (:data:`lieint.fast._jit.NO_REFCOUNT`), as
+the built-in pieces are: a per-call allocation and the counts on every array a compiled call
+passes cost more than the arithmetic of a small body's stage.
 
-* ``generator(y, params, W, v, a, work)`` writes ``ξ(y) = (W, v, a)``: W ∈ so(n), v ∈ Rⁿ the
-  translation of se(n) (length 0 on SO(n)), a ∈ Rᵐ (length 0 without a vector factor);
-* ``action(Q, t, a, y, params, out, work)`` writes ``ρ(g, y)`` for ``g = ((Q, t), a)``;
-* ``vector_field(y, params, out, work)`` writes ``ẏ`` (classical RK, on the flattened state);
-* ``projection(y, params, out, work)`` writes the projected state (``project=True``).
-
-``work`` is scratch memory of the length the pieces declare (:attr:`CompiledPieces.work`),
-allocated once per run and thread: a piece that takes its temporaries there allocates nothing
-per call, and can be compiled without reference counts (:data:`lieint.fast._jit.NO_REFCOUNT`),
-as the built-in pieces are — a per-call allocation and the counts on every array a compiled
-call passes cost more than the arithmetic of a small body's stage.
-
-Their signatures are fixed (:data:`GENERATOR`, :data:`ACTION`, :data:`FIELD`); the loop takes
-them as first-class function values, so it is compiled once per installation for every
-system (cached on disk) and a system outside the package opts in by declaring its own pieces
-(``system.compiled()`` returning ``{"kind": "lie", ...}``, see :class:`LieKernel`).
+The signatures are fixed, and the loop takes the pieces as first-class function values in one
+compiled record, so it is compiled once per installation for every system (cached on disk) and
+a system outside the package opts in by declaring its own pieces (``system.compiled()``
+returning ``{"kind": "lie", ...}``, see :class:`LieKernel`). The stage code is
+:mod:`lieint.fast.generic_step`.
 
 One RKMK step in exponential coordinates with dexp⁻¹ truncated at the method's degree, as
 the generic path (:mod:`lieint.methods.rkmk`)::
@@ -40,258 +34,19 @@ no range limit.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass
-from functools import cached_property
 
 import numpy as np
 from numba import njit, types
-from numba.core.types.function_type import CompileResultWAP
-from numba.experimental import structref
 
 from . import _dexpinv_coefficients, range_error, use_threads
-from ._jit import NO_REFCOUNT, compiled_copies
-from .se_algebra import (
-    coordinate_map,
-    coordinate_map_uncounted,
-    dcayinv,
-    dexpinv,
-    out_of_range,
-    out_of_range_3,
-)
+from .generic_step import _classical_step, step_either, step_work
+from .pieces import BUNDLE, CompiledPieces
 
-__all__ = ["ACTION", "FIELD", "GENERATOR", "CompiledPieces", "LieKernel", "integrate_lie"]
+__all__ = ["LieKernel", "integrate_lie"]
 
 _vec = types.float64[::1]
 _mat = types.float64[:, ::1]
-#: ``generator(y, params, W, v, a, work)``: writes ξ(y) = (W, v, a)
-GENERATOR = types.void(_vec, _vec, _mat, _vec, _vec, _vec)
-#: ``action(Q, t, a, y, params, out, work)``: writes ρ(((Q, t), a), y)
-ACTION = types.void(_mat, _vec, _vec, _vec, _vec, _vec, _vec)
-#: ``vector_field(y, params, out, work)`` and ``projection(y, params, out, work)``
-FIELD = types.void(_vec, _vec, _vec, _vec)
-
-
-@dataclass(frozen=True)
-class CompiledPieces:
-    """A system's compiled generator, action, vector field and projection: numba functions,
-    compiled for the signatures :data:`GENERATOR`, :data:`ACTION`, :data:`FIELD`, :data:`FIELD`
-    when first used (or declared with them); ``work``: the length of the scratch vector they
-    are given, a number or a function of n."""
-
-    generator: object
-    action: object
-    vector_field: object
-    projection: object
-    work: int | Callable[[int], int] = 0
-
-    def work_size(self, n: int) -> int:
-        """The scratch length for bodies of dimension n."""
-        size = self.work(n) if callable(self.work) else self.work
-        if not isinstance(size, (int, np.integer)) or size < 0:
-            raise ValueError(f"`work` of compiled pieces must give a length >= 0; got {size!r} for n = {n}.")
-        return int(size)
-
-    @cached_property
-    def functions(self) -> tuple:
-        """The four pieces as first-class function values, resolved once (:class:`_Piece`)."""
-        signatures = (GENERATOR, ACTION, FIELD, FIELD)
-        pieces = (self.generator, self.action, self.vector_field, self.projection)
-        return tuple(_Piece(f, sig) for f, sig in zip(pieces, signatures, strict=True))
-
-    @cached_property
-    def bundle(self) -> PiecesBundle:
-        """The four pieces in one compiled record, as the loops take them (:data:`BUNDLE`): made
-        once per declaration, it passes into compiled code for the cost of one reference, where
-        each first-class function argument costs ~3.5 µs per call (numba unpickles its signature
-        twice to look up its addresses)."""
-        return _bundle(*self.functions)
-
-
-class _Piece:
-    """A compiled function as a first-class function value whose address and numba type are
-    worked out once: numba's wrapper-address protocol, and ``_numba_type_`` so that typing the
-    argument is an attribute read. Passing the numba function itself costs ~50 µs per argument
-    per call (its compile result and address are looked up every time)."""
-
-    def __init__(self, function, signature):
-        if not hasattr(function, "get_compile_result"):
-            raise TypeError(f"a compiled piece must be a numba function; got {type(function).__name__}.")
-        try:
-            result = function.get_compile_result(signature)
-        except Exception as exc:  # numba's typing error: the piece does not take these arguments
-            name = getattr(function, "__name__", repr(function))
-            raise TypeError(
-                f"the compiled piece {name!r} must take the arguments {signature.args} "
-                f"(lieint.fast.generic.GENERATOR, ACTION or FIELD, the last one the scratch vector `work`); "
-                f"numba could not compile it for them: {str(exc).splitlines()[0]}"
-            ) from None
-        self._address = CompileResultWAP(result).address
-        self._signature = signature
-        self._numba_type_ = types.FunctionType(signature)
-
-    def __wrapper_address__(self) -> int:
-        return self._address
-
-    def signature(self):
-        return self._signature
-
-
-@structref.register
-class _BundleType(types.StructRef):
-    """numba's type of :class:`PiecesBundle`."""
-
-    def preprocess_fields(self, fields):
-        return tuple((name, types.unliteral(typ)) for name, typ in fields)
-
-
-class PiecesBundle(structref.StructRefProxy):
-    """A system's compiled pieces as one compiled record (fields ``generator``, ``action``,
-    ``vector_field``, ``projection``), made by :attr:`CompiledPieces.bundle`."""
-
-
-structref.define_boxing(_BundleType, PiecesBundle)
-#: the numba type of a bundle of pieces with the signatures above
-BUNDLE = _BundleType(
-    [
-        ("generator", types.FunctionType(GENERATOR)),
-        ("action", types.FunctionType(ACTION)),
-        ("vector_field", types.FunctionType(FIELD)),
-        ("projection", types.FunctionType(FIELD)),
-    ]
-)
-
-
-@njit(BUNDLE(*BUNDLE.field_dict.values()), cache=True)
-def _bundle(generator, action, vector_field, projection):
-    record = structref.new(BUNDLE)
-    record.generator = generator
-    record.action = action
-    record.vector_field = vector_field
-    record.projection = projection
-    return record
-
-
-@njit(cache=True, **NO_REFCOUNT)
-def _combine(out, K, weights, upto, h):
-    """``out = Σ_{j < upto} (h w_j) K[j]`` over the nonzero weights (zero if none), on flat
-    views (out of shape (size,), K of shape (stages, size)); returns whether any weight was
-    nonzero."""
-    size = out.shape[0]
-    for i in range(size):
-        out[i] = 0.0
-    any_weight = False
-    for j in range(upto):
-        if weights[j] != 0.0:
-            any_weight = True
-            w = h * weights[j]
-            for i in range(size):
-                out[i] += w * K[j, i]
-    return any_weight
-
-
-@njit(cache=True)
-def step_work(n, nv, m, work_size):
-    """The work arrays of :func:`lie_step` and :func:`move`, allocated once per run and thread:
-    ``S`` (5, n, n) for ``uW, Q, tW, P`` and dcay⁻¹'s result, ``Sv`` (4, nv) for
-    ``uv, t, tv, nw``, ``ua`` (m,), ``aug`` (n, 2n + 1) for the Cayley map's elimination, and
-    the pieces' ``work`` (``work_size``,)."""
-    return np.empty((5, n, n)), np.empty((4, nv)), np.empty(m), np.empty((n, 2 * n + 1)), np.empty(work_size)
-
-
-@njit(cache=True)
-def lie_step(gen, act, y, par, nv, tab, b, h, coeffs, KW, Kv, Ka, y_stage, y1, cayley, S, Sv, ua, aug, work):
-    """One RKMK step from y into ``y1`` in exponential (dexp⁻¹ truncated at ``coeffs``) or
-    Cayley coordinates (exact dcay⁻¹); False when a stage leaves the dexp⁻¹ radius.
-    ``S, Sv, ua, aug, work``: :func:`step_work`'s arrays (nothing is allocated here)."""
-    s = b.shape[0]
-    n = KW.shape[1]
-    uW, Q, tW, P, new = S[0], S[1], S[2], S[3], S[4]
-    uv, t, tv, nw = Sv[0], Sv[1], Sv[2], Sv[3]
-    uW_flat, KW_flat = uW.reshape(n * n), KW.reshape(KW.shape[0], n * n)
-    for i in range(s):
-        row = tab[i]
-        _combine(uW_flat, KW_flat, row, i, h)
-        _combine(uv, Kv, row, i, h)
-        kW, kv, ka = KW[i], Kv[i], Ka[i]
-        if not _combine(ua, Ka, row, i, h):
-            gen(y, par, kW, kv, ka, work)  # u = 0: k_i = ξ(y)
-            continue
-        if not cayley and out_of_range(uW, nv):
-            return False
-        coordinate_map(uW, uv, nv, Q, t, cayley, aug)
-        act(Q, t, ua, y, par, y_stage, work)
-        gen(y_stage, par, kW, kv, ka, work)
-        if cayley:
-            dcayinv(uW, uv, kW, kv, tW, tv, new)
-        else:
-            dexpinv(uW, uv, kW, kv, coeffs, tW, tv, P, nw)
-    move(act, y, par, nv, KW, Kv, Ka, b, h, y1, cayley, S, Sv, ua, aug, work)
-    return True
-
-
-@njit(cache=True)
-def move(act, y, par, nv, KW, Kv, Ka, w, h, out, cayley, S, Sv, ua, aug, work):
-    """``out = ρ(φ(h Σ_j w_j k_j), y)``: the step's new state (weights b) or an embedded
-    solution (weights b̂), in :func:`step_work`'s arrays."""
-    n = KW.shape[1]
-    uW, Q = S[0], S[1]
-    uv, t = Sv[0], Sv[1]
-    s = w.shape[0]
-    _combine(uW.reshape(n * n), KW.reshape(KW.shape[0], n * n), w, s, h)
-    _combine(uv, Kv, w, s, h)
-    _combine(ua, Ka, w, s, h)
-    coordinate_map(uW, uv, nv, Q, t, cayley, aug)
-    act(Q, t, ua, y, par, out, work)
-
-
-#: :func:`lie_step` and :func:`move` compiled without reference counts, for Cayley coordinates at
-#: every n and exponential coordinates at n = 3, where the coordinate map and the range test
-#: allocate nothing: each view of a stage and each call counted references (two atomic operations
-#: an array), ~100 a step, 18 % of a 3D heavy top's RKMK6 run
-_UNCOUNTED = compiled_copies(
-    [lie_step, move],
-    {"coordinate_map": coordinate_map_uncounted, "out_of_range": out_of_range_3},
-    "_uncounted",
-    **NO_REFCOUNT,
-)
-lie_step_uncounted, move_uncounted = _UNCOUNTED["lie_step"], _UNCOUNTED["move"]
-
-
-@njit(cache=True, inline="always")
-def step_either(
-    uncounted, gen, act, y, par, nv, tab, b, h, coeffs, KW, Kv, Ka, y_stage, y1, cayley, S, Sv, ua, aug, work
-):
-    """:func:`lie_step`, or its copy without reference counts when ``uncounted`` (Cayley
-    coordinates, or n = 3)."""
-    if uncounted:
-        return lie_step_uncounted(
-            gen, act, y, par, nv, tab, b, h, coeffs, KW, Kv, Ka, y_stage, y1, cayley, S, Sv, ua, aug, work
-        )
-    return lie_step(gen, act, y, par, nv, tab, b, h, coeffs, KW, Kv, Ka, y_stage, y1, cayley, S, Sv, ua, aug, work)
-
-
-@njit(cache=True, inline="always")
-def move_either(uncounted, act, y, par, nv, KW, Kv, Ka, w, h, out, cayley, S, Sv, ua, aug, work):
-    """:func:`move`, or its copy without reference counts when ``uncounted``."""
-    if uncounted:
-        move_uncounted(act, y, par, nv, KW, Kv, Ka, w, h, out, cayley, S, Sv, ua, aug, work)
-    else:
-        move(act, y, par, nv, KW, Kv, Ka, w, h, out, cayley, S, Sv, ua, aug, work)
-
-
-@njit(cache=True)
-def _classical_step(field, y, par, tab, b, h, K, y_stage, y1, work):
-    """One classical RK step on the flattened state: ``y1 = y + h Σ_j b_j K_j``."""
-    s = b.shape[0]
-    for i in range(s):
-        _combine(y_stage, K, tab[i], i, h)
-        y_stage += y
-        field(y_stage, par, K[i], work)
-    _combine(y1, K, b, s, h)
-    y1 += y
-
 
 _RUN_SIGNATURE = types.void(
     BUNDLE,

@@ -2,7 +2,7 @@
 
 The controller loop of :mod:`lieint.fast.top3_adaptive` — trial step, error norm, accept or
 reject, next step size, the generic path's controller constant for constant — around the stage
-code of the generic compiled kernel (:func:`lieint.fast.generic.lie_step`), for one body or a
+code of the generic compiled kernel (:func:`lieint.fast.generic_step.lie_step`), for one body or a
 batch sharing one step size:
 
 * a trial step computes the stages ``k_i``, ``y₁ = ρ(exp(h Σ b_j k_j), y₀)`` and the embedded
@@ -27,8 +27,10 @@ import numpy as np
 from numba import njit, types
 
 from .controller import advanced_time, error_norm, step_factor
-from .generic import BUNDLE, LieKernel, move_either, step_either, step_work
+from .generic import LieKernel
+from .generic_step import move_either, step_either, step_work
 from .pairs import CompiledPair, row_capacity
+from .pieces import BUNDLE
 
 __all__ = ["LieAdaptiveKernel", "adaptive_lie"]
 
@@ -87,7 +89,7 @@ def adaptive_lie(
     """Adaptive RKMK steps from ``t`` in place on the flattened states ``Y`` (N, d).
 
     Arguments and results as :func:`lieint.fast.top3_adaptive.adaptive_top3`, with the
-    system's compiled pieces (:data:`lieint.fast.generic.BUNDLE`: its generator, action and
+    system's compiled pieces (:data:`lieint.fast.pieces.BUNDLE`: its generator, action and
     projection), its parameters ``par``, ``nv = n`` on SE(n) (0 on SO(n)) and m the size of its
     vector factor. Returns ``(status, t, h, k, accepted, rejected, nfev, rows)``.
     """

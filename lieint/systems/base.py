@@ -200,8 +200,8 @@ class LieGroupSystem(ABC):
         A system on ``SO(n)`` or ``SE(n)`` times a vector space may return
         ``{"kind": "lie", "pieces": ..., "params": ..., "n": n, "translation": bool,
         "abelian": m, "fields": self.fields}`` with its compiled generator, action, vector field
-        and projection (:class:`lieint.fast.generic.CompiledPieces`, numba functions of the
-        signatures :data:`lieint.fast.generic.GENERATOR`, ``ACTION`` and ``FIELD``, each taking
+        and projection (:class:`lieint.fast.pieces.CompiledPieces`, numba functions of the
+        signatures :data:`lieint.fast.pieces.GENERATOR`, ``ACTION`` and ``FIELD``, each taking
         last a scratch vector ``work`` of the length the pieces declare; or the name of
         built-in pieces): every RKMK method — fixed-step and embedded pairs, exponential and
         Cayley coordinates — and classical RK then run compiled

@@ -1,0 +1,137 @@
+"""The contract between a system and the generic compiled loop (:mod:`lieint.fast.generic`):
+the signatures of a system's compiled *pieces*, their declaration (:class:`CompiledPieces`) and
+the compiled record they travel in (:data:`BUNDLE`).
+
+* ``generator(y, params, W, v, a, work)`` writes ``ξ(y) = (W, v, a)``: W ∈ so(n), v ∈ Rⁿ the
+  translation of se(n) (length 0 on SO(n)), a ∈ Rᵐ (length 0 without a vector factor);
+* ``action(Q, t, a, y, params, out, work)`` writes ``ρ(g, y)`` for ``g = ((Q, t), a)``;
+* ``vector_field(y, params, out, work)`` writes ``ẏ`` (classical RK, on the flattened state);
+* ``projection(y, params, out, work)`` writes the projected state (``project=True``);
+
+``work`` is scratch memory of the length the pieces declare (:meth:`CompiledPieces.work_size`),
+allocated once per run and thread. Passing the four pieces as one record (:data:`BUNDLE`, a
+numba structref made once per declaration) costs one reference; each first-class function
+argument cost about 3.5 µs a call (numba unpickles its signature twice to find its addresses).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from functools import cached_property
+
+import numpy as np
+from numba import njit, types
+from numba.core.types.function_type import CompileResultWAP
+from numba.experimental import structref
+
+__all__ = ["ACTION", "BUNDLE", "FIELD", "GENERATOR", "CompiledPieces", "PiecesBundle"]
+
+_vec = types.float64[::1]
+_mat = types.float64[:, ::1]
+#: ``generator(y, params, W, v, a, work)``: writes ξ(y) = (W, v, a)
+GENERATOR = types.void(_vec, _vec, _mat, _vec, _vec, _vec)
+#: ``action(Q, t, a, y, params, out, work)``: writes ρ(((Q, t), a), y)
+ACTION = types.void(_mat, _vec, _vec, _vec, _vec, _vec, _vec)
+#: ``vector_field(y, params, out, work)`` and ``projection(y, params, out, work)``
+FIELD = types.void(_vec, _vec, _vec, _vec)
+
+
+@dataclass(frozen=True)
+class CompiledPieces:
+    """A system's compiled generator, action, vector field and projection: numba functions,
+    compiled for the signatures :data:`GENERATOR`, :data:`ACTION`, :data:`FIELD`, :data:`FIELD`
+    when first used (or declared with them); ``work``: the length of the scratch vector they
+    are given, a number or a function of n."""
+
+    generator: object
+    action: object
+    vector_field: object
+    projection: object
+    work: int | Callable[[int], int] = 0
+
+    def work_size(self, n: int) -> int:
+        """The scratch length for bodies of dimension n."""
+        size = self.work(n) if callable(self.work) else self.work
+        if not isinstance(size, (int, np.integer)) or size < 0:
+            raise ValueError(f"`work` of compiled pieces must give a length >= 0; got {size!r} for n = {n}.")
+        return int(size)
+
+    @cached_property
+    def functions(self) -> tuple:
+        """The four pieces as first-class function values, resolved once (:class:`_Piece`)."""
+        signatures = (GENERATOR, ACTION, FIELD, FIELD)
+        pieces = (self.generator, self.action, self.vector_field, self.projection)
+        return tuple(_Piece(f, sig) for f, sig in zip(pieces, signatures, strict=True))
+
+    @cached_property
+    def bundle(self) -> PiecesBundle:
+        """The four pieces in one compiled record, as the loops take them (:data:`BUNDLE`): made
+        once per declaration, it passes into compiled code for the cost of one reference, where
+        each first-class function argument costs ~3.5 µs per call (numba unpickles its signature
+        twice to look up its addresses)."""
+        return _bundle(*self.functions)
+
+
+class _Piece:
+    """A compiled function as a first-class function value whose address and numba type are
+    worked out once: numba's wrapper-address protocol, and ``_numba_type_`` so that typing the
+    argument is an attribute read. Passing the numba function itself costs ~50 µs per argument
+    per call (its compile result and address are looked up every time)."""
+
+    def __init__(self, function, signature):
+        if not hasattr(function, "get_compile_result"):
+            raise TypeError(f"a compiled piece must be a numba function; got {type(function).__name__}.")
+        try:
+            result = function.get_compile_result(signature)
+        except Exception as exc:  # numba's typing error: the piece does not take these arguments
+            name = getattr(function, "__name__", repr(function))
+            raise TypeError(
+                f"the compiled piece {name!r} must take the arguments {signature.args} "
+                f"(lieint.fast.pieces.GENERATOR, ACTION or FIELD, the last one the scratch vector `work`); "
+                f"numba could not compile it for them: {str(exc).splitlines()[0]}"
+            ) from None
+        self._address = CompileResultWAP(result).address
+        self._signature = signature
+        self._numba_type_ = types.FunctionType(signature)
+
+    def __wrapper_address__(self) -> int:
+        return self._address
+
+    def signature(self):
+        return self._signature
+
+
+@structref.register
+class _BundleType(types.StructRef):
+    """numba's type of :class:`PiecesBundle`."""
+
+    def preprocess_fields(self, fields):
+        return tuple((name, types.unliteral(typ)) for name, typ in fields)
+
+
+class PiecesBundle(structref.StructRefProxy):
+    """A system's compiled pieces as one compiled record (fields ``generator``, ``action``,
+    ``vector_field``, ``projection``), made by :attr:`CompiledPieces.bundle`."""
+
+
+structref.define_boxing(_BundleType, PiecesBundle)
+#: the numba type of a bundle of pieces with the signatures above
+BUNDLE = _BundleType(
+    [
+        ("generator", types.FunctionType(GENERATOR)),
+        ("action", types.FunctionType(ACTION)),
+        ("vector_field", types.FunctionType(FIELD)),
+        ("projection", types.FunctionType(FIELD)),
+    ]
+)
+
+
+@njit(BUNDLE(*BUNDLE.field_dict.values()), cache=True)
+def _bundle(generator, action, vector_field, projection):
+    record = structref.new(BUNDLE)
+    record.generator = generator
+    record.action = action
+    record.vector_field = vector_field
+    record.projection = projection
+    return record
