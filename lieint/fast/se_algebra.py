@@ -18,6 +18,7 @@ import numpy as np
 from numba import njit
 
 from ._jit import NO_REFCOUNT
+from .products import mm_unrolled_into
 from .skew import _cayley_se3_into, _finite, cayley_se_elim_into, exp_se3_into, expm_se, expm_skew, so_ad_radius_exceeds
 
 __all__ = [
@@ -71,12 +72,7 @@ def dexpinv(uW, uv, kW, kv, coeffs, tW, tv, P, nw):
     for a in range(m):
         tv[a] = kv[a]
     for d in range(1, coeffs.shape[0]):
-        for a in range(n):
-            for c in range(n):
-                acc = 0.0
-                for e in range(n):
-                    acc += uW[a, e] * tW[e, c]
-                P[a, c] = acc
+        mm_unrolled_into(uW, tW, P)
         for a in range(m):  # −uW tv + tW uv, from the old tW
             acc = 0.0
             for e in range(n):
@@ -104,12 +100,7 @@ def dcayinv(uW, uv, kW, kv, tW, tv, new):
     dcay⁻¹ is the identity); tW, tv, new are work arrays."""
     n = uW.shape[0]
     m = uv.shape[0]
-    for a in range(n):  # tW = W U
-        for c in range(n):
-            acc = 0.0
-            for e in range(n):
-                acc += uW[a, e] * kW[e, c]
-            tW[a, c] = acc
+    mm_unrolled_into(uW, kW, tW)  # tW = W U
     for a in range(m):  # tv = ½(Wv − Ux) − ¼ W(Ux), from the old U, v
         ux = 0.0
         wv = 0.0
