@@ -45,6 +45,23 @@ HARD_FIGURES: list[tuple[str, str, str, str]] = []
 
 
 @pytest.fixture
+def radius_spy(monkeypatch):
+    """Every answer of a compiled kernel to the step check, as ``(the bound the kernel kept,
+    what it answered)``, appended to the list this fixture returns."""
+    from lieint.loops import _KernelLoop
+
+    seen = []
+    original = _KernelLoop.generator_radius
+
+    def spy(self, states, limit=0.0):
+        seen.append((self.kernel._radius_bound, original(self, states, limit)))
+        return seen[-1][1]
+
+    monkeypatch.setattr(_KernelLoop, "generator_radius", spy)
+    return seen
+
+
+@pytest.fixture
 def record(request):
     """``record(figure, value, truth)``: keep a figure of a hard case for the summary table."""
 

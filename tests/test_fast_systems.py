@@ -116,38 +116,28 @@ def test_compiled_and_generic_agree_for_every_method(n, name):
 
 
 @pytest.mark.parametrize("n,name", CASES)
-def test_the_bound_the_loop_keeps_is_above_the_radius_of_every_saved_row(n, name):
+def test_the_bound_the_loop_keeps_is_above_the_radius_of_every_saved_row(n, name, radius_spy):
     """The compiled loop keeps ``max ‖W‖_F`` of ξ over the states it saves, for the step check:
     for every system and every fixed-step method (Lie and classical, segments split by
     ``save_every``) it bounds the generic radius of every row; a step that reaches π/h is still
     reported (the rows are then looked at), as on the generic path."""
-    from lieint.loops import _KernelLoop
-
     system = variants(n)[name]
     rng = np.random.default_rng(3)
     X = rng.normal(size=(3, n, n)) * np.array([0.5, 2.0, 1.0])[:, None, None]
     y0 = system.initial_state(Omega=X - np.swapaxes(X, -1, -2))
-    seen = []
-    original = _KernelLoop.generator_radius
-
-    def spy(self, states, limit=0.0):
-        seen.append((self.kernel._radius_bound, original(self, states, limit)))
-        return seen[-1][1]
-
-    with pytest.MonkeyPatch.context() as mp:
-        mp.setattr(_KernelLoop, "generator_radius", spy)
-        for method, coordinates in FIXED:
-            seen.clear()
-            kw = dict(method=method, coordinates=coordinates, h=0.01, save_every=7)
-            sol = lieint.integrate(system, y0, (0.0, 0.5), **kw)
-            assert sol.stats.backend == "numba"
-            generic = system.group.ad_spectral_radius(system.generator(0.0, sol.states)).max()
-            ((bound, answer),) = seen
-            # ‖W‖_F² = 2 Σ θ_k² lies between (θ₁ + θ₂)² and 2⌊n/2⌋ θ₁²
-            assert generic <= bound * (1 + 1e-13) <= (2 * (n // 2)) ** 0.5 * generic * (1 + 1e-12), (method, bound)
-            assert answer == bound  # below π/h: the kept bound answers
-        with pytest.warns(lieint.LieStepWarning, match="too large for this motion"):
-            lieint.integrate(system, y0, (0.0, 6.0), method="rkmk4", coordinates="cayley", h=3.0)
+    seen = radius_spy  # the step check's answers, for the whole test
+    for method, coordinates in FIXED:
+        seen.clear()
+        kw = dict(method=method, coordinates=coordinates, h=0.01, save_every=7)
+        sol = lieint.integrate(system, y0, (0.0, 0.5), **kw)
+        assert sol.stats.backend == "numba"
+        generic = system.group.ad_spectral_radius(system.generator(0.0, sol.states)).max()
+        ((bound, answer),) = seen
+        # ‖W‖_F² = 2 Σ θ_k² lies between (θ₁ + θ₂)² and 2⌊n/2⌋ θ₁²
+        assert generic <= bound * (1 + 1e-13) <= (2 * (n // 2)) ** 0.5 * generic * (1 + 1e-12), (method, bound)
+        assert answer == bound  # below π/h: the kept bound answers
+    with pytest.warns(lieint.LieStepWarning, match="too large for this motion"):
+        lieint.integrate(system, y0, (0.0, 6.0), method="rkmk4", coordinates="cayley", h=3.0)
     assert seen[-1][0] >= np.pi / 3.0 and seen[-1][1] is None
 
 
