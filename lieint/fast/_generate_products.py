@@ -51,12 +51,15 @@ def product(n: int) -> str:
     return "\n".join(lines) + "\n"
 
 
-def dispatch_source(name: str, args: str, prefix: str, sizes: range, doc: list[str], guard: list[str]) -> str:
+def dispatch_source(
+    name: str, args: str, prefix: str, sizes: range, doc: list[str], guard: list[str], signature: str = "_DISPATCH"
+) -> str:
     """A compiled dispatcher ``name(args)`` calling ``{prefix}{n}(args)`` for each n in
     ``sizes`` and returning True, False (nothing written) for any other size; ``doc`` its
-    docstring's lines, ``guard`` lines that set n and may return False first (shared with
-    :mod:`lieint.fast._generate_cayley`)."""
-    lines = ["", "", "@njit(_DISPATCH, cache=True, **NO_REFCOUNT)", f"def {name}({args}):", *doc, *guard]
+    docstring's lines, ``guard`` lines that set n and may return False first, ``signature`` the
+    generated module's name of its type signature (shared with :mod:`lieint.fast._generate_cayley`
+    and :mod:`lieint.fast._generate_skew`)."""
+    lines = ["", "", f"@njit({signature}, cache=True, **NO_REFCOUNT)", f"def {name}({args}):", *doc, *guard]
     for n in sizes:
         lines += [f"    {'if' if n == sizes.start else 'elif'} n == {n}:", f"        {prefix}{n}({args})"]
     lines += ["    else:", "        return False", "    return True"]

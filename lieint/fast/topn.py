@@ -26,7 +26,9 @@ kernel, is :mod:`lieint.fast.topn_step`:
 * the stage slopes and the scratch of the exponential, the action and the brackets are held
   per body for the whole run, and the products are written into them, unrolled up to n = 8
   (:func:`lieint.fast.products.mm_small_into`; BLAS above, where the arithmetic outweighs a call);
-* brackets of skew matrices cost one product, ``[X, Y] = XY − (XY)ᵀ``;
+* brackets of skew matrices cost one product, ``[X, Y] = XY − (XY)ᵀ``; for 4 ≤ n ≤ 6 the
+  stage's skew operations are unrolled and compute only upper triangles
+  (:mod:`lieint.fast.small_skew`);
 * the dexp⁻¹ series converges only while the spectral radius of ``ad_u`` on so(n),
   ``θ₁ + θ₂`` (the two largest rotation angles of u), is below 2π; the Frobenius norm settles
   the usual case (``‖u‖_F² = 2 Σ θ_k² ≥ (θ₁ + θ₂)²``), then ``(2‖u²‖_F)^{1/2}``, and only when
