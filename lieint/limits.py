@@ -16,6 +16,9 @@ limit                      what it bounds                   default
 ``LIEINT_MAX_MEMORY``      arrays a run holds in memory     4 GiB
 =========================  ===============================  =====================
 
+The rows an adaptive run saves are not known in advance; its loops count them against
+``LIEINT_MAX_MEMORY`` as they save them (:class:`lieint.loops._RowBudget`).
+
 Arrays in a scene are nested at most :data:`MAX_NESTING` levels (an ensemble of matrices needs
 three); this one is structural and cannot be raised.
 """

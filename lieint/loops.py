@@ -26,6 +26,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from .groups.base import DexpinvRangeError
+from .limits import check as check_limit
+from .limits import limit
 
 if TYPE_CHECKING:
     from .driver import Driver
@@ -251,6 +253,7 @@ class _AdaptiveLoop(_GenericRows):
         t, y, h, mstate = carry.t, carry.state, carry.h, carry.method_state
         times, rows = [], []
         taken, failure = 0, None
+        budget = _RowBudget(d, y)
         rejected = False  # the current step was rejected at least once (scipy: no growth then)
         while t < d.t1 and (max_steps is None or taken < max_steps):
             h = min(h, d.t1 - t)
@@ -278,6 +281,7 @@ class _AdaptiveLoop(_GenericRows):
             if d.observer is not None and d.observer.step(t_prev, y_prev, t, y, result):
                 break
             if carry.k % d.save_every == 0 or t == d.t1:
+                budget.hold(len(rows) + 1)
                 times.append(t)
                 rows.append(y)
             h *= ctrl.factor(err, q, after_rejection=rejected)
@@ -330,6 +334,7 @@ class _AdaptiveKernelLoop(_CompiledRows, _AdaptiveLoop):
         d = self.d
         left = np.iinfo(np.int64).max if max_steps is None else max_steps
         times, parts, failure = [], [], None
+        budget, held = _RowBudget(d, self.user_state(carry)), 0
         while carry.t < d.t1 and left > 0:
             state, (t, h, k), (acc, rej, nfev), t_saved, saved, small = self.kernel.advance_adaptive(
                 carry.state, carry.t, d.t1, carry.h, carry.k, left, d.save_every, d.project, d.controller, self.h_min
@@ -340,6 +345,8 @@ class _AdaptiveKernelLoop(_CompiledRows, _AdaptiveLoop):
             left -= acc
             times.append(t_saved)
             parts.append(saved)
+            held += t_saved.size
+            budget.hold(held)  # a buffer's worth at most beyond the limit (BYTES_PER_CALL)
             if small:
                 failure = self._too_small(t)
                 break
@@ -382,6 +389,7 @@ class ScipyLoop:
         solver = carry.state["solver"]
         times, rows = [], []
         taken, failure = 0, None
+        budget = _RowBudget(d, self.user_state(carry))
         nfev0 = solver.nfev
         while solver.status == "running" and (max_steps is None or taken < max_steps):
             t_old = solver.t
@@ -400,6 +408,7 @@ class ScipyLoop:
                 break
             if d.save_times is None:
                 if carry.k % d.save_every == 0 or solver.status == "finished":
+                    budget.hold(len(rows) + 1)
                     times.append(solver.t)
                     rows.append(self._row(solver.y.copy()))
                 continue
@@ -407,6 +416,7 @@ class ScipyLoop:
             stop = int(np.searchsorted(st, t_reach, side="right"))
             if stop > self.next_save:
                 dense = solver.dense_output()
+                budget.hold(len(rows) + stop - self.next_save)
                 for j in range(self.next_save, stop):
                     z = solver.y.copy() if st[j] == solver.t else dense(st[j])
                     times.append(float(st[j]))
@@ -425,6 +435,33 @@ class ScipyLoop:
 
 
 # -- helpers ---------------------------------------------------------------------------------------
+
+
+class _RowBudget:
+    """The rows a segment may hold in memory under ``LIEINT_MAX_MEMORY``, for the loops whose
+    number of steps is not known in advance (a fixed grid's rows are checked before the run,
+    :meth:`~lieint.driver.Driver.run`). Tolerances below what round-off lets the error estimate
+    resolve drive the step size down without end — millions of accepted steps, every one saved
+    — so a run is refused with the limit's message instead of exhausting the machine's memory."""
+
+    def __init__(self, d: Driver, like: dict):
+        self.d = d
+        self.row_bytes = 8 + sum(np.asarray(v).nbytes for v in like.values())  # a time and a state
+        self.rows = limit("LIEINT_MAX_MEMORY") // self.row_bytes
+
+    def hold(self, rows: int) -> None:
+        """Refuse (:class:`lieint.limits.LimitError`) to hold ``rows`` rows beyond the limit."""
+        if rows <= self.rows:
+            return
+        d = self.d
+        check_limit(
+            "LIEINT_MAX_MEMORY",
+            float(rows * self.row_bytes),
+            f"the memory of the {rows} rows saved so far by an adaptive run of {d.method.name} with "
+            f"`rtol` = {d.rtol:g}, `atol` = {d.atol:g}, `save_every` = {d.save_every} (bytes)",
+            "loosen the tolerances (round-off bounds how small they can usefully be), raise save_every, "
+            "or stream the run to a file (lieint run --out, lieint.runs.run)",
+        )
 
 
 def _stopped(d: Driver, carry: Carry, segment: Segment) -> Segment:

@@ -199,3 +199,52 @@ def test_limits_are_raised_by_the_environment(monkeypatch):
         limit("LIEINT_MAX_DIMENSION")
     with pytest.raises(LimitError):
         check("LIEINT_MAX_STEPS", float("nan"), "the number of steps")
+
+
+def _steps_chosen_by_error_control():
+    """Every registry method whose steps are not a fixed grid, in each of its coordinate maps and
+    back ends: the embedded pairs compiled ("auto") and generic ("numpy"), scipy's solvers."""
+    from lieint.methods.registry import get_method, method_specs
+
+    out = []
+    for name, spec in method_specs().items():
+        for coordinates in spec.coordinates or (None,):
+            method = get_method(name, coordinates=coordinates)
+            if method.adaptive:
+                out += [(name, coordinates, "auto"), (name, coordinates, "numpy")]
+            elif method.self_controlled:
+                out.append((name, coordinates, "auto"))
+    return out
+
+
+@pytest.mark.parametrize(("name", "coordinates", "backend"), _steps_chosen_by_error_control())
+def test_an_adaptive_run_never_holds_more_rows_than_the_memory_limit(monkeypatch, name, coordinates, backend):
+    # tolerances below round-off drive the steps down without end, every one saved: the run is
+    # refused at the limit instead of exhausting the machine (24 GB were reached before)
+    import lieint
+    from lieint.limits import LimitError
+
+    top = lieint.EulerTop(np.diag([1.0, 2.0, 3.0]))
+    y0 = top.initial_state(angular_velocity=[0.3, 1.0, 0.4])
+    row = 8 + 2 * 9 * 8  # t, A and R
+    monkeypatch.setenv("LIEINT_MAX_MEMORY", str(40 * row))
+    kw = dict(method=name, coordinates=coordinates, rtol=1e-10, atol=1e-12, backend=backend)
+    with pytest.raises(LimitError, match=r"rows saved so far by an adaptive run .* LIEINT_MAX_MEMORY") as caught:
+        lieint.integrate(top, y0, (0.0, 1000.0), **kw)  # every method takes more than 40 steps
+    assert "`rtol` = 1e-10, `atol` = 1e-12, `save_every` = 1" in str(caught.value)
+    # the budget counts saved rows: a run saving every 1000th step fits
+    sol = lieint.integrate(top, y0, (0.0, 20.0), save_every=1000, **kw)
+    assert sol.success and sol.t[-1] == 20.0 and sol.t.size < 40
+
+
+def test_the_row_budget_covers_t_eval_rows_of_scipy(monkeypatch):
+    import lieint
+    from lieint.limits import LimitError
+
+    top = lieint.EulerTop(np.diag([1.0, 2.0, 3.0]))
+    y0 = top.initial_state(angular_velocity=[0.3, 1.0, 0.4])
+    monkeypatch.setenv("LIEINT_MAX_MEMORY", str(40 * (8 + 2 * 9 * 8)))
+    with pytest.raises(LimitError, match="LIEINT_MAX_MEMORY"):
+        lieint.integrate(top, y0, (0.0, 1.0), method="scipy:DOP853", t_eval=np.linspace(0.0, 1.0, 100))
+    sol = lieint.integrate(top, y0, (0.0, 1.0), method="scipy:DOP853", t_eval=np.linspace(0.0, 1.0, 30))
+    assert sol.t.size == 30
