@@ -21,7 +21,10 @@ G, R, the centre; max over fields of ``max|y − y_ref| / max(1, max|y_ref|)``):
   vector field, all fields flattened), the loosest rtol (atol = rtol·1e-3) that reaches the
   target, R projected onto SO(n) at the end as a user would.
 
-The settings: step counts from 6 by ratios of √2, rtols from 1e-4 by ratios of √10; then, for
+The settings: step counts from 6 by ratios of √2, rtols from 1e-4 by ratios of √10, each series
+until two settings in a row reach the tightest target or one costs more than 2 s CPU (an
+embedded pair of low order at rtol 3e-14, its steps collapsing in round-off, once held 24 GB of
+rows before the memory limit refused such runs); then, for
 every series alike (lieint's and DOP853), three geometric bisections between the cheapest
 setting that reaches a target and the next cheaper one that misses it (on the grid alone an
 order-6 method's error moves 8× between counts, DOP853's about 3× between rtols, so the grid
@@ -54,6 +57,7 @@ from scipy.integrate import solve_ivp
 
 import lieint
 from lieint.groups import project_to_so
+from lieint.limits import LimitError
 
 TARGETS = (1e-6, 1e-10)
 
@@ -187,13 +191,50 @@ def sweeps(case: Case, quick: bool):
     series = {name: [] for name in (*FIXED, *ADAPTIVE, "DOP853")}
     for name in FIXED:
         for n in counts:
-            series[name].append((fixed_error(case, name, n), n))
+            series[name].append(_timed(lambda n=n, name=name: fixed_error(case, name, n), n))
+            if _done(series[name]):
+                break
+    for name in ADAPTIVE:
+        for rtol in rtols:
+            series[name].append(_timed(lambda r=rtol, name=name: adaptive_error(case, name, r), rtol))
+            if _done(series[name]):
+                break
     for rtol in rtols:
-        for name in ADAPTIVE:
-            series[name].append((case.error(case.lieint(name, rtol=rtol)), rtol))
-        series["DOP853"].append((case.error(case.scipy(rtol, rtol * 1e-3)), rtol))
+        series["DOP853"].append(_timed(lambda r=rtol: case.error(case.scipy(r, r * 1e-3)), rtol))
+        if _done(series["DOP853"]):
+            break
+    for rows in series.values():
+        rows[:] = [(error, setting) for error, setting, _ in rows]
     refine(case, series, rounds=1 if quick else 3)
     return series
+
+
+#: a series stops at a setting that costs more CPU time than this (a low-order method at a
+#: tight target: its cheapest setting would not be the best of the table anyway)
+SWEEP_SECONDS = 2.0
+
+
+def _timed(fn, setting) -> tuple[float, float, float]:
+    t0 = time.process_time()
+    error = fn()
+    return error, setting, time.process_time() - t0
+
+
+def _done(rows) -> bool:
+    """Whether a series' sweep may stop: two settings in a row reach the tightest target (a
+    tighter one would be dearer; two guard against an error that dips by chance), or the last
+    setting cost more than :data:`SWEEP_SECONDS`."""
+    reached = [error <= min(TARGETS) for error, _, _ in rows[-2:]]
+    return (len(reached) == 2 and all(reached)) or rows[-1][2] > SWEEP_SECONDS
+
+
+def adaptive_error(case: Case, name: str, rtol: float) -> float:
+    """The error of an embedded pair at ``rtol``; infinite when the run is refused at the memory
+    limit (tolerances below what round-off lets the error estimate resolve: the steps collapse)."""
+    try:
+        return case.error(case.lieint(name, rtol=rtol))
+    except LimitError:
+        return float("inf")
 
 
 def fixed_error(case: Case, name: str, n: int) -> float:
@@ -238,7 +279,7 @@ def refine(case: Case, series: dict, rounds: int) -> None:
                 if name == "DOP853":
                     rows.append((case.error(case.scipy(mid, mid * 1e-3)), mid))
                 else:
-                    rows.append((case.error(case.lieint(name, rtol=mid)), mid))
+                    rows.append((adaptive_error(case, name, mid), mid))
 
 
 def cheapest(series, name, target):
