@@ -71,6 +71,35 @@ def initial(system, rng):
     return system.initial_state(Omega=X - X.T)
 
 
+def _first_step_round_off(system, y, ctrl) -> float:
+    """100 ε‖f₀‖/‖f₁ − f₀‖ (scaled norms, h₀ of the generic controller): the relative round-off
+    of the first trial step when the vector field is computed another way."""
+    eps = np.finfo(float).eps
+    f0 = system.vector_field(0.0, y)
+    scale = {k: ctrl.atol + ctrl.rtol * np.abs(v) for k, v in y.items()}
+
+    def norm(z):  # scaled by its largest ratio first: a tiny atol would overflow the squares
+        r = np.concatenate([(z[k] / scale[k]).ravel() for k in z])
+        top = float(np.max(np.abs(r)))
+        return top * float(np.sqrt(np.sum((r / top) ** 2))) if top > 0 else 0.0
+
+    d0, d1 = norm(y), norm(f0)
+    h0 = 1e-6 if d0 < 1e-5 or d1 < 1e-5 else 0.01 * d0 / d1
+    f1 = system.vector_field(0.0, {k: y[k] + h0 * f0[k] for k in y})
+    change = norm({k: f1[k] - f0[k] for k in y})
+    return 100 * eps * max(1.0, d1 / change) if change > 0 else 100 * eps
+
+
+def initial_batch(system, rng, bodies):
+    X = rng.normal(size=(bodies, system.n, system.n))
+    return system.initial_state(Omega=X - np.swapaxes(X, -1, -2))
+
+
+def at_rest(system, y0):
+    """``y0`` with the body at rest (the free body's vector field vanishes there)."""
+    return system.initial_state(Omega=np.zeros((system.n, system.n)))
+
+
 CASES = [(n, name) for n in (3, 4) for name in variants(n)]
 
 
@@ -308,6 +337,38 @@ def test_pieces_with_the_wrong_arguments_or_scratch_are_refused_clearly():
     for bad in (-1, 2.5, lambda n: -n):
         with pytest.raises(ValueError, match=r"`work` of compiled pieces must give a length >= 0"):
             lieint.integrate(_Spinner(_spinner_pieces(bad)), {"R": np.eye(3)}, (0.0, 1.0), h=0.1, backend="numba")
+
+
+@pytest.mark.parametrize("n,name", CASES)
+def test_the_compiled_first_trial_step_is_the_generic_one(n, name):
+    """The adaptive kernel's first trial step (the compiled vector field, twice) is the generic
+    controller's to round-off, for every pair's error order, ordinary and absurd tolerances (a
+    tiny atol overflows the squares of the norm) and a state at rest (the field's norm 0).
+
+    Round-off here is the two vector fields' (the compiled and the generic one agree to a few
+    ε‖f‖, not bit for bit) through ``d₂ = ‖f(y₀ + h₀f₀) − f₀‖/h₀``, a difference of nearly
+    equal fields: its relative error is about ε‖f₀‖/‖f₁ − f₀‖ (3e-12 on the heavy top at
+    rtol 1e-6), and the step's ``1/(q + 1)`` of that — the tolerance below, with a margin of 100."""
+    from lieint.control import StepSizeController
+    from lieint.loops import adaptive_loop
+
+    system = variants(n)[name]
+    rng = np.random.default_rng(5)
+    moving = initial(system, rng)
+    states = {"moving": moving, "batch": initial_batch(system, rng, 3), "resting": at_rest(system, moving)}
+    for label, y0 in states.items():
+        for rtol, atol in ((1e-6, 1e-9), (1e-10, 1e-13), (1e-3, 1e-200), (1e-12, 1.0)):
+            for method, _ in PAIRS:
+                run = lieint.driver.Driver(system, get_method(method), (0.0, 2.0), rtol=rtol, atol=atol)
+                y = system.validate_state(y0)
+                loop = adaptive_loop(run, y)
+                assert loop.name == "numba", (name, label)
+                ctrl = StepSizeController(rtol, atol)
+                expected = ctrl.initial_step(system, 0.0, y, 2.0, run.method.error_order)
+                got = loop.start(y).h
+                assert got == pytest.approx(expected, rel=_first_step_round_off(system, y, ctrl), abs=0), (
+                    name, label, rtol, atol, method,
+                )  # fmt: skip
 
 
 @pytest.mark.parametrize("n,name", CASES)

@@ -26,13 +26,13 @@ import math
 import numpy as np
 from numba import njit, types
 
-from .controller import advanced_time, error_norm, step_factor
+from .controller import advanced_time, error_norm, first_guess, initial_step_from, step_factor
 from .generic import LieKernel
 from .generic_step import move_either, step_either, step_work
 from .pairs import CompiledPair, row_capacity
 from .pieces import BUNDLE
 
-__all__ = ["LieAdaptiveKernel", "adaptive_lie"]
+__all__ = ["LieAdaptiveKernel", "adaptive_lie", "initial_step_lie"]
 
 _vec = types.float64[::1]
 _mat = types.float64[:, ::1]
@@ -163,6 +163,24 @@ def adaptive_lie(
     return status, t, h, k, accepted, rejected, nfev, rows
 
 
+@njit(cache=True)
+def initial_step_lie(bundle, Y, params, rtol, atol, span, error_order, work_size):
+    """scipy's (Hairer's) first trial step on the flattened states ``Y`` (N, d) of every body,
+    with the system's compiled vector field: :meth:`lieint.control.StepSizeController.initial_step`
+    (the same norms over every component of every body) without its two evaluations in Python."""
+    N, d = Y.shape
+    work = np.empty(work_size)
+    F0, F1, Y1 = np.empty((N, d)), np.empty((N, d)), np.empty((N, d))
+    for m in range(N):
+        bundle.vector_field(Y[m], params, F0[m], work)
+    h0, d1 = first_guess(Y, F0, rtol, atol, span)
+    for m in range(N):
+        for i in range(d):
+            Y1[m, i] = Y[m, i] + h0 * F0[m, i]
+        bundle.vector_field(Y1[m], params, F1[m], work)
+    return initial_step_from(h0, d1, Y, F0, F1, rtol, atol, span, error_order)
+
+
 class LieAdaptiveKernel(LieKernel):
     """Adaptive RKMK through the generic compiled kernel: the whole controller loop in machine
     code, serial (a batch shares one step size), state flattened as :class:`LieKernel`'s."""
@@ -181,6 +199,16 @@ class LieAdaptiveKernel(LieKernel):
     def generator_radius(self, states: dict, limit: float = 0.0) -> None:
         """None: this loop keeps no bound of ξ (the fixed-step check does not apply to it)."""
         return None
+
+    def initial_step(self, internal: dict, t0: float, t1: float, controller, error_order: int) -> float:
+        """The first trial step, :meth:`lieint.control.StepSizeController.initial_step` with the
+        compiled vector field (:func:`initial_step_lie`)."""
+        return float(
+            initial_step_lie(
+                self.pieces.bundle, internal["Y"], self.params, float(controller.rtol), float(controller.atol),
+                float(t1 - t0), int(error_order), self.pieces.work_size(self.n),
+            )
+        )  # fmt: skip
 
     def advance_adaptive(self, internal: dict, t, t1, h, k, max_accept, save_every, project, controller, h_min):
         """Accepted steps from ``(t, h)`` at step ``k`` until ``t1``, ``max_accept`` accepted
