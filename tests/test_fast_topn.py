@@ -173,27 +173,35 @@ def test_the_kernels_cayley_map_is_orthogonal_to_round_off_at_any_step(rng):
     from lieint.groups.so import SO
 
     for n in (4, 6, 9):
-        Q, L, W, tmp, out = (np.empty((n, n)) for _ in range(5))
-        for scale in (1e-8, 0.3, 3.0, 100.0, 1e4):
+        Q, L, T, W, tmp, out = (np.empty((n, n)) for _ in range(6))
+        for scale in (1e-8, 0.3, 3.0, 100.0, 1e4, 1e9, 1e17):
             u = random_skew(rng, n)
             u *= scale / np.linalg.norm(u, 2)
-            cayley_into(u, Q, L)
+            cayley_into(u, Q, L, T)
+            if scale > 1e4 and np.isnan(Q).all():
+                # off the group by more than OFF_GROUP (θ ≳ 1e10): not the map any more, NaN
+                # (reported, or a trial step rejected); at 1e17 also a zero pivot
+                continue
+            # orthogonal to 8nε at every step: the solve is accurate to ε·cond(I − u/2), cond ≈
+            # θ₁/2 (2e-13 at n = 9, θ₁ = 1e4; O(1) at 1e17, as numpy's solve), and a map left
+            # off the group by less than OFF_GROUP is brought back onto it (orthogonal_polish)
+            assert np.abs(Q.T @ Q - np.eye(n)).max() <= 8 * n * np.finfo(float).eps, (n, scale)
+            assert np.linalg.det(Q) > 0, (n, scale)  # a rotation, as cay(u) is
+            if scale > 1e4:
+                continue
             exact = np.linalg.solve(np.eye(n) - u / 2, np.eye(n) + u / 2)
             # both solves are backward stable: they agree to ε times cond(I − u/2) ≈ θ₁/2
             np.testing.assert_allclose(Q, exact, rtol=0, atol=1e-15 * n * max(1.0, scale))
-            # orthogonal to the solve's accuracy, ε·cond(I − u/2) with cond ≈ θ₁/2 (observed
-            # 2e-13 at n = 9, θ₁ = 1e4; without pivoting 2e-12 already at n = 6)
-            assert np.abs(Q.T @ Q - np.eye(n)).max() < 2e-16 * n * max(1.0, scale), (n, scale)
             xi = random_skew(rng, n)
             dcayinv_into(u, xi, out, W, tmp)
             expected = SO(n).dcayinv(-u, xi)
             np.testing.assert_allclose(out, expected, rtol=0, atol=1e-14 * max(1.0, scale**2))
         u[0, 1] = np.nan
-        cayley_into(u, Q, L)
+        cayley_into(u, Q, L, T)
         assert np.isnan(Q).all()
         # a huge u: NaN (reported, or a rejected trial step) or a finite map, never an error
         huge = random_skew(rng, n) * 1e307
-        cayley_into(huge, Q, L)
+        cayley_into(huge, Q, L, T)
         assert np.isnan(Q).all() or np.isfinite(Q).all()
         bad, good = random_skew(rng, n), random_skew(rng, n)
         bad[0, 1], bad[1, 0] = np.inf, -np.inf
@@ -206,21 +214,25 @@ def test_the_cayley_maps_unpivoted_shortcut_is_partial_pivotings_own_result(rng)
     # partial pivoting would not swap and the shortcut that skips its search is the same
     # operations — the same bits — on both sides of the threshold and at random dominant steps
     # (4 ≤ n ≤ 6: the unrolled elimination of lieint.fast.small_cayley; 7, 8: the loops)
+    # (beyond the dominance: partial pivoting, then the polish onto the orthogonal matrices)
     from lieint.fast.cayley import _column_dominant, _eliminate, cayley_into
+    from lieint.fast.skew import orthogonal_polish
 
     for n in (4, 5, 6, 7, 8):
-        Q, L, ref = np.empty((n, n)), np.empty((n, n)), np.empty((n, n))
+        Q, L, T, ref = np.empty((n, n)), np.empty((n, n)), np.empty((n, n)), np.empty((n, n))
         for target in (1e-6, 0.5, 1.99, 2.01, 4.0):
             u = random_skew(rng, n)
             u *= target / np.abs(u).sum(axis=0).max()  # the largest column sum is the target
             assert _column_dominant(u) == (target < 2.0)
-            cayley_into(u, Q, L)
+            cayley_into(u, Q, L, T)
             _eliminate(u, ref, L, True)
+            if target > 2.0:
+                orthogonal_polish(ref, L, 0, T, 0)
             assert np.array_equal(Q, ref), (n, target)
             assert np.array_equal(np.signbit(Q), np.signbit(ref)), (n, target)  # zeros' signs too
         sparse = np.zeros((n, n))  # zero multipliers and signed zeros in the elimination
         sparse[0, 1], sparse[1, 0], sparse[2, n - 1], sparse[n - 1, 2] = 0.3, -0.3, -0.0, 0.0
-        cayley_into(sparse, Q, L)
+        cayley_into(sparse, Q, L, T)
         _eliminate(sparse, ref, L, True)
         assert np.array_equal(Q, ref) and np.array_equal(np.signbit(Q), np.signbit(ref)), n
         assert not _column_dominant(np.full((n, n), np.nan)) and not _column_dominant(np.full((n, n), np.inf))

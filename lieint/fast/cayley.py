@@ -15,7 +15,7 @@ from numba import njit
 
 from ._jit import NO_REFCOUNT
 from .products import mm_small_into
-from .skew import _finite
+from .skew import _finite, orthogonal_polish
 from .small_cayley import cayley_square_into
 
 __all__ = ["cayley_into", "dcayinv_into"]
@@ -37,17 +37,22 @@ def _column_dominant(u):
 
 
 @njit(cache=True, **NO_REFCOUNT)
-def cayley_into(u, Q, L):
+def cayley_into(u, Q, L, T):
     """``Q = cay(u) = (I − u/2)⁻¹(I + u/2)``, or NaN when u is not finite (or so large that
-    the unit diagonal is lost and the elimination meets a zero pivot); ``L`` is scratch.
+    the unit diagonal is lost and the elimination meets a zero pivot); ``L`` and ``T`` are
+    scratch.
 
     ``I − u/2`` is invertible for skew u (eigenvalues ``1 ∓ iθ_k/2``, singular values ≥ 1):
     Gaussian elimination with partial pivoting on it, the right-hand side ``I + u/2`` carried
     along, then back substitution — about 4n³/3 multiply-adds, two thirds of a product. The
     usual step (``I − u/2`` column diagonally dominant, :func:`_column_dominant`) skips the
     pivot search, which would not swap: the same operations, so the same bits — for
-    4 ≤ n ≤ 6 in the unrolled code of :mod:`lieint.fast.small_cayley`."""
-    if _column_dominant(u):
+    4 ≤ n ≤ 6 in the unrolled code of :mod:`lieint.fast.small_cayley`. Beyond the dominant
+    steps the condition ``(1 + θ₁²/4)^{1/2}`` grows with u, and a huge u (a stage of a step far
+    too large) leaves Q off the orthogonal matrices: it is then brought back onto them, or made
+    NaN when it is too far off to be the map (:func:`lieint.fast.skew.orthogonal_polish`), so
+    that the attitude stays a rotation."""
+    if _column_dominant(u):  # θ₁ < 2: condition below √2, orthogonal to a few ε
         if not cayley_square_into(u, Q):  # unrolled for 4 ≤ n ≤ 6 (the same operations)
             _eliminate(u, Q, L, False)
         return
@@ -55,6 +60,7 @@ def cayley_into(u, Q, L):
         Q[:, :] = np.nan
         return
     _eliminate(u, Q, L, True)
+    orthogonal_polish(Q, L, 0, T, 0)
 
 
 @njit(cache=True, **NO_REFCOUNT)

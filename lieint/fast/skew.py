@@ -170,6 +170,58 @@ def cayley_se_into(W, x, Q, t):
     cayley_se_elim_into(W, x, Q, t, np.empty((n, 2 * n + 1)))
 
 
+#: a Cayley map further than this off the orthogonal matrices is not trusted: NaN (its stage's
+#: u reached θ ~ 1e10, where the solve has lost all but six digits of the map)
+OFF_GROUP = 1e-6
+
+
+@njit(cache=True, **NO_REFCOUNT)
+def orthogonal_polish(Q, G, g0, T, t0):
+    """Q back onto the orthogonal matrices when the Cayley map's elimination left it off them,
+    NaN when it is too far off to be the map at all.
+
+    ``cay(u)`` of a skew u is a rotation, but elimination computes it only to about
+    ``ε·cond(I − u/2) = ε(1 + θ₁²/4)^{1/2}``: the stages of a step far beyond its range (which
+    the step check warns about) or of a trial step that a loose tolerance lets through reach
+    θ ~ 1e17, where the computed map is off the group by O(1) — and the attitude ``R ← RQ`` with
+    it. With ``δ = max |QᵀQ − I|``: nothing when ``δ ≤ 8nε``; Newton–Schulz ``Q ← Q(3I − QᵀQ)/2``
+    toward the polar factor (quadratic convergence, two steps from δ ≤ :data:`OFF_GROUP`; the
+    factor is within δ of the exact map, so a rotation) when ``δ ≤`` :data:`OFF_GROUP`; NaN
+    beyond, which the caller reports (a fixed step) or rejects (an adaptive trial step) — a
+    polar factor of garbage may even be a reflection. Scratch without allocation:
+    ``G[i, g0 + j]`` and ``T[i, t0 + j]``, n × n blocks of the caller's work arrays."""
+    n = Q.shape[0]
+    tol = 8.0 * n * 2.220446049250313e-16
+    for step in range(4):
+        worst = 0.0
+        for i in range(n):
+            for j in range(n):
+                s = 0.0
+                for k in range(n):
+                    s += Q[k, i] * Q[k, j]
+                if i == j:
+                    s -= 1.0
+                G[i, g0 + j] = s
+                if abs(s) > worst:
+                    worst = abs(s)
+        if not worst > tol:  # on the group (or NaN: left to the caller's finiteness check)
+            return
+        if worst > OFF_GROUP or step == 3:  # not the map any more (or not converging): reported
+            for i in range(n):
+                for j in range(n):
+                    Q[i, j] = np.nan
+            return
+        for i in range(n):
+            for j in range(n):
+                s = 0.0
+                for k in range(n):
+                    s += Q[i, k] * G[k, g0 + j]
+                T[i, t0 + j] = s
+        for i in range(n):
+            for j in range(n):
+                Q[i, j] -= 0.5 * T[i, t0 + j]
+
+
 @njit(cache=True, **NO_REFCOUNT)
 def cayley_se_elim_into(W, x, Q, t, aug):
     """The Cayley map of se(n) into Q and t: for ``X = [[W, x], [0, 0]]``,
@@ -215,6 +267,18 @@ def cayley_se_elim_into(W, x, Q, t, aug):
             Q[i, j] = aug[i, n + 1 + j]
         if m > 0:
             t[i] = aug[i, n]
+    # a huge W leaves the rotation off SO(n) by ε·cond(M): back onto it, or NaN when it is too far
+    # off to be the map (aug's blocks as scratch);
+    # a column diagonally dominant M (Σ_r |W_rc| < 2: θ₁ < 2, cond(M) < √2) needs no look
+    dominant = True
+    for c in range(n):
+        total = 0.0
+        for r in range(n):
+            total += abs(W[r, c])
+        if not total < 2.0:
+            dominant = False
+    if not dominant:
+        orthogonal_polish(Q, aug, 0, aug, n + 1)
 
 
 @njit(cache=True)

@@ -57,7 +57,7 @@ def _embedded(A0, R0, orient, M, K, w, h, cayley, W, E, out_A, out_R):
     if not _combine(u, K, w.reshape((1, w.shape[0])), 0, w.shape[0], h):
         u[:, :] = 0.0
     if cayley:
-        cayley_into(u, Q, E[0])
+        cayley_into(u, Q, E[0], E[1])
     else:
         _exp_into(u, Q, E)
     _act_into(Q, Q.T, A0, M, out_A, acc, C, tmp)

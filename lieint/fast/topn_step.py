@@ -144,7 +144,7 @@ def _lie_step(A, R, orient, M, tab, b, h, coeffs, cayley, K, W, E):
     degree = coeffs.shape[0] - 1
     # the views once per step: each counts a reference on W or E (an atomic operation)
     u, Q, C, tmp, acc, term, other, minus_u = W[0], W[1], W[2], W[3], W[4], W[5], W[6], W[7]
-    QT, E0 = Q.T, E[0]
+    QT, E0, E1 = Q.T, E[0], E[1]
     small = n <= 8  # no BLAS behind the products: the copies without reference counts
     unrolled = 4 <= n <= 6  # the skew operations unrolled (lieint.fast.small_skew's sizes)
     for i in range(s):
@@ -154,7 +154,7 @@ def _lie_step(A, R, orient, M, tab, b, h, coeffs, cayley, K, W, E):
                     K[i, a, c] = A[a, c] * M[a, c]
             continue
         if cayley:
-            cayley_into(u, Q, E0)
+            cayley_into(u, Q, E0, E1)
             if unrolled:
                 congruence_skew_into(Q, A, M, other, acc)  # acc = Ω̃(QᵀÃQ) = ξ
                 dcayinv_skew_into(u, acc, K[i])
@@ -196,7 +196,7 @@ def _lie_step(A, R, orient, M, tab, b, h, coeffs, cayley, K, W, E):
     if not _combine(u, K, b.reshape((1, s)), 0, s, h):
         u[:, :] = 0.0
     if cayley:
-        cayley_into(u, Q, E0)
+        cayley_into(u, Q, E0, E1)
     else:
         _exp_into(u, Q, E)
     if unrolled:

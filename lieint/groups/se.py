@@ -11,7 +11,7 @@ import numpy as np
 
 from .base import MatrixLieGroup
 from .bivectors import bivector_dimension, vee
-from .so import SO, project_to_so, so3_angle_squared, so3_exp, so3_log, so_ad_spectral_radius
+from .so import SO, onto_rotations, project_to_so, so3_angle_squared, so3_exp, so3_log, so_ad_spectral_radius
 
 __all__ = ["SE", "se_join", "se_split"]
 
@@ -86,7 +86,14 @@ class SE(MatrixLieGroup):
             s = 1.0 + 0.25 * so3_angle_squared(Om)
             t = V + 0.5 * (Om @ V[..., None])[..., 0] + (0.25 * np.sum(w * V, axis=-1))[..., None] * w
             return se_join(self.rotations.cay(Om), t / s[..., None])
-        return super().cay(X)
+        g = super().cay(X)
+        # the rotation block onto SO(n) where a huge step's solve left it off (so.onto_rotations)
+        R = g[..., : self.n, : self.n]
+        fixed = onto_rotations(R)
+        if fixed is not R:
+            g = g.copy()
+            g[..., : self.n, : self.n] = fixed
+        return g
 
     def log(self, g: np.ndarray) -> np.ndarray:
         if self.n == 3:

@@ -139,6 +139,30 @@ def so_log(R: np.ndarray) -> np.ndarray:
     return skew_part(np.real(logm(R)))
 
 
+def onto_rotations(Q: np.ndarray) -> np.ndarray:
+    """``Q`` with each matrix off the orthogonal ones by ``δ = max |QᵀQ − I| > 8nε`` replaced by
+    its nearest rotation (:func:`project_to_so`), or by NaN when δ exceeds
+    :data:`lieint.fast.skew.OFF_GROUP` (1e-6): a Cayley map computed by a solve is accurate to
+    ``ε·cond(I − X/2) = ε(1 + θ₁²/4)^{1/2}``, and an RKMK stage far beyond the step's range
+    (θ ~ 1e17) leaves it off SO(n) by O(1) — the attitude ``R ← RQ`` with it; such a map is not
+    the map any more, and NaN has the step reported or, a trial step, rejected. The compiled
+    kernels do the same (:func:`lieint.fast.skew.orthogonal_polish`). Non-finite matrices are
+    left as they are."""
+    n = Q.shape[-1]
+    defect = np.abs(np.swapaxes(Q, -1, -2) @ Q - np.eye(n)).max(axis=(-2, -1))
+    off = defect > 8 * n * np.finfo(float).eps  # NaN is not off: left to the caller
+    if not np.any(off):
+        return Q
+    Q = Q.copy()
+    Q[off] = project_to_so(Q[off])
+    Q[defect > _OFF_GROUP] = np.nan
+    return Q
+
+
+#: :data:`lieint.fast.skew.OFF_GROUP` (not imported: numba stays unloaded on the generic path)
+_OFF_GROUP = 1e-6
+
+
 def project_to_so(R: np.ndarray) -> np.ndarray:
     """Nearest rotation in the Frobenius norm: the orthogonal polar factor with det = +1.
 
@@ -230,7 +254,7 @@ class SO(MatrixLieGroup):
             # where the linear solve loses digits as cond(I − X/2) = √(1 + θ²/4) grows.
             t2 = so3_angle_squared(X)[..., None, None]
             return np.eye(3) + (4.0 / (4.0 + t2)) * (X + 0.5 * (X @ X))
-        return super().cay(X)
+        return onto_rotations(super().cay(X))
 
     def project(self, g: np.ndarray) -> np.ndarray:
         return project_to_so(g)

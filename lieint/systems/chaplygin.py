@@ -21,7 +21,7 @@ from ..groups.bivectors import inner, skew_part
 from ..groups.se import SE
 from ..groups.so import SO
 from .base import Invariant, LieGroupSystem, Output, State
-from .mass import solve_lyapunov_sym
+from .mass import eigh_or_nan, solve_lyapunov_sym
 from .rigid import casimir_invariant, momentum_outputs, pose_invariants
 from .rolling_ball import RollingPose, check_ball, rolling_initial_kinematics
 
@@ -80,7 +80,7 @@ class ChaplyginBall(RollingPose, LieGroupSystem):
 
     def angular_velocity(self, A: np.ndarray, Gamma: np.ndarray) -> np.ndarray:
         """Ω from ``A_K = −(B_K Ω + Ω B_K)`` in the eigenbasis of ``B_K(Γ)``."""
-        b, P = np.linalg.eigh(self.contact_mass_tensor(Gamma))
+        b, P = eigh_or_nan(self.contact_mass_tensor(Gamma))
         return solve_lyapunov_sym(b, P, -A)
 
     def energy(self, y: State) -> np.ndarray:

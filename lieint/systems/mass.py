@@ -63,6 +63,21 @@ def check_mass_tensor(B, name: str = "B") -> tuple[np.ndarray, np.ndarray, np.nd
     return B, b, P
 
 
+def eigh_or_nan(M: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``np.linalg.eigh`` of a stack of symmetric matrices, NaN for the members that are not
+    finite (LAPACK would refuse the whole stack: "Eigenvalues did not converge"). A stage state
+    turns non-finite when a step is far too large (its Cayley map is then NaN, on purpose); the
+    NaN reaches the result, which is reported or, a trial step, rejected."""
+    finite = np.isfinite(M).all(axis=(-2, -1))
+    if np.all(finite):
+        return np.linalg.eigh(M)
+    b = np.full(M.shape[:-1], np.nan)
+    P = np.full(M.shape, np.nan)
+    if np.any(finite):
+        b[finite], P[finite] = np.linalg.eigh(M[finite])
+    return b, P
+
+
 def solve_lyapunov_sym(b: np.ndarray, P: np.ndarray, C: np.ndarray) -> np.ndarray:
     """Solve ``B X + X B = C`` for skew C, with ``B = P diag(b) Pᵀ`` (batched).
 

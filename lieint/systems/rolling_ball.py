@@ -34,7 +34,7 @@ from ..groups.se import SE, se_join, se_split
 from ..groups.so import SO, project_to_so
 from ..groups.vector import ProductGroup, VectorSpace
 from .base import Invariant, LieGroupSystem, Output, State
-from .mass import check_mass_tensor, solve_lyapunov_sym
+from .mass import check_mass_tensor, eigh_or_nan, solve_lyapunov_sym
 from .rigid import orientation_output, pose_invariants
 
 #: what the compiled declaration stands for (see :meth:`LieGroupSystem.dynamics_as`)
@@ -260,7 +260,7 @@ class RollingBall(RollingPose, LieGroupSystem):
         force = Om2k if G is None else G + Om2k
         lever = k + self.center_of_mass if self._offset else k
         C = BK @ Om2 - Om2 @ BK - self.mass * wedge(lever, force)
-        b, P = np.linalg.eigh(BK)
+        b, P = eigh_or_nan(BK)
         return solve_lyapunov_sym(b, P, C)
 
     def kinetic_energy(self, y: State) -> np.ndarray:
