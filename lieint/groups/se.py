@@ -89,7 +89,7 @@ class SE(MatrixLieGroup):
         g = super().cay(X)
         # the rotation block onto SO(n) where a huge step's solve left it off (so.onto_rotations)
         R = g[..., : self.n, : self.n]
-        fixed = onto_rotations(R)
+        fixed = onto_rotations(R, X[..., : self.n, : self.n])
         if fixed is not R:
             g = g.copy()
             g[..., : self.n, : self.n] = fixed

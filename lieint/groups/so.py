@@ -139,8 +139,11 @@ def so_log(R: np.ndarray) -> np.ndarray:
     return skew_part(np.real(logm(R)))
 
 
-def onto_rotations(Q: np.ndarray) -> np.ndarray:
-    """``Q`` with each matrix off the orthogonal ones by ``δ = max |QᵀQ − I| > 8nε`` replaced by
+def onto_rotations(Q: np.ndarray, W: np.ndarray) -> np.ndarray:
+    """``Q = cay(W)`` (computed by a solve) with each matrix whose ``I − W/2`` is not column
+    diagonally dominant (``Σ_r |W_rc| ≥ 2`` for some c; below, θ₁ < 2 and the solve is
+    orthogonal to a few ε: nothing to look at) and is off the orthogonal ones by
+    ``δ = max |QᵀQ − I| > 8nε`` replaced by
     its nearest rotation (:func:`project_to_so`), or by NaN when δ exceeds
     :data:`lieint.fast.skew.OFF_GROUP` (1e-6): a Cayley map computed by a solve is accurate to
     ``ε·cond(I − X/2) = ε(1 + θ₁²/4)^{1/2}``, and an RKMK stage far beyond the step's range
@@ -149,6 +152,8 @@ def onto_rotations(Q: np.ndarray) -> np.ndarray:
     kernels do the same (:func:`lieint.fast.skew.orthogonal_polish`). Non-finite matrices are
     left as they are."""
     n = Q.shape[-1]
+    if np.all(np.abs(W).sum(axis=-2) < 2.0):  # every matrix dominant (NaN fails: looked at)
+        return Q
     defect = np.abs(np.swapaxes(Q, -1, -2) @ Q - np.eye(n)).max(axis=(-2, -1))
     off = defect > 8 * n * np.finfo(float).eps  # NaN is not off: left to the caller
     if not np.any(off):
@@ -254,7 +259,7 @@ class SO(MatrixLieGroup):
             # where the linear solve loses digits as cond(I − X/2) = √(1 + θ²/4) grows.
             t2 = so3_angle_squared(X)[..., None, None]
             return np.eye(3) + (4.0 / (4.0 + t2)) * (X + 0.5 * (X @ X))
-        return onto_rotations(super().cay(X))
+        return onto_rotations(super().cay(X), X)
 
     def project(self, g: np.ndarray) -> np.ndarray:
         return project_to_so(g)
