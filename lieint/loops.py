@@ -344,9 +344,13 @@ class _AdaptiveKernelLoop(_CompiledRows, _AdaptiveLoop):
         times, parts, failure = [], [], None
         budget, held = _RowBudget(d, self.user_state(carry)), 0
         while carry.t < d.t1 and left > 0:
+            # at most the accepted steps whose rows still fit under the memory limit, and one
+            # row more, which the budget refuses: the kernel's buffer never outgrows the limit
+            room = (budget.rows - held + 1) * d.save_every
             state, (t, h, k), (acc, rej, nfev), t_saved, saved, small = self.kernel.advance_adaptive(
-                carry.state, carry.t, d.t1, carry.h, carry.k, left, d.save_every, d.project, d.controller, self.h_min
-            )
+                carry.state, carry.t, d.t1, carry.h, carry.k, min(left, room), d.save_every, d.project, d.controller,
+                self.h_min,
+            )  # fmt: skip
             carry.state, carry.t, carry.h, carry.k = state, t, h, k
             carry.nrejected += rej
             carry.nfev += nfev
@@ -354,7 +358,7 @@ class _AdaptiveKernelLoop(_CompiledRows, _AdaptiveLoop):
             times.append(t_saved)
             parts.append(saved)
             held += t_saved.size
-            budget.hold(held)  # a buffer's worth at most beyond the limit (BYTES_PER_CALL)
+            budget.hold(held)
             if small:
                 failure = self._too_small(t)
                 break

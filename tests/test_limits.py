@@ -231,6 +231,9 @@ def test_an_adaptive_run_never_holds_more_rows_than_the_memory_limit(monkeypatch
     kw = dict(method=name, coordinates=coordinates, rtol=1e-10, atol=1e-12, backend=backend)
     with pytest.raises(LimitError, match=r"rows saved so far by an adaptive run .* LIEINT_MAX_MEMORY") as caught:
         lieint.integrate(top, y0, (0.0, 1000.0), **kw)  # every method takes more than 40 steps
+    # refused at the first row beyond the limit, on every path (the compiled kernel is given no
+    # more steps than fit: its buffer does not outgrow the limit either)
+    assert "the memory of the 41 rows saved so far" in str(caught.value)
     assert "`rtol` = 1e-10, `atol` = 1e-12, `save_every` = 1" in str(caught.value)
     # the budget counts saved rows: a run saving every 1000th step fits
     sol = lieint.integrate(top, y0, (0.0, 20.0), save_every=1000, **kw)
