@@ -184,3 +184,39 @@ def test_a_step_size_below_h_min_fails_as_on_the_generic_path():
     b = lieint.integrate(top, y0, backend="numpy", **kw)
     assert not a.success and a.message == b.message and "the step size fell below" in a.message
     assert (a.nsteps, a.stats.nrejected, a.nfev, a.t[-1]) == (b.nsteps, b.stats.nrejected, b.nfev, b.t[-1])
+
+
+@pytest.mark.parametrize("n", [4, 6])
+@pytest.mark.parametrize("diagonal", [True, False])
+@pytest.mark.parametrize("orientation", [True, False])
+def test_the_nd_tops_compiled_first_trial_step_is_the_generic_one(rng, n, diagonal, orientation):
+    """The n-D top's adaptive kernel takes the first trial step in machine code, in the principal
+    frame: the generic controller's to the round-off of d₂ (the fields agree to a few ε, and d₂
+    is a difference of nearly equal fields: tests/test_fast_systems.py's bound), for every pair's
+    error order, a batch, a body at rest, ordinary and absurd tolerances."""
+    from test_fast_systems import _first_step_round_off
+
+    from lieint.loops import adaptive_loop
+
+    b = np.linspace(0.6, 1.4, n)
+    Q = random_rotation(rng, n) if not diagonal else np.eye(n)
+    top = lieint.EulerTop(Q @ np.diag(b) @ Q.T, orientation=orientation)
+    X = rng.normal(size=(3, n, n))
+    R = random_rotation(rng, n, (3,)) if orientation else None
+    states = {
+        "one": top.initial_state(Omega=X[0] - X[0].T, R=None if R is None else R[0]),
+        "batch": top.initial_state(Omega=X - np.swapaxes(X, -1, -2), R=R),
+        "rest": top.initial_state(Omega=np.zeros((n, n))),
+    }
+    for label, y0 in states.items():
+        for rtol, atol in ((1e-6, 1e-9), (1e-10, 1e-13), (1e-3, 1e-200), (1e-12, 1.0)):
+            for method in PAIRS:
+                run = Driver(top, lieint.get_method(method), (0.0, 2.0), rtol=rtol, atol=atol)
+                y = top.validate_state(y0)
+                loop = adaptive_loop(run, y)
+                assert loop.name == "numba" and f"{n}D-top kernel" in loop.reason, loop.reason
+                ctrl = StepSizeController(rtol, atol)
+                expected = ctrl.initial_step(top, 0.0, y, 2.0, run.method.error_order)
+                got = loop.start(y).h
+                tol = _first_step_round_off(top, y, ctrl)
+                assert got == pytest.approx(expected, rel=tol, abs=0), (label, rtol, atol, method)

@@ -146,6 +146,21 @@ class TopNAdaptiveKernel:
     def user_state(self, internal: dict) -> dict:
         return self.frame.user_state(internal)
 
+    def initial_step(self, internal: dict, t0: float, t1: float, controller, error_order: int) -> float:
+        """The first trial step, :meth:`lieint.control.StepSizeController.initial_step` with the
+        vector field in machine code (:func:`lieint.fast.topn_adaptive.initial_step_topn`)."""
+        from .topn_adaptive import initial_step_topn
+
+        f = self.frame
+        A = internal["A"]
+        R = internal["R"] if f.orientation else np.empty((A.shape[0], 0, 0))
+        return float(
+            initial_step_topn(
+                A, R, f.orientation, self.M, f.P, f.identity_frame, float(controller.rtol), float(controller.atol),
+                float(t1 - t0), int(error_order),
+            )
+        )  # fmt: skip
+
     def advance_adaptive(self, internal: dict, t, t1, h, k, max_accept, save_every, project, controller, h_min):
         """Accepted steps from ``(t, h)`` at step ``k`` (see
         :meth:`Top3AdaptiveKernel.advance_adaptive`)."""

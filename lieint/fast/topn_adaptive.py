@@ -39,12 +39,13 @@ from numba import njit
 
 from ._jit import NO_REFCOUNT
 from .cayley import cayley_into
-from .controller import advanced_time, error_norm, step_factor
+from .controller import advanced_time, error_norm, first_guess, initial_step_from, step_factor
+from .principal import _convert
 from .products import mm_small_into
 from .skew import _project
 from .topn_step import _act_into, _combine, _exp_into, _lie_step
 
-__all__ = ["adaptive_topn"]
+__all__ = ["adaptive_topn", "initial_step_topn"]
 
 
 # inlined into its callers, not called: a product here may fall back on BLAS (which copies),
@@ -212,3 +213,49 @@ def adaptive_topn(
         h *= step_factor(err, q, safety, fmin, fmax, after_rejection)
         after_rejection = False
     return status, t, h, k, accepted, rejected, nfev, rows
+
+
+@njit(cache=True)
+def _principal_field(A, R, M, orient, dA, dR):
+    """The vector field in the principal frame for every body: ``Ã' = [Ã, Ω̃]``, ``R̃' = R̃Ω̃``,
+    ``Ω̃ = M ∘ Ã`` (``[Ã, Ω̃] = W − Wᵀ``, ``W = ÃΩ̃``: exactly skew)."""
+    N, n = A.shape[0], A.shape[1]
+    Om, W = np.empty((n, n)), np.empty((n, n))
+    for m in range(N):
+        for a in range(n):
+            for c in range(n):
+                Om[a, c] = A[m, a, c] * M[a, c]
+        mm_small_into(A[m], Om, W)
+        for a in range(n):
+            for c in range(n):
+                dA[m, a, c] = W[a, c] - W[c, a]
+        if orient:
+            mm_small_into(R[m], Om, dR[m])
+
+
+@njit(cache=True)
+def _user_flat(A, R, P, identity):
+    """``(P Ã Pᵀ, R̃ Pᵀ)`` of every body (the state or its derivative), flattened into one vector
+    (A's entries, then R's): the fields the generic controller measures."""
+    if identity:
+        return np.concatenate((A.ravel(), R.ravel()))
+    out_A, out_R = np.empty_like(A), np.empty_like(R)
+    _convert(A, R, P, False, out_A, out_R)
+    return np.concatenate((out_A.ravel(), out_R.ravel()))
+
+
+@njit(cache=True)
+def initial_step_topn(A, R, orient, M, P, identity, rtol, atol, span, error_order):
+    """scipy's (Hairer's) first trial step on the user's fields of the bodies ``(Ã, R̃)`` (N, n, n)
+    in the principal frame: :meth:`lieint.control.StepSizeController.initial_step` (the same
+    norms over every entry of A and R of every body, in the user's frame) with the vector field
+    in machine code. The explicit Euler step ``y₀ + h₀f₀`` is taken in the principal frame,
+    where it is the same linear map."""
+    dA, dR = np.empty_like(A), np.empty_like(R)
+    _principal_field(A, R, M, orient, dA, dR)
+    Y, F0 = _user_flat(A, R, P, identity), _user_flat(dA, dR, P, identity)
+    h0, d1 = first_guess(Y, F0, rtol, atol, span)
+    A1, R1 = A + h0 * dA, R + h0 * dR
+    _principal_field(A1, R1, M, orient, dA, dR)
+    F1 = _user_flat(dA, dR, P, identity)
+    return initial_step_from(h0, d1, Y, F0, F1, rtol, atol, span, error_order)
