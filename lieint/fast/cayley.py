@@ -15,25 +15,10 @@ from numba import njit
 
 from ._jit import NO_REFCOUNT
 from .products import mm_small_into
-from .skew import _finite, orthogonal_polish
+from .skew import _column_dominant, _finite, orthogonal_polish
 from .small_cayley import cayley_square_into
 
 __all__ = ["cayley_into", "dcayinv_into"]
-
-
-@njit(cache=True, **NO_REFCOUNT)
-def _column_dominant(u):
-    """Whether ``I − u/2`` is strictly column diagonally dominant, ``Σ_r |u_rc| < 2`` for every
-    column c (u skew: zero diagonal), which also says that u is finite (a NaN or an infinite sum
-    fails the test). Elimination keeps the dominance, so partial pivoting would never swap."""
-    n = u.shape[0]
-    for c in range(n):
-        total = 0.0
-        for r in range(n):
-            total += abs(u[r, c])
-        if not total < 2.0:
-            return False
-    return True
 
 
 @njit(cache=True, **NO_REFCOUNT)

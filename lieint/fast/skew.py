@@ -170,6 +170,21 @@ def cayley_se_into(W, x, Q, t):
     cayley_se_elim_into(W, x, Q, t, np.empty((n, 2 * n + 1)))
 
 
+@njit(cache=True, **NO_REFCOUNT)
+def _column_dominant(u):
+    """Whether ``I − u/2`` is strictly column diagonally dominant, ``Σ_r |u_rc| < 2`` for every
+    column c (u skew: zero diagonal), which also says that u is finite (a NaN or an infinite sum
+    fails the test). Elimination keeps the dominance, so partial pivoting would never swap."""
+    n = u.shape[0]
+    for c in range(n):
+        total = 0.0
+        for r in range(n):
+            total += abs(u[r, c])
+        if not total < 2.0:
+            return False
+    return True
+
+
 #: a Cayley map further than this off the orthogonal matrices is not trusted: NaN (its stage's
 #: u reached θ ~ 1e10, where the solve has lost all but six digits of the map)
 OFF_GROUP = 1e-6
@@ -268,16 +283,9 @@ def cayley_se_elim_into(W, x, Q, t, aug):
         if m > 0:
             t[i] = aug[i, n]
     # a huge W leaves the rotation off SO(n) by ε·cond(M): back onto it, or NaN when it is too far
-    # off to be the map (aug's blocks as scratch);
-    # a column diagonally dominant M (Σ_r |W_rc| < 2: θ₁ < 2, cond(M) < √2) needs no look
-    dominant = True
-    for c in range(n):
-        total = 0.0
-        for r in range(n):
-            total += abs(W[r, c])
-        if not total < 2.0:
-            dominant = False
-    if not dominant:
+    # off to be the map (aug's blocks as scratch); a column diagonally dominant M (θ₁ < 2,
+    # cond(M) < √2) needs no look
+    if not _column_dominant(W):
         orthogonal_polish(Q, aug, 0, aug, n + 1)
 
 
