@@ -43,7 +43,7 @@ from .controller import advanced_time, error_norm, first_guess, initial_step_fro
 from .principal import _convert
 from .products import mm_small_into
 from .skew import _project
-from .topn_step import _act_into, _combine, _exp_into, _lie_step
+from .topn_step import _act_into, _combine, _exp_into, _field, _lie_step
 
 __all__ = ["adaptive_topn", "initial_step_topn"]
 
@@ -217,20 +217,12 @@ def adaptive_topn(
 
 @njit(cache=True)
 def _principal_field(A, R, M, orient, dA, dR):
-    """The vector field in the principal frame for every body: ``Ã' = [Ã, Ω̃]``, ``R̃' = R̃Ω̃``,
-    ``Ω̃ = M ∘ Ã`` (``[Ã, Ω̃] = W − Wᵀ``, ``W = ÃΩ̃``: exactly skew)."""
-    N, n = A.shape[0], A.shape[1]
-    Om, W = np.empty((n, n)), np.empty((n, n))
-    for m in range(N):
-        for a in range(n):
-            for c in range(n):
-                Om[a, c] = A[m, a, c] * M[a, c]
-        mm_small_into(A[m], Om, W)
-        for a in range(n):
-            for c in range(n):
-                dA[m, a, c] = W[a, c] - W[c, a]
+    """:func:`lieint.fast.topn_step._field` of every body into ``dA``, ``dR``."""
+    for m in range(A.shape[0]):
+        fA, fR = _field(A[m], R[m], M, orient)
+        dA[m] = fA
         if orient:
-            mm_small_into(R[m], Om, dR[m])
+            dR[m] = fR
 
 
 @njit(cache=True)

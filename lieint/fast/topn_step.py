@@ -212,18 +212,27 @@ def _lie_step(A, R, orient, M, tab, b, h, coeffs, cayley, K, W, E):
 
 
 @njit(cache=True)
+def _field(A, R, M, orient):
+    """The vector field in the principal frame, ``(Ã', R̃') = ([Ã, Ω̃], R̃Ω̃)`` with
+    ``Ω̃ = M ∘ Ã`` (the bracket exactly skew); R̃' is R itself without orientation."""
+    Om = A * M
+    return _bracket(A, Om), (R @ Om if orient else R)
+
+
+@njit(cache=True)
 def _classical_step(A, R, orient, M, tab, b, h, KA, KR):
     """One classical RK step on ``Ã' = [Ã, Ω̃]``, ``R̃' = R̃ Ω̃`` (Ã stays exactly skew)."""
     s = b.shape[0]
     for i in range(s):
         Ai = A.copy()
         _accumulate(Ai, KA, tab[i], i, h)
-        Om = Ai * M
-        _store(KA, i, _bracket(Ai, Om))
+        Ri = R.copy()
         if orient:
-            Ri = R.copy()
             _accumulate(Ri, KR, tab[i], i, h)
-            _store(KR, i, Ri @ Om)
+        dA, dR = _field(Ai, Ri, M, orient)
+        _store(KA, i, dA)
+        if orient:
+            _store(KR, i, dR)
     A1 = A.copy()
     _accumulate(A1, KA, b, s, h)
     R1 = R.copy()
