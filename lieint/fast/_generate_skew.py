@@ -77,6 +77,19 @@ def _sum(terms: list[tuple[str, str]]) -> str:
     return text
 
 
+def _times_skew(n: int, skew_entry, other, left: bool) -> list[tuple[str, str]]:
+    """The signed terms ``Σ_j s_j o_j`` of a product with a skew factor held as an upper
+    triangle: ``skew_entry(j)`` its entry (``(sign, local)`` or None on the diagonal, skipped),
+    ``other(j)`` the other factor's local, written after it (``left``) or before it."""
+    terms = []
+    for j in range(n):
+        entry = skew_entry(j)
+        if entry is not None:
+            product = f"{entry[1]} * {other(j)}" if left else f"{other(j)} * {entry[1]}"
+            terms.append((entry[0], product))
+    return terms
+
+
 def _store_skew(name: str, var: str, n: int) -> list[str]:
     """``name`` from the upper-triangle locals ``{var}{a}_{c}``: the lower triangle their
     negatives, the diagonal zero."""
@@ -100,11 +113,7 @@ def congruence(n: int) -> str:
     # T = Ã Q: T_jc = Σ_k Ã_jk Q_kc over k ≠ j, for c ≥ 1 (column 0 enters no a < c)
     for j in range(n):
         for c in range(1, n):
-            terms = []
-            for k in range(n):
-                entry = _skew_entry("a", j, k)
-                if entry is not None:
-                    terms.append((entry[0], f"{entry[1]} * q{k}_{c}"))
+            terms = _times_skew(n, lambda k, j=j: _skew_entry("a", j, k), lambda k, c=c: f"q{k}_{c}", left=True)
             lines.append(f"    t{j}_{c} = {_sum(terms)}")
     # Ã'_ac = Σ_j Q_ja T_jc for a < c
     for a in range(n):
@@ -143,11 +152,7 @@ def dcayinv(n: int) -> str:
     # out_ac = ξ_ac + ½(W_ac − W_ca) − ¼ Σ_{j ≠ c} W_aj u_jc for a < c
     for a in range(n):
         for c in range(a + 1, n):
-            terms = []
-            for j in range(n):
-                entry = _skew_entry("u", j, c)
-                if entry is not None:
-                    terms.append((entry[0], f"w{a}_{j} * {entry[1]}"))
+            terms = _times_skew(n, lambda j, c=c: _skew_entry("u", j, c), lambda j, a=a: f"w{a}_{j}", left=False)
             lines.append(f"    r{a}_{c} = x{a}_{c} + 0.5 * (w{a}_{c} - w{c}_{a}) - 0.25 * ({_sum(terms)})")
     lines += _store_skew("out", "r", n)
     return "\n".join(lines) + "\n"
