@@ -17,7 +17,7 @@ limit                      what it bounds                   default
 =========================  ===============================  =====================
 
 The rows an adaptive run saves are not known in advance; its loops count them against
-``LIEINT_MAX_MEMORY`` as they save them (:class:`lieint.loops._RowBudget`).
+``LIEINT_MAX_MEMORY`` as they save them (:class:`RowBudget`).
 
 Arrays in a scene are nested at most :data:`MAX_NESTING` levels (an ensemble of matrices needs
 three); this one is structural and cannot be raised.
@@ -28,7 +28,7 @@ from __future__ import annotations
 import math
 import os
 
-__all__ = ["DEFAULTS", "MAX_NESTING", "LimitError", "check", "env_flag", "limit"]
+__all__ = ["DEFAULTS", "MAX_NESTING", "LimitError", "RowBudget", "check", "env_flag", "limit"]
 
 DEFAULTS: dict[str, int] = {
     "LIEINT_MAX_STEPS": 10**10,
@@ -87,3 +87,21 @@ def _suggest(value: float, bound: int) -> str:
 def env_flag(name: str) -> bool:
     """True when the environment variable ``name`` is set to 1, true or yes."""
     return os.environ.get(name, "").strip().lower() in ("1", "true", "yes")
+
+
+class RowBudget:
+    """The rows a run may hold in memory under ``LIEINT_MAX_MEMORY`` when their number is not
+    known in advance (adaptive steps, scipy's solvers; a fixed grid's rows are checked before the
+    run): ``rows`` of ``row_bytes`` each fit, and :meth:`hold` refuses more with the limit's
+    message — instead of a run that fills the machine's memory (a tolerance below round-off once
+    collapsed an adaptive run's steps until the process held 24 GB). ``what(rows)`` says what
+    was asked for, ``advice`` the other ways out."""
+
+    def __init__(self, row_bytes: int, what, advice: str = ""):
+        self.row_bytes, self.what, self.advice = row_bytes, what, advice
+        self.rows = limit("LIEINT_MAX_MEMORY") // row_bytes
+
+    def hold(self, rows: int) -> None:
+        """Refuse (:class:`LimitError`) to hold ``rows`` rows beyond the limit."""
+        if rows > self.rows:
+            check("LIEINT_MAX_MEMORY", float(rows * self.row_bytes), lambda: self.what(rows), self.advice)

@@ -26,8 +26,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from .groups.base import DexpinvRangeError
-from .limits import check as check_limit
-from .limits import limit
+from .limits import RowBudget
 
 if TYPE_CHECKING:
     from .driver import Driver
@@ -253,7 +252,7 @@ class _AdaptiveLoop(_GenericRows):
         t, y, h, mstate = carry.t, carry.state, carry.h, carry.method_state
         times, rows = [], []
         taken, failure = 0, None
-        budget = _RowBudget(d, y)
+        budget = _row_budget(d, y)
         rejected = False  # the current step was rejected at least once (scipy: no growth then)
         while t < d.t1 and (max_steps is None or taken < max_steps):
             h = min(h, d.t1 - t)
@@ -342,7 +341,7 @@ class _AdaptiveKernelLoop(_CompiledRows, _AdaptiveLoop):
         d = self.d
         left = np.iinfo(np.int64).max if max_steps is None else max_steps
         times, parts, failure = [], [], None
-        budget, held = _RowBudget(d, self.user_state(carry)), 0
+        budget, held = _row_budget(d, self.user_state(carry)), 0
         while carry.t < d.t1 and left > 0:
             # at most the accepted steps whose rows still fit under the memory limit, and one
             # row more, which the budget refuses: the kernel's buffer never outgrows the limit
@@ -401,7 +400,7 @@ class ScipyLoop:
         solver = carry.state["solver"]
         times, rows = [], []
         taken, failure = 0, None
-        budget = _RowBudget(d, self.user_state(carry))
+        budget = _row_budget(d, self.user_state(carry))
         nfev0 = solver.nfev
         while solver.status == "running" and (max_steps is None or taken < max_steps):
             t_old = solver.t
@@ -449,31 +448,19 @@ class ScipyLoop:
 # -- helpers ---------------------------------------------------------------------------------------
 
 
-class _RowBudget:
-    """The rows a segment may hold in memory under ``LIEINT_MAX_MEMORY``, for the loops whose
-    number of steps is not known in advance (a fixed grid's rows are checked before the run,
-    :meth:`~lieint.driver.Driver.run`). Tolerances below what round-off lets the error estimate
-    resolve drive the step size down without end — millions of accepted steps, every one saved
-    — so a run is refused with the limit's message instead of exhausting the machine's memory."""
-
-    def __init__(self, d: Driver, like: dict):
-        self.d = d
-        self.row_bytes = 8 + sum(np.asarray(v).nbytes for v in like.values())  # a time and a state
-        self.rows = limit("LIEINT_MAX_MEMORY") // self.row_bytes
-
-    def hold(self, rows: int) -> None:
-        """Refuse (:class:`lieint.limits.LimitError`) to hold ``rows`` rows beyond the limit."""
-        if rows <= self.rows:
-            return
-        d = self.d
-        check_limit(
-            "LIEINT_MAX_MEMORY",
-            float(rows * self.row_bytes),
+def _row_budget(d: Driver, like: dict) -> RowBudget:
+    """The rows an adaptive segment may hold (:class:`lieint.limits.RowBudget`), each a time and
+    a state like ``like``: tolerances below what round-off lets the error estimate resolve drive
+    the step size down without end, every step saved."""
+    return RowBudget(
+        8 + sum(np.asarray(v).nbytes for v in like.values()),
+        lambda rows: (
             f"the memory of the {rows} rows saved so far by an adaptive run of {d.method.name} with "
-            f"`rtol` = {d.rtol:g}, `atol` = {d.atol:g}, `save_every` = {d.save_every} (bytes)",
-            "loosen the tolerances (round-off bounds how small they can usefully be), raise save_every, "
-            "or stream the run to a file (lieint run --out, lieint.runs.run)",
-        )
+            f"`rtol` = {d.rtol:g}, `atol` = {d.atol:g}, `save_every` = {d.save_every} (bytes)"
+        ),
+        "loosen the tolerances (round-off bounds how small they can usefully be), raise save_every, "
+        "or stream the run to a file (lieint run --out, lieint.runs.run)",
+    )
 
 
 def _stopped(d: Driver, carry: Carry, segment: Segment) -> Segment:
