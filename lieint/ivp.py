@@ -2,13 +2,17 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import warnings
+from collections.abc import Callable, Mapping, Sequence
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ._validation import check_finite_positive
 from .driver import Driver
+from .methods.base import Method
 from .methods.registry import AUTO, get_method
 from .observe import StepObserver, group_action_of
 from .solution import Solution
@@ -30,23 +34,29 @@ class LieStepWarning(RuntimeWarning):
 
 def integrate(
     system: LieGroupSystem,
-    y0: dict,
+    y0: Mapping[str, ArrayLike],
     t_span: tuple[float, float],
     h: float | None = None,
-    method="rkmk4",
+    method: str | Method = "rkmk4",
     *,
     coordinates: str | None = None,
     project: bool = False,
     save_every: int = 1,
-    dexpinv_degree=AUTO,
+    dexpinv_degree: int | str | None = AUTO,
     rtol: float = 1e-8,
     atol: float = 1e-10,
-    t_eval=None,
+    t_eval: ArrayLike | None = None,
+    first_step: float | None = None,
     backend: str = "auto",
     dense_output: bool = False,
-    events=None,
+    events: EventFunction | Sequence[EventFunction] | None = None,
 ) -> Solution:
     """Integrate ``system`` from ``y0`` over ``t_span``.
+
+    Every argument may be given by keyword, in any order; ``system``, ``y0``, ``t_span``,
+    ``h`` and ``method`` may also be given by position, in this order. It is not scipy's
+    order: :func:`scipy.integrate.solve_ivp` takes ``(fun, t_span, y0)``, and a call in that
+    order is refused with a message saying so.
 
     Parameters
     ----------
@@ -57,18 +67,20 @@ def integrate(
         as one ensemble.
     t_span : (float, float)
         ``(t0, t1)`` with ``t1 > t0``.
-    h : float
-        Step size of fixed-step methods. The steps are ``t_k = t0 + k h``; a last, shorter
-        step lands exactly on ``t1`` when ``(t1 − t0)/h`` is not an integer. For adaptive
-        methods the initial step (default: estimated); for scipy methods only the save grid.
-    method : str or Method
+    h : float, optional
+        Step size of fixed-step methods (required for them). The steps are ``t_k = t0 + k h``;
+        a last, shorter step lands exactly on ``t1`` when ``(t1 − t0)/h`` is not an integer.
+        For lieint's adaptive methods the first trial step (the same as ``first_step``); for
+        scipy's methods the grid of save times (``t0 + k h``, with ``save_every``).
+    method : str or Method, default "rkmk4"
         A name from :func:`lieint.method_names` ("lie_euler", "rkmk2", "rkmk3", "rkmk4",
         "rkmk6", the adaptive "rkmk23", "rkmk45", "rkmk853" and, for conservative systems, the
         same pairs keeping the energy, "rkmk23+energy", "rkmk45+energy", "rkmk853+energy"
-        (global error per rtol like scipy's pairs'; the guide), the commutator-free "cf3", "cf4",
-        the Crouch–Grossman "cg3", "cg4a", the Magnus "magnus4", "magnus6" (generators of t
-        only), "rk4", "scipy:DOP853", …) or a
-        method object (:class:`~lieint.methods.Method`).
+        (global error per rtol like scipy's pairs'), the commutator-free "cf3", "cf4", the
+        Crouch–Grossman "cg3", "cg4a", the Magnus "magnus4", "magnus6" (generators of t only),
+        "rk4", "scipy:DOP853", …) or a method object (:class:`~lieint.methods.Method`).
+        scipy's solvers may be named bare as well: "RK45", "RK23", "DOP853", "Radau", "BDF"
+        and "LSODA" are "scipy:RK45" etc. (the result's ``method`` is the prefixed name).
     coordinates : {"exp", "cayley"}, optional
         Coordinate map of methods that have one (default: the method's, "exp"); refused for
         methods without coordinates.
@@ -77,16 +89,25 @@ def integrate(
         polar factor). scipy's solvers: the saved copies are projected, their own state is not.
     save_every : int, default 1
         Keep every k-th step (and always the last one).
-    dexpinv_degree : int, None or "auto"
+    dexpinv_degree : int, None or "auto", default "auto"
         dexp⁻¹ truncation of Lie-group methods ("auto": degree p − 2; None: exact).
-    rtol, atol : float
-        Tolerances of adaptive and scipy methods (adaptive Lie-group methods measure the error
-        on the state: ``|y − ŷ| / (atol + rtol·|y|)`` in the RMS norm).
+    rtol, atol : float, default 1e-8, 1e-10
+        Tolerances of adaptive and scipy methods (ignored by fixed-step methods). Both are
+        scalars. The defaults are tighter than scipy's (``rtol=1e-3``, ``atol=1e-6``): the
+        methods here are meant for checking numbers, and scipy's defaults give 2–3 correct
+        digits. lieint's adaptive methods measure the error on the state as scipy does,
+        ``|y − ŷ| / (atol + rtol·|y|)`` in the RMS norm over every component.
     t_eval : array_like, optional
-        Save times, increasing from ``t0`` to ``t1`` (every method; lieint's methods save them
-        from the dense output on the group, :mod:`lieint.dense`). Default: the grid of ``h``
-        and ``save_every``, else every ``save_every``-th accepted step.
-    backend : {"auto", "numpy", "numba"}
+        Times at which to save the solution: strictly increasing, inside ``[t0, t1]`` (they
+        need not start at ``t0`` nor end at ``t1``; the run still goes to ``t1`` unless a
+        terminal event stops it, as in scipy). Every method: lieint's methods save them from
+        the dense output on the group (:mod:`lieint.dense`), scipy's from their own. Default:
+        the grid of ``h`` and ``save_every``, else every ``save_every``-th accepted step.
+    first_step : float, optional
+        scipy's name for the first trial step of an adaptive method (lieint's adaptive methods:
+        the same as ``h``, give one of them; scipy's: passed to the solver). Default: estimated
+        from the vector field at ``y0``. Refused for fixed-step methods (they take ``h``).
+    backend : {"auto", "numpy", "numba"}, default "auto"
         "auto" runs a compiled kernel where one covers the system and method (the Euler top
         of any dimension n ≥ 3 with fixed-step RKMK in exponential coordinates and truncated
         dexp⁻¹, or classical RK; on the 3D top also the RKMK embedded pairs with their whole
@@ -105,16 +126,80 @@ def integrate(
     Returns
     -------
     Solution
-        ``t``, ``states`` (``(m, *batch, ...)`` per field), lazy ``invariants``, ``stats``
-        (:class:`lieint.driver.Stats`: steps, rejections, evaluations, times, back end).
+        ``t``, ``states`` (``(m, *batch, ...)`` per field), lazy ``invariants``, ``status``,
+        ``success``, ``message``, ``stats`` (:class:`lieint.Stats`: steps, rejections,
+        evaluations, times, back end); ``sol.y`` is scipy's ``(n_components, m)`` layout.
 
     Raises
     ------
-    lieint.groups.DexpinvRangeError
+    TypeError, ValueError
+        A bad argument, named with what was expected and what was received.
+    lieint.DexpinvRangeError
         When a Lie step is too large for the dexp⁻¹ series (exp coordinates).
+
+    See Also
+    --------
+    scipy.integrate.solve_ivp : The interface this one follows where it fits.
+
+    Notes
+    -----
+    The arguments of :func:`scipy.integrate.solve_ivp` and what stands for them here:
+
+    ========================  =============================================================
+    ``solve_ivp``             ``lieint.integrate``
+    ========================  =============================================================
+    ``fun``                   ``system`` (a :class:`~lieint.LieGroupSystem`: equations, group,
+                              invariants), not a function
+    ``t_span``                ``t_span`` (forward only: ``t1 > t0``)
+    ``y0`` (a vector)         ``y0`` (a state dict from ``system.initial_state``)
+    ``method="RK45"``         ``method="RK45"`` or ``"scipy:RK45"``; lieint's methods by name
+    ``t_eval``                ``t_eval`` (the same rules)
+    ``dense_output``          ``dense_output`` (``sol.sol(t)`` returns a state dict)
+    ``events``                ``events`` (``g(t, y)`` of a state dict; ``terminal``,
+                              ``direction``)
+    ``rtol``, ``atol``        ``rtol``, ``atol`` (scalars; defaults 1e-8, 1e-10)
+    ``first_step``            ``first_step`` (or ``h``) for adaptive methods
+    (none)                    ``h``: the step of fixed-step methods
+    ``max_step``              (none)
+    ``OdeResult.t``           ``sol.t``
+    ``OdeResult.y``           ``sol.y`` (the same layout, :attr:`Solution.y`); by field:
+                              ``sol.states``
+    ``status``                ``sol.status``: −1 failure, 0 reached ``t1``, 1 a terminal event
+    ``message``, ``success``  ``sol.message``, ``sol.success``
+    ``nfev``                  ``sol.nfev`` (``sol.stats``: steps, rejections, times)
+    ``t_events``              ``sol.t_events``
+    ``y_events``              ``sol.y_events`` (states as dicts)
+    ``sol``                   ``sol.sol``
+    ========================  =============================================================
+
+    Examples
+    --------
+    A fixed-step Lie-group method keeps the Casimirs (the spectrum of A) to round-off:
+
+    >>> import lieint
+    >>> top = lieint.EulerTop.from_principal_moments([1.0, 2.0, 3.0])
+    >>> y0 = top.initial_state(angular_velocity=[0.01, 1.0, 0.01])
+    >>> sol = lieint.integrate(top, y0, t_span=(0.0, 10.0), h=0.01, method="rkmk4")
+    >>> sol.status, sol.t.shape, sol.states["A"].shape
+    (0, (1001,), (1001, 3, 3))
+    >>> bool(sol.drift("casimirs") < 1e-13)
+    True
+
+    An adaptive pair, saved at given times, in scipy's layout:
+
+    >>> sol = lieint.integrate(top, y0, (0.0, 10.0), method="rkmk45", rtol=1e-9, t_eval=[2.5, 5.0, 7.5])
+    >>> t, y = sol.t, sol.y
+    >>> y.shape  # 9 entries of A, then 9 of R, at 3 times
+    (18, 3)
     """
     if not isinstance(system, LieGroupSystem):
-        raise TypeError(f"`system` must be a lieint system (e.g. lieint.EulerTop); got {type(system).__name__}.")
+        raise TypeError(_not_a_system(system))
+    _refuse_scipy_order(y0, t_span)
+    if isinstance(h, str) and _names_a_method(h):
+        raise TypeError(
+            f"`h` (the 4th positional argument: the step size) must be a positive finite number; got {h!r}. "
+            f"The method is the 5th positional argument, or by keyword: method={h!r}."
+        )
     stepper = get_method(method, coordinates=coordinates, **_options(method, dexpinv_degree))
     y = system.validate_state(y0, "y0")
     t0, t1 = _check_t_span(t_span)
@@ -129,12 +214,25 @@ def integrate(
     if stepper.adaptive or stepper.self_controlled:
         rtol = check_finite_positive(rtol, "rtol")
         atol = check_finite_positive(atol, "atol")
+        if first_step is not None:
+            h, stepper = _first_step(first_step, h, stepper, t0, t1)
+    elif first_step is not None:
+        raise ValueError(
+            f"`first_step` applies to adaptive methods; {stepper.name!r} takes fixed steps: give `h` instead "
+            f"(got first_step = {first_step!r})."
+        )
     elif h is None:
-        raise ValueError(f"`h` (the step size) is required for the fixed-step method {stepper.name!r}.")
+        raise ValueError(_h_required(system, stepper, y, t0))
     if not isinstance(dense_output, (bool, np.bool_)):
         raise TypeError(f"`dense_output` must be True or False; got {dense_output!r}.")
     if t_eval is not None:
         t_eval = _check_t_eval(t_eval, t0, t1)
+    # scipy's solvers save t_eval through the driver, which starts the rows at t0 and ends a
+    # terminal event's run with the event's row: t0 is added in front, and the rows not at a
+    # time of t_eval are dropped afterwards (lieint's methods save t_eval in the observer)
+    t_eval_driver = t_eval
+    if t_eval is not None and stepper.self_controlled and t_eval[0] > t0:
+        t_eval_driver = np.concatenate([[t0], t_eval])
     observer = _observer(system, stepper, t0, t_eval, dense_output, events, project)
     driver = Driver(
         system,
@@ -145,14 +243,102 @@ def integrate(
         atol=atol,
         project=bool(project),
         save_every=int(save_every),
-        t_eval=t_eval,
+        t_eval=t_eval_driver,
         backend=backend,
         observer=observer,
     )
     sol = driver.run(y)
+    if t_eval is not None and stepper.self_controlled:
+        sol._keep_rows(np.isin(sol.t, t_eval))
     if driver.kind == "fixed" and not getattr(stepper, "any_step", False):  # exact flows take any step
         _warn_if_unresolved(system, sol, h, driver.generator_radius(sol.states, limit=np.pi / h))
     return sol
+
+
+#: an event function ``g(t, y) -> float`` (with optional ``terminal`` and ``direction``)
+EventFunction = Callable[[float, dict], float]
+
+
+def _not_a_system(system) -> str:
+    """The message for a ``system`` that is not a lieint system (a scipy ``fun`` among them)."""
+    message = f"`system` must be a lieint system (e.g. lieint.EulerTop); got {type(system).__name__}."
+    if callable(system):
+        message += (
+            " lieint integrates systems, not a right-hand side fun(t, y) as scipy.integrate.solve_ivp does: "
+            "build the body (lieint.EulerTop, lieint.HeavyTop, …) and pass it with its initial state, "
+            "integrate(system, y0=system.initial_state(...), t_span=(t0, t1), ...)."
+        )
+    return message
+
+
+def _refuse_scipy_order(y0, t_span) -> None:
+    """Refuse ``integrate(system, t_span, y0)`` (scipy's positional order) with a message."""
+    if not isinstance(y0, Mapping) and (isinstance(t_span, Mapping) or _looks_like_a_span(y0)):
+        raise TypeError(
+            "lieint.integrate takes (system, y0, t_span): the initial state second, the time span third; "
+            f"got the time span {y0!r} second and the state third, which is scipy's order "
+            "(solve_ivp(fun, t_span, y0)). Swap them, or pass both by keyword: "
+            "integrate(system, t_span=(t0, t1), y0=y0)."
+        )
+
+
+def _names_a_method(name: str) -> bool:
+    """Whether ``name`` is a method's name (``integrate(system, y0, t_span, "RK45")`` gives it as h)."""
+    try:
+        get_method(name)
+    except (TypeError, ValueError):
+        return False
+    return True
+
+
+def _looks_like_a_span(value) -> bool:
+    """A pair of real numbers (what scipy's ``t_span`` is)."""
+    try:
+        arr = np.asarray(value)
+    except Exception:  # a ragged sequence: not a pair of numbers
+        return False
+    return arr.shape == (2,) and arr.dtype.kind in "iuf"
+
+
+def _first_step(first_step, h, stepper, t0: float, t1: float):
+    """``first_step`` checked, as the driver's ``h`` (lieint's adaptive methods) or in the scipy
+    solver (whose ``h`` is the save grid); returns ``(h, stepper)``."""
+    first_step = check_finite_positive(first_step, "first_step")
+    if first_step > t1 - t0:
+        raise ValueError(f"`first_step` = {first_step:g} must not exceed the span t1 - t0 = {t1 - t0:g} (as in scipy).")
+    if stepper.self_controlled:
+        if not hasattr(stepper, "first_step"):
+            raise ValueError(f"`first_step` does not apply to the method object {stepper.name!r}.")
+        return h, dataclasses.replace(stepper, first_step=first_step)
+    if h is not None and h != first_step:
+        raise ValueError(
+            f"`h` = {h:g} and `first_step` = {first_step:g} both set the first trial step of the adaptive "
+            f"method {stepper.name!r}; give one of them."
+        )
+    return first_step, stepper
+
+
+def _h_required(system, stepper, y: dict, t0: float) -> str:
+    """The message of a fixed-step method called without ``h``: how to choose one."""
+    message = (
+        f"`h` (the step size) is required for the fixed-step method {stepper.name!r}. Either choose an adaptive "
+        "method, which picks its steps from `rtol`/`atol` (method='rkmk45' or 'rkmk853', their '+energy' "
+        "forms keeping the energy, or scipy's 'RK45', 'DOP853'), or give `h`: well below the period of the "
+        "fastest rotation (lieint warns when ‖h Ω‖ reaches pi, fewer than two steps per turn), then halve it "
+        "and compare: an "
+        f"order-p method's error falls about 2^p-fold ({stepper.name!r}: p = {stepper.order})."
+    )
+    try:  # the fastest rotation at y0, when the system has a generator there
+        with np.errstate(all="ignore"):
+            rate = float(np.max(system.group.ad_spectral_radius(system.generator(t0, y)), initial=0.0))
+    except Exception:  # only a hint: a system without a generator gets none
+        return message
+    if math.isfinite(rate) and rate > 0:
+        message += (
+            f" Here the fastest rotation at y0 turns at {rate:.3g} rad per unit time (a turn in "
+            f"{2 * np.pi / rate:.3g}); h = {0.01 / rate:.2g} takes about 600 steps per turn."
+        )
+    return message
 
 
 def _observer(system, stepper, t0: float, t_eval, dense_output, events, project) -> StepObserver | None:
@@ -182,16 +368,18 @@ def _options(method, dexpinv_degree) -> dict:
 
 
 def _check_t_eval(t_eval, t0: float, t1: float) -> np.ndarray:
+    """``t_eval`` as a float array: strictly increasing times inside ``[t0, t1]`` (scipy's rules)."""
     try:
         t_save = np.asarray(t_eval, dtype=float)
     except (TypeError, ValueError):
         raise ValueError(f"`t_eval` must be a 1-D array of times; got {type(t_eval).__name__}.") from None
-    if t_save.ndim != 1 or t_save.size < 2 or not np.all(np.isfinite(t_save)):
-        raise ValueError(f"`t_eval` must be a 1-D array of at least two finite times; got shape {t_save.shape}.")
-    if t_save[0] != t0 or t_save[-1] != t1 or np.any(np.diff(t_save) <= 0):
-        raise ValueError(
-            f"`t_eval` must increase strictly from t0 = {t0} to t1 = {t1}; got first {t_save[0]}, last {t_save[-1]}."
-        )
+    if t_save.ndim != 1 or t_save.size < 1 or not np.all(np.isfinite(t_save)):
+        raise ValueError(f"`t_eval` must be a 1-D array of at least one finite time; got shape {t_save.shape}.")
+    if np.any(np.diff(t_save) <= 0):
+        k = int(np.argmax(np.diff(t_save) <= 0))
+        raise ValueError(f"`t_eval` must increase strictly; got t_eval[{k}] = {t_save[k]} followed by {t_save[k + 1]}.")
+    if t_save[0] < t0 or t_save[-1] > t1:
+        raise ValueError(f"`t_eval` must lie inside t_span = ({t0}, {t1}); got times from {t_save[0]} to {t_save[-1]}.")
     return t_save
 
 

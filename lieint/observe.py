@@ -35,7 +35,9 @@ class StepObserver:
     system : LieGroupSystem
     t0 : float
     t_eval : ndarray, optional
-        Increasing times in ``[t0, t1]`` at which to save the state (from the interpolants).
+        Strictly increasing times in ``[t0, t1]`` at which to save the state (from the
+        interpolants; ``t0`` itself is saved from the initial state); they need not start at
+        ``t0`` nor end at ``t1``.
     dense_output : bool
         Keep every interpolant (``sol.sol``).
     events : callable or list of callables, optional
@@ -164,6 +166,8 @@ class StepObserver:
         """Put the dense output, the events and the ``t_eval`` rows on the solution."""
         like = {k: v[0] for k, v in sol.states.items()}
         sol.sol = self.dense
+        if self.stop is not None and sol.success:
+            sol.status = 1  # scipy's OdeResult: a terminal event stopped the run
         if self.log.events:
             sol.t_events, sol.y_events = self.log.results(like)
         if self.t_eval is not None:

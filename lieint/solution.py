@@ -48,7 +48,12 @@ class Invariants(Mapping):
 
 @dataclass
 class Solution:
-    """Saved trajectory of an integration.
+    """Saved trajectory of an integration (what :func:`lieint.integrate` returns).
+
+    The states are kept by field (``states["A"]``, ``states["R"]``, time first); :attr:`y`
+    gives them in :func:`scipy.integrate.solve_ivp`'s layout, and ``status``, ``success``,
+    ``message``, ``t_events``, ``y_events`` and ``sol`` mean what they mean on scipy's
+    ``OdeResult``.
 
     Attributes
     ----------
@@ -56,17 +61,22 @@ class Solution:
         Saved times.
     states : dict of ndarray
         Each state field at the saved times, shape ``(m, *batch, ...)``.
+    system : LieGroupSystem
+        The system that was integrated.
     invariants : Mapping of ndarray
         Lazily evaluated invariants, shape ``(m, *batch, ...)``.
     method : str
         The method's name.
     stats : Stats
         Steps, rejections, evaluations, CPU and wall time, back end and settings
-        (:class:`lieint.driver.Stats`).
+        (:class:`lieint.Stats`).
     success : bool
         False if the run stopped early (non-finite state, solver failure).
     message : str
         What happened, and what to do about it when it failed.
+    status : int
+        As scipy's ``OdeResult.status``: −1 the run failed (``success`` is False), 0 it
+        reached ``t1``, 1 a terminal event stopped it.
     sol : DenseOutput or None
         With ``dense_output=True``: the continuous solution ``sol.sol(t)`` on the group
         (:class:`lieint.dense.DenseOutput`); None otherwise.
@@ -74,6 +84,19 @@ class Solution:
         With ``events``: the times of each event (:mod:`lieint.events`); None otherwise.
     y_events : list of dict or None
         With ``events``: the states at those times (dicts of ``(k, ...)`` arrays).
+
+    Examples
+    --------
+    >>> import lieint
+    >>> top = lieint.EulerTop.from_principal_moments([1.0, 2.0, 3.0])
+    >>> y0 = top.initial_state(angular_velocity=[0.01, 1.0, 0.01])
+    >>> sol = lieint.integrate(top, y0, (0.0, 1.0), h=0.1, method="rkmk4")
+    >>> sol.status, sol.success, sol.t[-1]
+    (0, True, np.float64(1.0))
+    >>> sol.states["R"].shape, sol.y.shape
+    ((11, 3, 3), (18, 11))
+    >>> float(sol.drift("energy")) < 1e-8
+    True
     """
 
     t: np.ndarray
@@ -87,9 +110,41 @@ class Solution:
     sol: Any = field(default=None, repr=False)
     t_events: Any = field(default=None, repr=False)
     y_events: Any = field(default=None, repr=False)
+    status: int | None = field(default=None)
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         self.invariants = Invariants(self.system, self.t, self.states, len(self.batch_shape))
+        if self.status is None:  # a terminal event sets 1 (lieint.observe)
+            self.status = 0 if self.success else -1
+
+    @property
+    def y(self) -> np.ndarray:
+        """The saved states in scipy's layout: shape ``(n_components, m)``, one column per time.
+
+        A column is the state flattened as scipy's baselines flatten it: the fields in the
+        order of :attr:`states` (the system's ``fields``: e.g. ``A`` then ``R``), each
+        flattened in C order over its batch and field axes ``(*batch, ...)`` — for one 3D
+        top, rows 0–8 are ``A.ravel()`` and rows 9–17 ``R.ravel()``. A new array on every
+        access.
+
+        Examples
+        --------
+        >>> import numpy as np, lieint
+        >>> top = lieint.EulerTop.from_principal_moments([1.0, 2.0, 3.0])
+        >>> sol = lieint.integrate(top, top.initial_state(angular_velocity=[0.0, 1.0, 0.1]), (0, 1), h=0.5)
+        >>> bool(np.array_equal(sol.y[:9, -1], sol.states["A"][-1].ravel()))
+        True
+        """
+        m = self.t.size
+        return np.concatenate([np.asarray(v).reshape(m, -1) for v in self.states.values()], axis=1).T
+
+    def _keep_rows(self, keep: np.ndarray) -> None:
+        """Keep only the saved rows where ``keep`` is True (the lazy invariants follow)."""
+        if np.all(keep):
+            return
+        self.t = self.t[keep]
+        self.states = {k: v[keep] for k, v in self.states.items()}
+        self.__post_init__()
 
     @property
     def batch_shape(self) -> tuple[int, ...]:
@@ -153,5 +208,5 @@ class Solution:
     def __repr__(self) -> str:
         return (
             f"Solution(method={self.method!r}, saved={self.t.size}, batch={self.batch_shape}, nsteps={self.nsteps}, "
-            f"nfev={self.nfev}, success={self.success}, fields={list(self.states)})"
+            f"nfev={self.nfev}, status={self.status}, success={self.success}, fields={list(self.states)})"
         )

@@ -94,7 +94,9 @@ def get_method(method="rkmk4", coordinates: str | None = None, **options) -> Met
     Parameters
     ----------
     method : str or Method
-        A name from :func:`method_names`, or a method object built by the user.
+        A name from :func:`method_names`, or a method object built by the user. scipy's
+        solvers may be named bare, as :func:`scipy.integrate.solve_ivp` names them: "RK45"
+        is "scipy:RK45" (likewise "RK23", "DOP853", "Radau", "BDF", "LSODA").
     coordinates : {"exp", "cayley"}, optional
         Coordinate map of Lie-group methods (default: the method's first, "exp"). Refused for
         methods without coordinates.
@@ -119,8 +121,14 @@ def get_method(method="rkmk4", coordinates: str | None = None, **options) -> Met
         raise TypeError(f"`method` must be a method name or a method object; got {type(method).__name__}.")
     _discover()
     spec = _SPECS.get(method)  # the sorted listing is built only for messages (it costs a sort per call)
+    if spec is None and f"scipy:{method}" in _SPECS:  # scipy's bare names, as solve_ivp takes them
+        method = f"scipy:{method}"
+        spec = _SPECS[method]
     if spec is None:
-        raise ValueError(f"`method`: unknown method {method!r}; valid names are {list(method_specs())}.")
+        raise ValueError(
+            f"`method`: unknown method {method!r}; valid names are {list(method_specs())} "
+            "(scipy's also bare: 'RK45', 'DOP853', …)."
+        )
     if coordinates is not None:
         if not spec.coordinates:
             with_coords = [name for name, s in method_specs().items() if s.coordinates]

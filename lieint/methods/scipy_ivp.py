@@ -62,9 +62,12 @@ class ScipyMethod(Method):
     ----------
     solver : str
         One of ``SCIPY_SOLVERS`` ("RK45", "DOP853", "Radau", "LSODA", …).
+    first_step : float, optional
+        The solver's first step (scipy's ``first_step``; default: scipy's estimate).
     """
 
     solver: str
+    first_step: float | None = None
 
     self_controlled = True
 
@@ -90,6 +93,7 @@ class ScipyMethod(Method):
             return layout.pack(system.vector_field(t, layout.unpack(z)))
 
         cls = getattr(_ivp, self.solver)
+        first_step = self.first_step if first_step is None else first_step
         options = {} if first_step is None else {"first_step": first_step}
         return cls(rhs, t0, layout.pack(y0), t1, rtol=rtol, atol=atol, **options), layout
 
