@@ -18,7 +18,7 @@ the one driving loop, :class:`Solution`) → front ends (``ivp.integrate``, ``sc
 ``study``, ``cli``).
 """
 
-from . import analysis
+from . import analysis, rotations
 from .driver import Stats
 from .groups import SE, SO, DexpinvRangeError
 from .ivp import LieStepWarning, integrate
@@ -56,6 +56,7 @@ __all__ = [
     "get_method",
     "integrate",
     "method_names",
+    "rotations",
     "run",
     "sweep",
 ]

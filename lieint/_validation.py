@@ -55,6 +55,37 @@ def as_bivector_array(value, name: str) -> np.ndarray:
     return as_float_array(value, name)
 
 
+def is_scipy_rotation(value: object) -> bool:
+    """True for a :class:`scipy.spatial.transform.Rotation` (without importing scipy).
+
+    Parameters
+    ----------
+    value : object
+        Anything.
+
+    Returns
+    -------
+    bool
+        Whether ``value`` is a scipy ``Rotation``.
+
+    Examples
+    --------
+    >>> from scipy.spatial.transform import Rotation
+    >>> from lieint.rotations import is_scipy_rotation
+    >>> is_scipy_rotation(Rotation.identity()), is_scipy_rotation([[1.0, 0.0], [0.0, 1.0]])
+    (True, False)
+    """
+    return type(value).__name__ == "Rotation" and type(value).__module__.startswith("scipy.spatial.transform")
+
+
+def as_rotation_array(value, name: str) -> np.ndarray:
+    """An orientation argument as a float array: a scipy ``Rotation`` (one, or a stack) becomes its
+    matrices ``(3, 3)`` or ``(k, 3, 3)`` (body to space, ``apply(X) == R @ X``)."""
+    if is_scipy_rotation(value):
+        return np.asarray(value.as_matrix(), dtype=float)
+    return as_float_array(value, name)
+
+
 def as_float_array(value, name: str, *, allow_nonfinite: bool = False) -> np.ndarray:
     """Convert ``value`` to a float64 array, or raise naming ``name``.
 

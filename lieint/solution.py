@@ -186,6 +186,33 @@ class Solution:
             for name in names
         }
 
+    def rotation(self, field: str = "R"):
+        """The saved orientations as a :class:`scipy.spatial.transform.Rotation` (3D bodies).
+
+        Parameters
+        ----------
+        field : str, default "R"
+            The state field (or output) holding the orientation R (body to space: a body point
+            X is at ``R X``, which is what ``Rotation.apply(X)`` gives).
+
+        Returns
+        -------
+        scipy.spatial.transform.Rotation
+            A stack of ``m·prod(batch)`` rotations, time first (:func:`lieint.rotations.from_solution`;
+            quaternions: :func:`lieint.rotations.to_quaternion`).
+
+        Examples
+        --------
+        >>> import lieint
+        >>> top = lieint.EulerTop.from_principal_moments([1.0, 2.0, 3.0])
+        >>> sol = lieint.integrate(top, top.initial_state(angular_velocity=[0.0, 0.0, 0.5]), (0, 2), h=0.5)
+        >>> sol.rotation()[-1].as_rotvec().round(12).tolist()  # 2 s at 0.5 rad/s about e3
+        [0.0, 0.0, 1.0]
+        """
+        from .rotations import from_solution
+
+        return from_solution(self, field)
+
     def multivectors(self, name: str):
         """A bivector-, rotor- or vector-valued field or output as clifford multivectors.
 

@@ -6,7 +6,15 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from .._validation import as_bivector_array, as_float_array, check_rotation, check_skew, check_square_trailing, describe
+from .._validation import (
+    as_bivector_array,
+    as_float_array,
+    as_rotation_array,
+    check_rotation,
+    check_skew,
+    check_square_trailing,
+    describe,
+)
 from ..groups.bivectors import hat, skew_part, vee
 from ..groups.so import SO, project_to_so
 from .base import Invariant, LieGroupSystem, Output, State
@@ -321,7 +329,7 @@ class EulerTop(LieGroupSystem):
             if R is None:
                 Rm = np.broadcast_to(np.eye(n), Am.shape).copy()
             else:
-                Rm = as_float_array(R, "R")
+                Rm = as_rotation_array(R, "R")
                 check_square_trailing(Rm, "R", n)
                 check_rotation(Rm, "R")
             batch = _broadcast_batch(Am.shape[:-2], Rm.shape[:-2], "R", key)

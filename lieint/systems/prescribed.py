@@ -11,7 +11,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from .._validation import as_float_array, check_rotation, describe
+from .._validation import as_float_array, as_rotation_array, check_rotation, describe
 from ..groups.bivectors import hat
 from ..groups.so import SO, project_to_so
 from .base import Invariant, LieGroupSystem, Output, State
@@ -150,7 +150,7 @@ class PrescribedRotation(LieGroupSystem):
 
     def initial_state(self, *, R=None) -> State:
         """``{"R": R}`` (default: the identity)."""
-        R = np.eye(self.n) if R is None else as_float_array(R, "R")
+        R = np.eye(self.n) if R is None else as_rotation_array(R, "R")
         if R.shape[-2:] != (self.n, self.n):
             raise ValueError(f"`R` must have shape (..., {self.n}, {self.n}); got shape {R.shape}.")
         check_rotation(R, "R")

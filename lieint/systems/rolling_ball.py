@@ -22,7 +22,7 @@ import numpy as np
 
 from .._validation import (
     as_bivector_array,
-    as_float_array,
+    as_rotation_array,
     check_finite_positive,
     check_rotation,
     check_skew,
@@ -400,7 +400,7 @@ def rolling_initial_kinematics(ball, R, Omega, angular_velocity, center, velocit
         if Om.shape[-2:] != (n, n):
             raise ValueError(f"`Omega` must have shape (..., {n}, {n}); got shape {Om.shape}.")
         Om = check_skew(Om, "Omega")
-    Rm = np.eye(n) if R is None else as_float_array(R, "R")
+    Rm = np.eye(n) if R is None else as_rotation_array(R, "R")
     if Rm.shape[-2:] != (n, n):
         raise ValueError(f"`R` must have shape (..., {n}, {n}); got shape {Rm.shape}.")
     check_rotation(Rm, "R")
