@@ -21,7 +21,7 @@ def y0(top):
     ("B", "match"),
     [
         ([[1.0, 0.5], [0.0, 1.0]], r"`B` must be symmetric .* got max \|B - Bᵀ\| = 0.5"),
-        (np.diag([1.0, -1.0, 2.0]), r"`B` must be positive semi-definite .* got eigenvalues \[-1"),
+        (np.diag([1.0, -1.0, 2.0]), r"`B` must have b_i \+ b_j > 0 for every pair .* got eigenvalues \[-1, 1, 2\]"),
         (np.diag([0.0, 0.0, 1.5]), r"at most one zero eigenvalue; got eigenvalues \[0, 0, 1.5\] \(a rod"),
         (np.diag([1.0, np.nan, 1.0]), r"`B` must be finite; got nan at index \(1, 1\)"),
         (np.ones((2, 3)), r"`B` must have shape \(\.\.\., n, n\); got shape \(2, 3\)"),
@@ -37,8 +37,9 @@ def test_bad_mass_tensor(B, match):
 
 def test_flat_body_is_fine_but_not_a_physical_violation():
     lieint.EulerTop(np.diag([0.0, 1.0, 2.0]))  # a plate: one zero eigenvalue
+    # the free top takes any positive moments (tests/test_any_moments.py); a heavy top needs a body
     with pytest.raises(ValueError, match="triangle inequality"):
-        lieint.EulerTop.from_principal_moments([1.0, 1.0, 3.0])
+        lieint.HeavyTop.lagrange(1.0, 3.0, mass=1.0, length=1.0)
     with pytest.raises(ValueError, match=r"`moments` must be three principal moments"):
         lieint.EulerTop.from_principal_moments([1.0, 2.0])
 

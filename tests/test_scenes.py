@@ -167,8 +167,8 @@ def write(tmp_path, text):
             r"\[integrator\] method \(line 15\): unknown method 'rk5'",
         ),
         (
-            lambda s: s.replace("principal_moments = [1.0, 2.0, 3.0]", "principal_moments = [1.0, 1.0, 3.0]"),
-            r"\[body\] principal_moments \(line 6\): must be positive and satisfy I_i <= I_j \+ I_k",
+            lambda s: s.replace("principal_moments = [1.0, 2.0, 3.0]", "principal_moments = [1.0, -1.0, 3.0]"),
+            r"\[body\] principal_moments \(line 6\): must be positive; got \[1.0, -1.0, 3.0\]",
         ),
     ],
 )

@@ -43,6 +43,7 @@ from ..groups.se import SE
 from ..groups.vector import ProductGroup, VectorSpace
 from ..systems.base import Invariant, LieGroupSystem, Output, State
 from ..systems.euler_top import EulerTop
+from ..systems.mass import check_mass_tensor
 from .algebra import algebra, matrix_to_rotor
 from .pga import PGA
 from .spin import rotor_matrix
@@ -219,6 +220,7 @@ class MotorRigidBody(LieGroupSystem):
     def __init__(
         self, mass_tensor, mass, gravity=None, *, springs=None, fixed_point: bool = False, center_of_mass=None
     ):
+        check_mass_tensor(mass_tensor, "mass_tensor")  # a body in space: B ⪰ 0
         self.top = EulerTop(mass_tensor, orientation=False)
         if self.top.n != 3:
             raise ValueError(f"`mass_tensor` must be 3 × 3 (PGA Cl(3,0,1) is 3D); got n = {self.top.n}.")
@@ -304,7 +306,7 @@ class MotorRigidBody(LieGroupSystem):
         return PGA.translation(M)
 
     # -- the LieGroupSystem contract ------------------------------------------------------------
-    def generator(self, t, y: State):
+    def generator(self, t: float | np.ndarray, y: State) -> np.ndarray | tuple[np.ndarray, ...]:
         Om, v = self.twist(y)
         xi = np.zeros(Om.shape[:-2] + (4, 4))
         xi[..., :3, :3] = Om

@@ -143,7 +143,10 @@ class ModifiedMoserVeselov(Method):
             Im = modified_moments(moments, Pi, h, (self.order - 2) // 2)
             b = (Im.sum() - 2.0 * Im) / 2.0
             # the step from K = ω − I, as moser_veselov: keeps the energy error a random walk
-            K, iterations = moser_veselov_generator(InertiaOperator(P @ np.diag(b) @ P.T), Ai, h)
+            # (the modified moments of a body near a flat plate, or of any positive moments, need not
+            # be a mass distribution's: only their inertia operator is used)
+            modified = InertiaOperator(P @ np.diag(b) @ P.T, mass_distribution=False)
+            K, iterations = moser_veselov_generator(modified, Ai, h)
             generators.append(K)
             nfev += iterations
         return StepResult(act_near_identity(system, np.stack(generators).reshape(A.shape), y), None, nfev, None)

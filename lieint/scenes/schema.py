@@ -235,6 +235,9 @@ class _Reader(TableReader):
         if normal is not None and kind != "rolling":
             raise self.fail("support", "normal", f"applies to rolling supports only; support type is {kind!r}")
         gravity = self.gravity(forces) if "gravity" in forces else None
+        free_top = kind == "fixed_point" and not (gravity is not None and XG is not None and np.any(XG != 0))
+        if "principal_moments" in body and not free_top:
+            self.check_moments(np.asarray(body["principal_moments"], dtype=float), kind)
 
         init = self.initial(initial, kind)
         integrator = self.integrator(integ)
@@ -401,8 +404,10 @@ class _Reader(TableReader):
         if key == "principal_moments":
             self.n = 3
             I = self.array("body", key, body[key], (3,))
-            if np.any(I <= 0) or np.any(I.sum() - 2 * I < -1e-12 * I.max()):
-                raise self.fail("body", key, f"must be positive and satisfy I_i <= I_j + I_k; got {I.tolist()}")
+            if np.any(I <= 0):
+                raise self.fail("body", key, f"must be positive; got {I.tolist()}")
+            # the triangle inequality of a mass distribution is checked once the support is known
+            # (a free top takes any positive moments: _check_moments)
             return np.diag((I.sum() - 2 * I) / 2)
         if key == "uniform":
             if body[key] is not True:
@@ -426,6 +431,19 @@ class _Reader(TableReader):
         if "dimension" in body and body["dimension"] != self.n:
             raise self.fail("body", "dimension", f"is {body['dimension']!r} but mass_tensor is {self.n} x {self.n}")
         return B
+
+    def check_moments(self, I: np.ndarray, kind: str) -> None:
+        """The triangle inequality ``I_i <= I_j + I_k`` of a body's moments, which every scene but
+        a free top needs (its potential, its rolling or its motion in space involve the mass
+        distribution; the free top's equations take any positive moments)."""
+        if np.any(I.sum() - 2 * I < -1e-12 * I.max()):
+            raise self.fail(
+                "body",
+                "principal_moments",
+                f"must satisfy I_i <= I_j + I_k (a mass distribution's moments) for support type {kind!r} "
+                f"with these forces; got {I.tolist()} (only a free top, a fixed point without a gravity torque, "
+                "takes any positive moments)",
+            )
 
     def gravity(self, forces: dict) -> np.ndarray:
         g = forces["gravity"]

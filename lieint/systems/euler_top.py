@@ -5,6 +5,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .._validation import (
     as_bivector_array,
@@ -20,7 +21,7 @@ from ..groups.so import SO, project_to_so
 from .base import Invariant, LieGroupSystem, Output, State
 from .euler_top_exact import euler_top_angular_velocity
 from .invariants import manakov_integrals, manakov_labels
-from .mass import check_mass_tensor
+from .mass import check_mass_tensor, is_mass_distribution, moments_tensor
 from .rigid import (
     InertiaOperator,
     casimir_invariant,
@@ -58,13 +59,26 @@ class EulerTop(LieGroupSystem):
     Parameters
     ----------
     B : array_like, shape (n, n)
-        Body mass tensor ``∫ m X Xᵀ`` (symmetric, PSD, at most one zero eigenvalue).
+        Body mass tensor ``∫ m X Xᵀ``: symmetric with ``b_i + b_j > 0`` for its eigenvalues
+        b (i ≠ j), which the equations need (the inertia operator invertible, the kinetic
+        energy positive). A body's B is positive semi-definite with at most one zero
+        eigenvalue; B need not be (see Notes).
     orientation : bool, default True
         Integrate R as well. Without it the state is A alone (cheaper), and the invariants
         that need R (``momentum``, ``orthogonality``) are not available.
 
     Notes
     -----
+    **Any positive principal moments.** Euler's equations ``I ẇ = (I w) × w`` need only
+    positive moments ``I_k = b_i + b_j``; a mass distribution also has ``B = ∫ m X Xᵀ ⪰ 0``,
+    i.e. the triangle inequality ``I_k ≤ I_i + I_j``. This top accepts what the equations
+    accept, for example Hairer & Vilmart's "water" body (0.345, 0.653, 1.0) or the bodies
+    (3, 3, 9) and (3, 5, 9), for which ``b₃ = (I₁ + I₂ − I₃)/2 < 0``: no mass distribution
+    has them (:attr:`has_mass_distribution` is False), and systems that need one — the heavy
+    top's potential, the rolling balls, atoms, free bodies in space — refuse them. For such a
+    B, ``manakov`` is still a set of integrals (Manakov's Lax pair holds for any symmetric
+    B), the exact solution (n = 3) and every method apply unchanged.
+
     Structure tag ``"free_top"`` (``inertia`` is its :class:`~lieint.systems.rigid.InertiaOperator`).
     Outputs: ``angular_momentum`` (A), ``angular_velocity`` (Ω), ``orientation`` (R).
     Invariants: ``energy``: ``T = ¼ tr(ΩA) = −½ tr(ΩBΩ)``. ``casimirs``: the rotation "angles" of A,
@@ -87,8 +101,8 @@ class EulerTop(LieGroupSystem):
     #: R moves only itself and nothing reads it (lets the rotor form skip computing it)
     orientation_is_passive = True
 
-    def __init__(self, B, *, orientation: bool = True):
-        self.inertia = InertiaOperator(B, "B")
+    def __init__(self, B: ArrayLike, *, orientation: bool = True):
+        self.inertia = InertiaOperator(B, "B", mass_distribution=False)
         self.B, self.b, self.P = self.inertia.B, self.inertia.b, self.inertia.P
         self.n = self.inertia.n
         self.group = SO(self.n)
@@ -103,26 +117,45 @@ class EulerTop(LieGroupSystem):
         self._B2 = self.inertia.B2
 
     @classmethod
-    def from_principal_moments(cls, moments, *, orientation: bool = True) -> EulerTop:
+    def from_principal_moments(cls, moments: ArrayLike, *, orientation: bool = True) -> EulerTop:
         """3D top from its principal moments of inertia ``I₁, I₂, I₃`` (n = 3 only).
 
-        ``B = diag(b)`` with ``b_i = (I_j + I_k − I_i)/2``; a physical body needs
-        ``I_i ≤ I_j + I_k`` (equality: a flat plate).
+        ``B = diag(b)`` with ``b_i = (I_j + I_k − I_i)/2``. Any positive moments: those of a
+        mass distribution satisfy ``I_i ≤ I_j + I_k`` (equality: a flat plate); those that
+        break it (``b_i < 0``) make a valid free top that no body realises
+        (:attr:`has_mass_distribution` is False; see the class Notes).
+
+        Parameters
+        ----------
+        moments : array_like, shape (3,)
+            Positive principal moments.
+        orientation : bool, default True
+            Integrate R as well.
+
+        Returns
+        -------
+        EulerTop
+            The top, principal axes along the coordinate axes.
+
+        Examples
+        --------
+        >>> import lieint
+        >>> water = lieint.EulerTop.from_principal_moments([0.345, 0.653, 1.0])  # Hairer & Vilmart
+        >>> water.b.round(3).tolist(), water.has_mass_distribution
+        ([0.654, 0.346, -0.001], False)
         """
-        I = as_float_array(moments, "moments")
-        if I.shape != (3,):
-            raise ValueError(f"`moments` must be three principal moments (shape (3,)); got shape {I.shape}.")
-        if np.any(I <= 0):
-            raise ValueError(f"`moments` must be positive; got {describe(I)}.")
-        b = (I.sum() - 2.0 * I) / 2.0
-        if np.any(b < -1e-12 * I.max()):
-            raise ValueError(
-                f"`moments` must satisfy the triangle inequality I_i <= I_j + I_k of a physical body; "
-                f"got {describe(I)}."
-            )
-        return cls(np.diag(np.maximum(b, 0.0)), orientation=orientation)
+        return cls(moments_tensor(moments, "moments", mass_distribution=False), orientation=orientation)
 
     # -- physics -----------------------------------------------------------------------
+    @property
+    def has_mass_distribution(self) -> bool:
+        """Whether some mass distribution has this B (B ⪰ 0; n = 3: ``I_k ≤ I_i + I_j``).
+
+        False for tops that only the equations admit (class Notes); the motion is still the
+        free top's.
+        """
+        return is_mass_distribution(self.b)
+
     @property
     def principal_moments(self) -> np.ndarray:
         """n = 3: ``I = tr(B) − b`` in the order of the eigenvalues ``b``."""
@@ -141,10 +174,10 @@ class EulerTop(LieGroupSystem):
         return self.inertia.energy(A)
 
     # -- the LieGroupSystem contract ---------------------------------------------------
-    def generator(self, t, y: State) -> np.ndarray:
+    def generator(self, t: float | np.ndarray, y: State) -> np.ndarray:
         return self.angular_velocity(y["A"])
 
-    def commuting_generator(self, t, y: State, xi: np.ndarray | None = None) -> np.ndarray:
+    def commuting_generator(self, t: float | np.ndarray, y: State, xi: np.ndarray | None = None) -> np.ndarray:
         """The part of the generator that commutes with A: ``λA`` with ``λ = ⟨Ω, A⟩ / ⟨A, A⟩``.
 
         The generator of ``A' = [A, Ω]`` is defined only up to the centraliser of A: ``Ω − λA``
@@ -346,7 +379,7 @@ class EulerTop(LieGroupSystem):
         return out
 
     # -- exact solution ----------------------------------------------------------------
-    def exact_solution(self, t, y0: State) -> State:
+    def exact_solution(self, t: ArrayLike, y0: State) -> State:
         """Exact body momentum ``A(t)`` for n = 3 (Jacobi elliptic functions) and the attitude R(t).
 
         Parameters

@@ -85,7 +85,8 @@ def euler_top_rotation(moments, w0, t) -> np.ndarray:
     Parameters
     ----------
     moments : array_like, shape (3,)
-        Principal moments of inertia ``I_i`` (any order, ``I_i ≤ I_j + I_k``).
+        Principal moments of inertia ``I_i``: any order, any positive values (the triangle
+        inequality of a mass distribution is not needed).
     w0 : array_like, shape (3,)
         Initial body angular velocity in the same frame.
     t : array_like, shape (m,)

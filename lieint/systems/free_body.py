@@ -11,6 +11,7 @@ from ..groups.so import SO
 from ..groups.vector import ProductGroup, VectorSpace
 from .base import Invariant, LieGroupSystem, Output, State
 from .euler_top import EulerTop
+from .mass import check_mass_tensor
 from .rigid import casimir_invariant, momentum_outputs, orientation_output, pose_invariants
 
 __all__ = ["FreeBody"]
@@ -53,6 +54,7 @@ class FreeBody(LieGroupSystem):
     orientation_is_passive = True
 
     def __init__(self, mass_tensor, mass, gravity=None, *, orientation: bool = True):
+        check_mass_tensor(mass_tensor, "mass_tensor")  # a body in space: B ⪰ 0
         self.top = EulerTop(mass_tensor, orientation=orientation)
         self.inertia = self.top.inertia
         self.n = n = self.top.n
@@ -63,7 +65,7 @@ class FreeBody(LieGroupSystem):
         self.fields = dict(self.top.fields) | {"center": (n,), "velocity": (n,)}
         self.group = ProductGroup(SO(n), VectorSpace((n,)), VectorSpace((n,)))
 
-    def generator(self, t, y: State):
+    def generator(self, t: float | np.ndarray, y: State) -> np.ndarray | tuple[np.ndarray, ...]:
         Om = self.top.angular_velocity(y["A"])
         v = y["velocity"]
         acc = np.zeros_like(v) if self.gravity is None else np.broadcast_to(self.gravity, v.shape)

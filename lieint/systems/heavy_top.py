@@ -13,6 +13,7 @@ from ..groups.so import project_to_so
 from .base import Invariant, LieGroupSystem, Output, State
 from .euler_top import EulerTop
 from .invariants import skew_spectrum
+from .mass import check_mass_tensor, moments_tensor
 from .rigid import momentum_outputs, orientation_output, pose_invariants
 
 __all__ = ["HeavyTop"]
@@ -62,6 +63,7 @@ class HeavyTop(LieGroupSystem):
     orientation_is_passive = True
 
     def __init__(self, mass_tensor, mass, center_of_mass, gravity, *, orientation: bool = True):
+        check_mass_tensor(mass_tensor, "mass_tensor")  # the potential needs a body: B ⪰ 0
         self.top = EulerTop(mass_tensor, orientation=False)
         self.inertia = self.top.inertia
         self.B, self.n = self.top.B, self.top.n
@@ -116,11 +118,11 @@ class HeavyTop(LieGroupSystem):
     @classmethod
     def _principal(cls, moments, mass, center, g, **kw) -> HeavyTop:
         g = check_finite_positive(g, "g")
-        B = EulerTop.from_principal_moments(moments).B
+        B = moments_tensor(moments, "moments")  # a body: the triangle inequality
         return cls(B, mass, center, [0.0, 0.0, -g], **kw)
 
     # -- the LieGroupSystem contract ---------------------------------------------------
-    def generator(self, t, y: State) -> np.ndarray:
+    def generator(self, t: float | np.ndarray, y: State) -> np.ndarray:
         Om = self.top.angular_velocity(y["A"])
         return se_join(Om, np.broadcast_to(self._MXG, Om.shape[:-1]), algebra=True)
 

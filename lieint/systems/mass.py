@@ -11,7 +11,13 @@ import numpy as np
 
 from .._validation import as_float_array, check_square_trailing, describe
 
-__all__ = ["check_mass_tensor", "solve_lyapunov_sym"]
+__all__ = [
+    "check_inertia_tensor",
+    "check_mass_tensor",
+    "is_mass_distribution",
+    "moments_tensor",
+    "solve_lyapunov_sym",
+]
 
 # A pair sum b_i + b_j below this fraction of the largest eigenvalue is treated as zero:
 # the body is (numerically) a rod and Ω(A) is undefined.
@@ -26,6 +32,56 @@ def check_mass_tensor(B, name: str = "B") -> tuple[np.ndarray, np.ndarray, np.nd
     B must be a real symmetric positive semi-definite ``(n, n)`` matrix, n ≥ 2, with at most
     one zero eigenvalue (``b_i + b_j > 0`` for i ≠ j): a flat body is fine, a rod is not.
     """
+    B, b, P = _symmetric_tensor(B, name)
+    if b[0] < -1e-12 * b[-1]:
+        hint = ""
+        if b[0] + b[1] > _ROD_TOLERANCE * np.max(np.abs(b)):
+            hint = (
+                " (no mass distribution has it; the free top alone, lieint.EulerTop, takes any B with "
+                "b_i + b_j > 0, which its equations need)"
+            )
+        raise ValueError(
+            f"`{name}` must be positive semi-definite (a mass tensor ∫ m X Xᵀ); got eigenvalues {describe(b)}{hint}."
+        )
+    b = np.maximum(b, 0.0)
+    if b[0] + b[1] <= _ROD_TOLERANCE * b[-1]:
+        raise ValueError(
+            f"`{name}` must be symmetric positive semi-definite with at most one zero eigenvalue; got "
+            f"eigenvalues {describe(b)} (a rod: b_i + b_j = 0 for some i != j, so rotation about its "
+            "axis is undefined)."
+        )
+    return B, b, P
+
+
+def check_inertia_tensor(B, name: str = "B") -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Validate the tensor B of a free top's inertia operator; return ``(B, b, P)``, ``B = P diag(b) Pᵀ``.
+
+    What the free top's equations need: B real symmetric ``(n, n)``, n ≥ 2, with
+    ``b_i + b_j > 0`` for every i ≠ j. Then the inertia operator ``Ω ↦ BΩ + ΩB`` is invertible
+    and the kinetic energy ``T = ½ Σ_{i<j} (b_i + b_j) Ω_ij²`` is positive definite; for n = 3
+    the principal moments ``I_k = b_i + b_j`` are any positive numbers. B need not be positive
+    semi-definite (:func:`check_mass_tensor`): when it is not, no mass distribution has it
+    (for n = 3: the moments break the triangle inequality ``I_k ≤ I_i + I_j``).
+    """
+    B, b, P = _symmetric_tensor(B, name)
+    if is_mass_distribution(b):
+        return check_mass_tensor(B, name)  # the same rules, and the rod's message
+    if b[0] + b[1] <= _ROD_TOLERANCE * np.max(np.abs(b)):
+        raise ValueError(
+            f"`{name}` must have b_i + b_j > 0 for every pair of its eigenvalues b (so that the inertia operator "
+            f"Ω ↦ BΩ + ΩB is invertible and the kinetic energy positive); got eigenvalues {describe(b)}, "
+            f"b_1 + b_2 = {b[0] + b[1]:.3g}."
+        )
+    return B, b, P
+
+
+def is_mass_distribution(b: np.ndarray) -> bool:
+    """Whether eigenvalues ``b`` of a tensor B are those of a mass distribution (B ⪰ 0, to 1e-12)."""
+    return bool(np.min(b) >= -1e-12 * np.max(np.abs(b)))
+
+
+def _symmetric_tensor(B, name: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """B checked to be one finite symmetric ``(n, n)`` matrix, n ≥ 2, in range; ``(B, b, P)``."""
     B = as_float_array(B, name)
     if B.ndim != 2:
         raise ValueError(f"`{name}` must be one (n, n) mass tensor; got shape {B.shape}.")
@@ -49,18 +105,39 @@ def check_mass_tensor(B, name: str = "B") -> tuple[np.ndarray, np.ndarray, np.nd
         )
     B = 0.5 * (B + B.T)
     b, P = np.linalg.eigh(B)
-    if b[0] < -1e-12 * b[-1]:
-        raise ValueError(
-            f"`{name}` must be positive semi-definite (a mass tensor ∫ m X Xᵀ); got eigenvalues {describe(b)}."
-        )
-    b = np.maximum(b, 0.0)
-    if b[0] + b[1] <= _ROD_TOLERANCE * b[-1]:
-        raise ValueError(
-            f"`{name}` must be symmetric positive semi-definite with at most one zero eigenvalue; got "
-            f"eigenvalues {describe(b)} (a rod: b_i + b_j = 0 for some i != j, so rotation about its "
-            "axis is undefined)."
-        )
     return B, b, P
+
+
+def moments_tensor(moments, name: str = "moments", *, mass_distribution: bool = True) -> np.ndarray:
+    """``B = diag(b)``, ``b_i = (I_j + I_k − I_i)/2``, of three principal moments of inertia.
+
+    Parameters
+    ----------
+    moments : array_like, shape (3,)
+        Positive principal moments ``I₁, I₂, I₃``.
+    name : str
+        The argument's name in error messages.
+    mass_distribution : bool, default True
+        Require the moments of a body, ``I_i ≤ I_j + I_k`` (B ⪰ 0; equality: a flat plate).
+        False: any positive moments (what the free top's equations need).
+
+    Returns
+    -------
+    ndarray, shape (3, 3)
+        B (entries within 1e-12 of zero below it are set to zero: a flat plate stays one).
+    """
+    I = as_float_array(moments, name)
+    if I.shape != (3,):
+        raise ValueError(f"`{name}` must be three principal moments (shape (3,)); got shape {I.shape}.")
+    if np.any(I <= 0):
+        raise ValueError(f"`{name}` must be positive; got {describe(I)}.")
+    b = (I.sum() - 2.0 * I) / 2.0
+    if mass_distribution and np.any(b < -1e-12 * I.max()):
+        raise ValueError(
+            f"`{name}` must satisfy the triangle inequality I_i <= I_j + I_k of a physical body; got {describe(I)} "
+            "(the free top alone, lieint.EulerTop.from_principal_moments, takes any positive moments)."
+        )
+    return np.diag(np.where(np.abs(b) <= 1e-12 * I.max(), 0.0, b))
 
 
 def eigh_or_nan(M: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -15,7 +15,7 @@ import numpy as np
 from ..groups.bivectors import inner, skew_part
 from .base import Invariant, Output
 from .invariants import orthogonality_defect, skew_spectrum
-from .mass import check_mass_tensor
+from .mass import check_inertia_tensor, check_mass_tensor
 
 __all__ = [
     "InertiaOperator",
@@ -36,6 +36,10 @@ class InertiaOperator:
         The mass tensor.
     name : str
         The argument's name in error messages.
+    mass_distribution : bool, default True
+        Require B ⪰ 0 (:func:`~lieint.systems.mass.check_mass_tensor`). False: any symmetric B
+        with ``b_i + b_j > 0`` for i ≠ j (:func:`~lieint.systems.mass.check_inertia_tensor`),
+        all that the maps below need.
 
     Attributes
     ----------
@@ -44,8 +48,9 @@ class InertiaOperator:
     n : int
     """
 
-    def __init__(self, B, name: str = "B"):
-        self.B, self.b, self.P = check_mass_tensor(B, name)
+    def __init__(self, B, name: str = "B", *, mass_distribution: bool = True):
+        check = check_mass_tensor if mass_distribution else check_inertia_tensor
+        self.B, self.b, self.P = check(B, name)
         self.n = self.B.shape[0]
         # A diagonal B needs no change of basis: skip two matrix products per evaluation.
         self.diagonal = bool(np.all(self.B == np.diag(np.diag(self.B))))
