@@ -46,7 +46,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ._validation import as_float_array, check_rotation, is_scipy_rotation
+from ._validation import as_float_array, check_finite_positive, check_rotation, is_scipy_rotation
 
 if TYPE_CHECKING:
     from scipy.spatial.transform import Rotation
@@ -56,25 +56,39 @@ if TYPE_CHECKING:
 __all__ = ["from_quaternion", "from_scipy", "from_solution", "is_scipy_rotation", "to_quaternion", "to_scipy"]
 
 
-def _rotation_matrices(R: ArrayLike, name: str) -> np.ndarray:
-    """``R`` as float ``(..., 3, 3)`` rotation matrices, checked (orthogonal, det +1)."""
+#: how far from SO(3) a matrix may be (‖RᵀR − I‖_F) to be converted as it is
+ROTATION_ATOL = 1e-9
+
+
+def _rotation_matrices(R: ArrayLike, name: str, atol: float = ROTATION_ATOL) -> np.ndarray:
+    """``R`` as float ``(..., 3, 3)`` rotation matrices, checked (orthogonal to ``atol``, det +1)."""
     arr = as_float_array(R, name)
     if arr.ndim < 2 or arr.shape[-2:] != (3, 3):
         raise ValueError(
             f"`{name}` must be rotation matrices of shape (..., 3, 3) (scipy's Rotation and quaternions are "
             f"three-dimensional); got shape {arr.shape}."
         )
-    check_rotation(arr, name, atol=1e-9)
+    atol = check_finite_positive(atol, "atol")
+    try:
+        check_rotation(arr, name, atol=atol)
+    except ValueError as exc:
+        raise ValueError(
+            f"{exc} The conversions take matrices within `atol` = {atol:g} of SO(3); a result of a method "
+            "that does not keep R on SO(3) (classical RK, scipy's solvers) drifts off it: integrate with "
+            "project=True, or pass a larger `atol` to take the nearest rotations (scipy's from_matrix)."
+        ) from None
     return arr
 
 
-def to_scipy(R: ArrayLike) -> Rotation:
+def to_scipy(R: ArrayLike, *, atol: float = ROTATION_ATOL) -> Rotation:
     """The orientations ``R`` as a :class:`scipy.spatial.transform.Rotation`.
 
     Parameters
     ----------
     R : array_like, shape (..., 3, 3)
         Rotation matrices (body to space: ``q = R X``), e.g. ``sol.states["R"]``.
+    atol : float, default 1e-9
+        Largest ``‖RᵀR − I‖_F`` accepted; within it, scipy takes the nearest rotation.
 
     Returns
     -------
@@ -92,7 +106,7 @@ def to_scipy(R: ArrayLike) -> Rotation:
     """
     from scipy.spatial.transform import Rotation
 
-    arr = _rotation_matrices(R, "R")
+    arr = _rotation_matrices(R, "R", atol)
     if arr.ndim == 2:
         return Rotation.from_matrix(arr)
     return Rotation.from_matrix(arr.reshape(-1, 3, 3))
@@ -124,7 +138,9 @@ def from_scipy(rotation: Rotation) -> np.ndarray:
     return np.asarray(rotation.as_matrix(), dtype=float)
 
 
-def to_quaternion(R: ArrayLike, *, scalar_first: bool, continuous: bool = True) -> np.ndarray:
+def to_quaternion(
+    R: ArrayLike, *, scalar_first: bool, continuous: bool = True, atol: float = ROTATION_ATOL
+) -> np.ndarray:
     """Unit quaternions of the orientations ``R``.
 
     Parameters
@@ -139,6 +155,8 @@ def to_quaternion(R: ArrayLike, *, scalar_first: bool, continuous: bool = True) 
         the series is continuous along the first axis (the time axis of a result): each
         ``q[k]`` has a nonnegative inner product with ``q[k − 1]``, and the first one has
         ``w ≥ 0``. ``False``: the sign scipy's conversion gives, member by member.
+    atol : float, default 1e-9
+        Largest ``‖RᵀR − I‖_F`` accepted (as :func:`to_scipy`).
 
     Returns
     -------
@@ -159,7 +177,7 @@ def to_quaternion(R: ArrayLike, *, scalar_first: bool, continuous: bool = True) 
 
     _check_flag(scalar_first, "scalar_first")
     _check_flag(continuous, "continuous")
-    arr = _rotation_matrices(R, "R")
+    arr = _rotation_matrices(R, "R", atol)
     batch = arr.shape[:-2]
     q = np.asarray(Rotation.from_matrix(arr.reshape(-1, 3, 3)).as_quat(), dtype=float).reshape(batch + (4,))
     if continuous:  # scalar-last here: w is the last component
@@ -216,7 +234,7 @@ def from_quaternion(q: ArrayLike, *, scalar_first: bool) -> np.ndarray:
     return np.asarray(Rotation.from_quat(last.reshape(-1, 4)).as_matrix(), dtype=float).reshape(batch + (3, 3))
 
 
-def from_solution(sol: Solution, field: str = "R") -> Rotation:
+def from_solution(sol: Solution, field: str = "R", *, atol: float = ROTATION_ATOL) -> Rotation:
     """The saved orientations of a result as a :class:`scipy.spatial.transform.Rotation`.
 
     Parameters
@@ -226,6 +244,9 @@ def from_solution(sol: Solution, field: str = "R") -> Rotation:
     field : str, default "R"
         The state field holding the orientation, or an output of kind rotation (e.g. the
         atoms' ``"R"``).
+    atol : float, default 1e-9
+        Largest ``‖RᵀR − I‖_F`` accepted (the result's ``orthogonality`` invariant): a method
+        that does not keep R on SO(3) needs ``project=True`` or a larger ``atol``.
 
     Returns
     -------
@@ -241,7 +262,7 @@ def from_solution(sol: Solution, field: str = "R") -> Rotation:
     >>> len(lieint.rotations.from_solution(sol))
     5
     """
-    return to_scipy(_orientation_of(sol, field))
+    return to_scipy(_orientation_of(sol, field), atol=atol)
 
 
 def _orientation_of(sol: Solution, field: str) -> np.ndarray:

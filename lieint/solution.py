@@ -4,11 +4,14 @@ from __future__ import annotations
 
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from .drift import drift as _drift
+
+if TYPE_CHECKING:
+    from scipy.spatial.transform import Rotation
 
 __all__ = ["Invariants", "Solution"]
 
@@ -186,7 +189,7 @@ class Solution:
             for name in names
         }
 
-    def rotation(self, field: str = "R"):
+    def rotation(self, field: str = "R", *, atol: float = 1e-9) -> Rotation:
         """The saved orientations as a :class:`scipy.spatial.transform.Rotation` (3D bodies).
 
         Parameters
@@ -194,6 +197,9 @@ class Solution:
         field : str, default "R"
             The state field (or output) holding the orientation R (body to space: a body point
             X is at ``R X``, which is what ``Rotation.apply(X)`` gives).
+        atol : float, default 1e-9
+            Largest ``‖RᵀR − I‖_F`` accepted: results of methods that do not keep R on SO(3)
+            (classical RK, scipy's solvers) need ``project=True`` or a larger ``atol``.
 
         Returns
         -------
@@ -211,7 +217,7 @@ class Solution:
         """
         from .rotations import from_solution
 
-        return from_solution(self, field)
+        return from_solution(self, field, atol=atol)
 
     def multivectors(self, name: str):
         """A bivector-, rotor- or vector-valued field or output as clifford multivectors.

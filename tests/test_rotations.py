@@ -196,3 +196,20 @@ def test_a_result_without_orientation_is_refused_by_name():
     sol4 = lieint.integrate(four, four.initial_state(Omega=X - X.T), (0.0, 0.5), h=0.25)
     with pytest.raises(ValueError, match=r"three-dimensional\); got shape \(3, 4, 4\)"):
         sol4.rotation()
+
+
+def test_results_off_so3_are_refused_with_what_to_do():
+    # scipy's RK45 does not keep R on SO(3): its result is converted only on request
+    top = lieint.EulerTop.from_principal_moments([1.0, 2.0, 3.0])
+    y0 = top.initial_state(angular_velocity=[0.01, 1.0, 0.01])
+    raw = lieint.integrate(top, y0, (0.0, 10.0), method="RK45", t_eval=[1.0, 2.0, 10.0])
+    defect = float(np.max(raw.invariants["orthogonality"]))
+    assert defect > 1e-9
+    with pytest.raises(ValueError, match=r"`R` must be a rotation in SO\(3\).*project=True, or pass a larger `atol`"):
+        raw.rotation()
+    nearest = raw.rotation(atol=10 * defect)  # scipy's nearest rotations
+    assert np.max(np.abs(nearest.as_matrix() - raw.states["R"])) < 10 * defect
+    projected = lieint.integrate(top, y0, (0.0, 10.0), method="RK45", t_eval=[1.0, 2.0, 10.0], project=True)
+    assert len(projected.rotation()) == 3
+    with pytest.raises(ValueError, match=r"`atol` must be a positive finite number"):
+        rotations.to_quaternion(np.eye(3), scalar_first=True, atol=-1.0)
