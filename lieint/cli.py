@@ -192,8 +192,22 @@ def _add_sweep_parser(sub) -> None:
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``lieint`` console script."""
+    from ._optional import extra_of, missing_message
+
     parser = _build_parser()
     args = parser.parse_args(argv)
+    try:
+        return _dispatch(args, parser)
+    except ModuleNotFoundError as exc:  # an optional dependency (figures, geometric algebra, sweeps)
+        if extra_of(exc.name) is None:
+            raise
+        message = str(exc) if "pip install" in str(exc) else missing_message(exc.name, f"lieint {args.command}")
+        print(f"lieint {args.command}: {message}", file=sys.stderr)
+        return 2
+
+
+def _dispatch(args, parser) -> int:
+    """Run the sub-command of the parsed ``args``."""
     if args.command == "methods":
         from .methods import method_specs
 

@@ -159,6 +159,14 @@ def run_compare(args) -> int:
     except SceneError as exc:
         print(f"lieint compare: {exc}", file=sys.stderr)
         return 2
+    if not args.no_plots:  # before the study's minute of work, not after it
+        from ._optional import MissingExtraError, require
+
+        try:
+            require("matplotlib", "the figures of lieint compare")
+        except MissingExtraError as exc:
+            print(f"lieint compare: {exc} (or pass --no-plots for the tables only)", file=sys.stderr)
+            return 2
     text = args.format in ("table", "markdown")
     out_root = Path(args.out_dir)
     results = []

@@ -8,6 +8,7 @@ product costs ``4ⁿ`` multiply-adds per body (n = 3: 64, n = 6: 4096, n = 8: 65
 matrices stay the cheaper representation for large n.
 """
 
+from . import _clifford  # noqa: F401 (first: a missing clifford is reported with the extra that installs it)
 from .algebra import (
     GA,
     algebra,
