@@ -28,6 +28,7 @@ from .solution import Solution
 from .sweeps import sweep
 from .systems import ChaplyginBall, EulerTop, FreeBody, HeavyTop, LieGroupSystem, RollingBall
 from .systems.atoms import AtomsBody
+from .systems.euler_top_exact import euler_top_flip_times
 from .systems.particles import CentralForceParticle, ConstantForceParticle, SurfaceParticle
 from .systems.prescribed import PrescribedRotation
 
@@ -53,6 +54,7 @@ __all__ = [
     "SurfaceParticle",
     "__version__",
     "analysis",
+    "euler_top_flip_times",
     "get_method",
     "integrate",
     "method_names",

@@ -19,6 +19,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 __all__ = ["euler_top_angular_velocity", "euler_top_flip_times", "jacobi_elliptic"]
 
@@ -189,11 +190,33 @@ def euler_top_angular_velocity(moments, w0, t) -> np.ndarray:
     return out
 
 
-def euler_top_flip_times(moments, w0, t_end: float) -> np.ndarray:
+def euler_top_flip_times(moments: ArrayLike, w0: ArrayLike, t_end: float) -> np.ndarray:
     """Times in ``(0, t_end]`` where the middle-axis component of w changes sign (the flips).
 
     ``w₂ = a₂ sn(u₀ + λt)`` vanishes at ``u = 2jK``: ``t_j = (2jK − u₀)/λ`` with
-    ``K = ellipkm1(p)``, exact even 1e-8 from the separatrix where p ~ 1e-16.
+    ``K = ellipkm1(p)``, exact even 1e-8 from the separatrix where p ~ 1e-16. A reference for
+    event times (the Dzhanibekov flip), computed without any integrator.
+
+    Parameters
+    ----------
+    moments : array_like, shape (3,)
+        Principal moments of inertia ``I_i``: any order, any positive values.
+    w0 : array_like, shape (3,)
+        Initial body angular velocity in the principal frame.
+    t_end : float
+        End of the time window.
+
+    Returns
+    -------
+    ndarray, shape (k,)
+        The flip times, increasing; empty when the motion has none (a steady rotation, or a
+        motion about an end axis with the middle component never zero).
+
+    Examples
+    --------
+    >>> import lieint
+    >>> lieint.euler_top_flip_times([1.0, 2.0, 3.0], [0.01, 1.0, 0.01], 60.0).round(6).tolist()
+    [10.916913, 30.469781, 50.022648]
     """
     from scipy.special import ellipkm1
 
