@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Iterator, Mapping
+from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
@@ -94,8 +94,8 @@ class Solution:
     >>> top = lieint.EulerTop.from_principal_moments([1.0, 2.0, 3.0])
     >>> y0 = top.initial_state(angular_velocity=[0.01, 1.0, 0.01])
     >>> sol = lieint.integrate(top, y0, (0.0, 1.0), h=0.1, method="rkmk4")
-    >>> sol.status, sol.success, sol.t[-1]
-    (0, True, np.float64(1.0))
+    >>> sol.status, sol.success, float(sol.t[-1])
+    (0, True, 1.0)
     >>> sol.states["R"].shape, sol.y.shape
     ((11, 3, 3), (18, 11))
     >>> float(sol.drift("energy")) < 1e-8
@@ -171,14 +171,50 @@ class Solution:
         absolute where ``I(0) = 0``; defects (e.g. ``orthogonality``): ``max_t ‖D(t)‖``. The same
         definition as the monitors of streamed runs, the plots and the study
         (:mod:`lieint.drift`).
+
+        Parameters
+        ----------
+        name : str
+            An invariant of the system (``sol.invariants``: e.g. "energy", "casimirs",
+            "orthogonality").
+
+        Returns
+        -------
+        float or ndarray
+            The drift (a float for one body, shape ``batch_shape`` for an ensemble).
+
+        Raises
+        ------
+        KeyError
+            For a name the system does not provide (the message lists those it does).
+
+        Examples
+        --------
+        >>> import lieint
+        >>> top = lieint.EulerTop.from_principal_moments([1.0, 2.0, 3.0])
+        >>> sol = lieint.integrate(top, top.initial_state(angular_velocity=[0.1, 1.0, 0.1]), (0, 10), h=0.01)
+        >>> bool(sol.drift("energy") < 1e-9), bool(sol.drift("orthogonality") < 1e-12)
+        (True, True)
         """
         declared = self.system.invariants
         if name not in declared:
             raise KeyError(f"Unknown invariant {name!r}; this system provides {list(declared)}.")
         return _drift(self.invariants[name], declared[name].kind, len(self.batch_shape))
 
-    def outputs(self, names) -> dict[str, np.ndarray]:
-        """Named outputs or invariants of the system over the saved times."""
+    def outputs(self, names: Iterable[str]) -> dict[str, np.ndarray]:
+        """Named outputs or invariants of the system over the saved times.
+
+        Parameters
+        ----------
+        names : iterable of str
+            Names from ``sol.system.outputs`` (e.g. "angular_velocity", "orientation") or
+            ``sol.invariants``.
+
+        Returns
+        -------
+        dict of ndarray
+            name → values, shape ``(m, *batch, ...)``.
+        """
         t = self.t.reshape(self.t.shape + (1,) * len(self.batch_shape))
         return {
             name: (
@@ -219,7 +255,7 @@ class Solution:
 
         return from_solution(self, field, atol=atol)
 
-    def multivectors(self, name: str):
+    def multivectors(self, name: str) -> Any:
         """A bivector-, rotor- or vector-valued field or output as clifford multivectors.
 
         Parameters

@@ -16,11 +16,16 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..groups.bivectors import bivector_dimension, from_bivector_coordinates
 from .numerics import NumericalRank, numerical_rank
+
+if TYPE_CHECKING:
+    from ..systems.base import LieGroupSystem
 
 __all__ = ["Distribution", "HolonomyResult", "constraint_of", "is_holonomic", "rolling_constraint"]
 
@@ -156,6 +161,8 @@ def is_holonomic(
     Returns
     -------
     HolonomyResult
+        The verdict, the dimensions of the distribution and of its bracket closure, and the
+        depth reached.
 
     Examples
     --------
@@ -217,7 +224,9 @@ def is_holonomic(
 # -- constraints of the lecture's systems -------------------------------------------------------------
 
 
-def rolling_constraint(n: int, radius: float = 1.0, R=None, normal=None) -> Distribution:
+def rolling_constraint(
+    n: int, radius: float = 1.0, R: ArrayLike | None = None, normal: ArrayLike | None = None
+) -> Distribution:
     """A ball of radius r rolling without sliding on a plane of Rⁿ (MATH.md §4, §9).
 
     Configuration ``(R, p) ∈ SO(n) × plane`` (dimension ``n(n−1)/2 + n − 1``); admissible
@@ -227,11 +236,18 @@ def rolling_constraint(n: int, radius: float = 1.0, R=None, normal=None) -> Dist
     Parameters
     ----------
     n : int
-    radius : float
+        The dimension of the ball (n ≥ 2).
+    radius : float, default 1.0
+        Its radius r.
     R : array_like, shape (n, n), optional
         The orientation at which to test (default: a fixed generic rotation).
     normal : array_like, shape (n,), optional
         The plane's normal ν (default ``e_n``).
+
+    Returns
+    -------
+    Distribution
+        The admissible velocities at that configuration.
     """
     if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 2:
         raise ValueError(f"`n` must be an integer ≥ 2; got {n!r}.")
@@ -304,12 +320,24 @@ def _rigid_atoms(body, q) -> Distribution:
     )
 
 
-def constraint_of(system, state: dict | None = None) -> Distribution:
+def constraint_of(system: LieGroupSystem, state: dict | None = None) -> Distribution:
     """The velocity distribution of a system at a state (for ``lieint analyze``).
 
     Rolling balls: :func:`rolling_constraint`; a particle on a surface: ``⟨∇h, q̇⟩ = 0`` in Rⁿ;
     atoms held rigid: the rigid velocities (translations and rotations) in R^{N n}; a free top:
     all of T SO(n) (no constraint); a free particle: all of Rⁿ.
+
+    Parameters
+    ----------
+    system : LieGroupSystem
+        A ball, a particle, atoms or a top.
+    state : dict, optional
+        The state at which to test (one body); the configuration fields it needs.
+
+    Returns
+    -------
+    Distribution
+        The admissible velocities.
     """
     from ..systems.atoms import AtomsBody
     from ..systems.chaplygin import ChaplyginBall

@@ -28,10 +28,14 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..groups.bivectors import bivector_coordinates, bivector_dimension, commutator, from_bivector_coordinates
+
+if TYPE_CHECKING:
+    from ..systems.base import LieGroupSystem
 from .numerics import (
     DIFFERENCE_STEP,
     RANK_THRESHOLD,
@@ -70,6 +74,8 @@ class PhaseChart:
         A symplectic structure (each extra integral brings its Hamiltonian flow).
     measure : bool
         An invariant measure counted by the lecture (Chaplygin's).
+    isotropy_description : str
+        How the isotropy arises, for the report (may be empty).
     """
 
     name: str
@@ -106,9 +112,13 @@ class IntegrabilityCount:
         1 if an invariant measure is counted.
     result : int
         The reduced dimension.
+    symmetry : str
+        The symmetry algebra.
     jacobian_rank, isotropy_rank : NumericalRank
         The numerical ranks behind the figures (threshold, smallest kept and largest dropped
         singular values).
+    isotropy_description : str
+        How the isotropy arises, for the report (may be empty).
     """
 
     system: str
@@ -192,7 +202,7 @@ class IntegrabilityCount:
 
 
 def integrability_count(
-    system,
+    system: LieGroupSystem,
     state: dict,
     *,
     integrals: str = "momentum",
@@ -204,7 +214,8 @@ def integrability_count(
 
     Parameters
     ----------
-    system : EulerTop, ChaplyginBall or CentralForceParticle
+    system : EulerTop, ChaplyginBall, CentralForceParticle or SurfaceParticle
+        The system (a particle on a surface needs an axis of symmetry).
     state : dict
         One state of the system (no batch axes); a generic state gives the generic count.
     integrals : {"momentum", "manakov"}
@@ -220,6 +231,7 @@ def integrability_count(
     Returns
     -------
     IntegrabilityCount
+        The figures of the count and the ranks behind them.
 
     Examples
     --------
@@ -284,9 +296,23 @@ def _rows(chart: PhaseChart, f, step: float) -> np.ndarray:
 # -- charts ---------------------------------------------------------------------------------------------
 
 
-def phase_chart(system, state: dict, *, integrals: str = "momentum") -> PhaseChart:
-    """The :class:`PhaseChart` of a system at a state (EulerTop, ChaplyginBall,
-    CentralForceParticle); a clear error for other systems."""
+def phase_chart(system: LieGroupSystem, state: dict, *, integrals: str = "momentum") -> PhaseChart:
+    """The :class:`PhaseChart` of a system at a state; a clear error for other systems.
+
+    Parameters
+    ----------
+    system : EulerTop, ChaplyginBall, CentralForceParticle or SurfaceParticle
+        The system (a particle on a surface needs an axis of symmetry).
+    state : dict
+        One state of it (no batch axes).
+    integrals : {"momentum", "manakov"}, default "momentum"
+        As :func:`integrability_count`.
+
+    Returns
+    -------
+    PhaseChart
+        The chart, the integrals and the symmetry the count needs.
+    """
     from ..systems.chaplygin import ChaplyginBall
     from ..systems.euler_top import EulerTop
     from ..systems.particles import CentralForceParticle, SurfaceParticle

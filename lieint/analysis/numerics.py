@@ -47,7 +47,20 @@ class NumericalRank:
 
 
 def numerical_rank(M: np.ndarray, threshold: float = RANK_THRESHOLD) -> NumericalRank:
-    """Rank of ``M`` by SVD with a relative threshold (see :class:`NumericalRank`)."""
+    """Rank of ``M`` by SVD with a relative threshold (see :class:`NumericalRank`).
+
+    Parameters
+    ----------
+    M : ndarray
+        The matrix (a vector is one row).
+    threshold : float
+        Singular values above ``threshold`` times the largest count.
+
+    Returns
+    -------
+    NumericalRank
+        The rank with the smallest kept and largest dropped relative singular values.
+    """
     M = np.atleast_2d(np.asarray(M, dtype=float))
     if M.size == 0:
         return NumericalRank(0, threshold, 1.0, 0.0)

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import importlib
 import pkgutil
+from typing import Any
 
 from .base import Method, MethodSpec
 
@@ -79,6 +80,12 @@ def method_specs() -> dict[str, MethodSpec]:
 def method_names() -> list[str]:
     """The method names :func:`lieint.integrate` accepts.
 
+    Returns
+    -------
+    list of str
+        Lie-group methods first, by family and order; scipy's baselines last (named
+        "scipy:RK45" etc.; :func:`get_method` also takes them bare).
+
     Examples
     --------
     >>> import lieint
@@ -88,7 +95,7 @@ def method_names() -> list[str]:
     return list(method_specs())
 
 
-def get_method(method="rkmk4", coordinates: str | None = None, **options) -> Method:
+def get_method(method: str | Method = "rkmk4", coordinates: str | None = None, **options: Any) -> Method:
     """Build the method object for a name (or check and return a method object).
 
     Parameters
@@ -104,6 +111,27 @@ def get_method(method="rkmk4", coordinates: str | None = None, **options) -> Met
         Build options the method declares (e.g. ``dexpinv_degree`` of RKMK: "auto" keeps
         degree ``p − 2``, the least that preserves order p; None uses the exact closed form).
         An option equal to ``AUTO`` (or the string "auto") means the method's default.
+
+    Returns
+    -------
+    Method
+        The method object (built once per name, coordinates and options: methods are
+        stateless).
+
+    Raises
+    ------
+    ValueError
+        An unknown name (the message lists the valid ones), coordinates the method has not,
+        an option it does not take.
+
+    Examples
+    --------
+    >>> import lieint
+    >>> m = lieint.get_method("rkmk4", coordinates="cayley")
+    >>> m.name, m.order, m.adaptive
+    ('rkmk4[cayley]', 4, False)
+    >>> lieint.get_method("RK45").name  # scipy's solver, named bare
+    'scipy:RK45'
     """
     options = {k: v for k, v in options.items() if not (v is AUTO or (isinstance(v, str) and v == "auto"))}
     if isinstance(method, Method):

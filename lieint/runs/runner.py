@@ -21,6 +21,7 @@ import sys
 import threading
 import time
 from pathlib import Path
+from typing import TextIO
 
 import numpy as np
 
@@ -38,18 +39,18 @@ _SEGMENT_SECONDS = 0.25  # aim for segments of about this wall time (progress, C
 
 
 def run(
-    scene,
-    out,
+    scene: Scene | str | os.PathLike,
+    out: str | os.PathLike,
     *,
     overwrite: bool = False,
     resume: bool = False,
     checkpoint_every: int | None = None,
     checkpoint_seconds: float | None = 60.0,
-    progress="auto",
+    progress: bool | str = "auto",
     monitor_every: int | None = None,
     max_drift: dict[str, float] | None = None,
     stop_after: int | None = None,
-    stream=None,
+    stream: TextIO | None = None,
 ) -> RunReport:
     """Integrate a scene, streaming the saved series into an HDF5 file.
 
@@ -90,6 +91,16 @@ def run(
         (``max_drift``), "failed" (the state became non-finite) or "no-space" (the disk is
         full or the file-size limit was reached: the rows up to the last checkpoint are safe,
         resume once there is room).
+
+    Examples
+    --------
+    >>> import os, tempfile, lieint
+    >>> out = os.path.join(tempfile.mkdtemp(), "flip.h5")
+    >>> report = lieint.run("dzhanibekov", out, progress=False)  # an embedded scene
+    >>> report.status, report.rows, sorted(report.drifts)
+    ('complete', 601, ['casimirs', 'energy', 'orthogonality'])
+    >>> lieint.run("dzhanibekov", out, progress=False, overwrite=True).status  # it exists now
+    'complete'
     """
     from ..scenes import load_scene
     from .lock import RunLock

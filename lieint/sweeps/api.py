@@ -2,38 +2,49 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import os
+from collections.abc import Mapping, Sequence
+from typing import TYPE_CHECKING
+
+from numpy.typing import ArrayLike
 
 from .plan import SweepError, plan_from_scene, plan_from_systems
+
+if TYPE_CHECKING:
+    from distributed import Client
+
+    from ..scenes import Scene
+    from ..systems.base import LieGroupSystem
+    from .engine import SweepReport
 
 __all__ = ["sweep"]
 
 
 def sweep(
-    scene=None,
+    scene: Scene | str | os.PathLike | dict | None = None,
     vary: Sequence[str] | dict | None = None,
     *,
-    out,
+    out: str | os.PathLike,
     ensemble: int | None = None,
     seed: int = 0,
     spread: float | None = None,
     chunk: int | None = None,
-    scheduler=None,
+    scheduler: str | Client | None = None,
     workers: int | None = None,
     resume: bool = False,
     overwrite: bool = False,
-    progress="auto",
+    progress: bool | str = "auto",
     backend: str = "auto",
-    systems=None,
-    y0=None,
-    t_span=None,
+    systems: LieGroupSystem | Sequence[LieGroupSystem] | None = None,
+    y0: Mapping[str, ArrayLike] | Sequence[Mapping[str, ArrayLike]] | None = None,
+    t_span: tuple[float, float] | None = None,
     h: float | None = None,
     method: str = "rkmk4",
     coordinates: str | None = None,
     project: bool = False,
     save_every: int = 1,
     outputs: Sequence[str] = (),
-):
+) -> SweepReport:
     """Integrate a parameter and initial-condition sweep on dask and store it in Zarr.
 
     The members are the product of the varied scene keys' values and an ensemble of initial
@@ -74,8 +85,22 @@ def sweep(
     systems, y0 : optional
         Instead of a scene: a system or list of systems (the parameter points; same state
         fields) and an initial state or list of states (each may be batched), all run by every
-        system; then ``t_span`` and ``h`` are required and ``method``, ``coordinates``,
-        ``project``, ``save_every`` and ``outputs`` (outputs or invariants to store) apply.
+        system; then ``t_span`` and ``h`` are required and the arguments below apply.
+    t_span : (float, float), optional
+        ``(t0, t1)`` of a sweep of given systems (as :func:`lieint.integrate`).
+    h : float, optional
+        The step of a sweep of given systems (sweeps run fixed-step methods).
+    method : str, default "rkmk4"
+        The fixed-step method of a sweep of given systems (:func:`lieint.method_names`).
+    coordinates : {"exp", "cayley"}, optional
+        Its coordinate map (as :func:`lieint.integrate`).
+    project : bool, default False
+        Project the state onto its manifold after every step.
+    save_every : int, default 1
+        Store every k-th step (and the last one).
+    outputs : sequence of str, default ()
+        Outputs or invariants of the systems to store besides the state (a scene names its
+        own in ``[output]``).
 
     Returns
     -------
@@ -91,11 +116,19 @@ def sweep(
 
     Examples
     --------
-    >>> import lieint
-    >>> report = lieint.sweep("dzhanibekov", ["body.principal_moments[0]=1:1.5:3"],
-    ...                       out="flip.zarr", scheduler="synchronous")  # doctest: +SKIP
+    Three Dzhanibekov tops with I₁ = 1, 1.25, 1.5, in this process (no cluster):
+
+    >>> import os, tempfile, lieint
+    >>> out = os.path.join(tempfile.mkdtemp(), "flip.zarr")
+    >>> report = lieint.sweep(
+    ...     "dzhanibekov", ["body.principal_moments[0]=1:1.5:3"], out=out, scheduler="synchronous", progress=False
+    ... )
+    >>> report.status, report.nmembers
+    ('complete', 3)
     >>> import xarray as xr
-    >>> ds = xr.open_zarr("flip.zarr")  # doctest: +SKIP
+    >>> ds = xr.open_zarr(out)
+    >>> ds["body.principal_moments[0]"].values.tolist(), ds["drift_energy"].shape
+    ([1.0, 1.25, 1.5], (3,))
     """
     from .engine import run_sweep
 

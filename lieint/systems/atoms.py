@@ -18,8 +18,10 @@ top (MATH.md §2) with ``B = Σ mᵢ XᵢXᵢᵀ`` about the centre of mass — 
 from __future__ import annotations
 
 from types import MappingProxyType
+from typing import TYPE_CHECKING
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .._validation import as_float_array, check_vector, describe
 from ..groups.bivectors import wedge
@@ -28,6 +30,9 @@ from ..groups.vector import ProductGroup, VectorSpace
 from .base import Invariant, LieGroupSystem, Output, State
 from .euler_top import EulerTop
 from .rigid import InertiaOperator
+
+if TYPE_CHECKING:
+    from scipy.spatial.transform import Rotation
 
 __all__ = ["AtomsBody", "reaction_pairs"]
 
@@ -78,7 +83,7 @@ class AtomsBody(LieGroupSystem):
     structure = frozenset({"atoms"})
     field_kinds = MappingProxyType({"q": "point", "v": "vector"})
 
-    def __init__(self, masses, positions):
+    def __init__(self, masses: ArrayLike, positions: ArrayLike):
         m = as_float_array(masses, "masses")
         X = as_float_array(positions, "positions")
         if m.ndim != 1 or np.any(m <= 0):
@@ -131,14 +136,36 @@ class AtomsBody(LieGroupSystem):
         return -gram * self._coupling
 
     def tensions(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
-        """The σ on the pairs S at the state ``(q, q̇)``, shape ``(..., |S|)``."""
+        """The σ on the pairs S at the state ``(q, q̇)``.
+
+        Parameters
+        ----------
+        q, v : ndarray, shape (..., N, n)
+            Positions and velocities of the atoms.
+
+        Returns
+        -------
+        ndarray, shape (..., |S|)
+            σ on each pair of :attr:`pairs`.
+        """
         P = self.pairs
         dv = v[..., P[:, 0], :] - v[..., P[:, 1], :]
         rhs = -np.sum(dv * dv, axis=-1)
         return np.linalg.solve(self._system_matrix(q), rhs[..., None])[..., 0]
 
     def reactions(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
-        """``Rᵢ = Σₖ σᵢₖ (qₖ − qᵢ)``, shape ``(..., N, n)``."""
+        """The central reactions ``Rᵢ = Σₖ σᵢₖ (qₖ − qᵢ)``.
+
+        Parameters
+        ----------
+        q, v : ndarray, shape (..., N, n)
+            Positions and velocities of the atoms.
+
+        Returns
+        -------
+        ndarray, shape (..., N, n)
+            The reaction on each atom.
+        """
         P = self.pairs
         sigma = self.tensions(q, v)
         u = q[..., P[:, 1], :] - q[..., P[:, 0], :]  # q_b − q_a
@@ -146,20 +173,31 @@ class AtomsBody(LieGroupSystem):
         return np.einsum("...sk,sa->...ak", sigma[..., None] * u, self._incidence)
 
     # -- the LieGroupSystem contract ---------------------------------------------------
-    def generator(self, t, y: State):
+    def generator(self, t: float | np.ndarray, y: State) -> np.ndarray | tuple[np.ndarray, ...]:
         return (y["v"], self.reactions(y["q"], y["v"]) / self.masses[:, None])
 
-    def act(self, g, y: State) -> State:
+    def act(self, g: np.ndarray | tuple[np.ndarray, ...], y: State) -> State:
         return {"q": y["q"] + g[0], "v": y["v"] + g[1]}
 
-    def infinitesimal_action(self, xi, y: State) -> State:
+    def infinitesimal_action(self, xi: np.ndarray | tuple[np.ndarray, ...], y: State) -> State:
         return {"q": xi[0], "v": xi[1]}
 
     def project(self, y: State) -> State:
         """The nearest rigid state in the mass-weighted norm: ``qᵢ ← q_G + R Xᵢ`` with R the
         rotation nearest to ``Σ mᵢ (qᵢ − q_G) Xᵢᵀ`` (polar factor), then ``q̇ᵢ ← v_G + ω (qᵢ − q_G)``
         with ω from the momentum ``a = −(bω + ωb)``, ``b = R B Rᵀ`` (the least-squares rigid
-        velocity). The centre of mass, its velocity and a are kept."""
+        velocity). The centre of mass, its velocity and a are kept.
+
+        Parameters
+        ----------
+        y : dict of ndarray
+            A state ``{"q", "v"}``, nearly rigid.
+
+        Returns
+        -------
+        dict of ndarray
+            The rigid state.
+        """
         q, v = y["q"], y["v"]
         qG, vG = self.centre_of_mass(q), self.centre_of_mass(v)
         d = q - qG[..., None, :]
@@ -172,26 +210,83 @@ class AtomsBody(LieGroupSystem):
 
     # -- rigid-body quantities ---------------------------------------------------------
     def centre_of_mass(self, q: np.ndarray) -> np.ndarray:
+        """The mass-weighted mean ``Σ mᵢ qᵢ / M`` (of positions, or of velocities).
+
+        Parameters
+        ----------
+        q : ndarray, shape (..., N, n)
+            Positions (or velocities) of the atoms.
+
+        Returns
+        -------
+        ndarray, shape (..., n)
+            The centre of mass (or its velocity).
+        """
         return np.einsum("i,...ik->...k", self.masses, q) / self.total_mass
 
     def rotation(self, q: np.ndarray) -> np.ndarray:
-        """R with ``qᵢ − q_G = R Xᵢ`` (exact for a rigid state): ``R = (Σ mᵢ (qᵢ − q_G) Xᵢᵀ) B⁻¹``."""
+        """R with ``qᵢ − q_G = R Xᵢ`` (exact for a rigid state): ``R = (Σ mᵢ (qᵢ − q_G) Xᵢᵀ) B⁻¹``.
+
+        Parameters
+        ----------
+        q : ndarray, shape (..., N, n)
+            Positions of the atoms.
+
+        Returns
+        -------
+        ndarray, shape (..., n, n)
+            R (body to space; in SO(n) for a rigid state).
+        """
         d = q - self.centre_of_mass(q)[..., None, :]
         M = np.einsum("i,...ij,ik->...jk", self.masses, d, self.body_positions)
         return M @ np.linalg.inv(self.mass_tensor)
 
     def space_momentum(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
-        """``a = Σ mᵢ (qᵢ − q_G) ∧ (q̇ᵢ − q̇_G)``, the momentum about the centre of mass."""
+        """``a = Σ mᵢ (qᵢ − q_G) ∧ (q̇ᵢ − q̇_G)``, the momentum about the centre of mass.
+
+        Parameters
+        ----------
+        q, v : ndarray, shape (..., N, n)
+            Positions and velocities of the atoms.
+
+        Returns
+        -------
+        ndarray, shape (..., n, n)
+            The space momentum bivector a.
+        """
         d = q - self.centre_of_mass(q)[..., None, :]
         w = v - self.centre_of_mass(v)[..., None, :]
         return np.einsum("i,...ijk->...jk", self.masses, wedge(d, w))
 
     def body_momentum(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
-        """``A = Rᵀ a R`` (the Euler top's state field)."""
+        """``A = Rᵀ a R`` (the Euler top's state field).
+
+        Parameters
+        ----------
+        q, v : ndarray, shape (..., N, n)
+            Positions and velocities of the atoms.
+
+        Returns
+        -------
+        ndarray, shape (..., n, n)
+            The body momentum bivector A.
+        """
         R = self.rotation(q)
         return np.swapaxes(R, -1, -2) @ self.space_momentum(q, v) @ R
 
     def energy(self, y: State) -> np.ndarray:
+        """Kinetic energy ``½ Σ mᵢ |q̇ᵢ|²``.
+
+        Parameters
+        ----------
+        y : dict of ndarray
+            States ``{"q", "v"}`` (any leading shape).
+
+        Returns
+        -------
+        ndarray
+            The energy per state.
+        """
         v = y["v"]
         return 0.5 * np.einsum("i,...ik,...ik->...", self.masses, v, v)
 
@@ -227,10 +322,35 @@ class AtomsBody(LieGroupSystem):
         return out
 
     # -- states ------------------------------------------------------------------------
-    def initial_state(self, *, R=None, Omega=None, angular_velocity=None, center=None, velocity=None) -> State:
-        """Atoms of a rigid motion: ``qᵢ = q_G + R Xᵢ``, ``q̇ᵢ = v_G + R Ω Xᵢ``, from the
-        orientation R (default identity), the body angular velocity (``Omega``, or
-        ``angular_velocity`` for n = 3) and the centre of mass and its velocity (default 0)."""
+    def initial_state(
+        self,
+        *,
+        R: ArrayLike | Rotation | None = None,
+        Omega: ArrayLike | None = None,
+        angular_velocity: ArrayLike | None = None,
+        center: ArrayLike | None = None,
+        velocity: ArrayLike | None = None,
+    ) -> State:
+        """Atoms of a rigid motion: ``qᵢ = q_G + R Xᵢ``, ``q̇ᵢ = v_G + R Ω Xᵢ``.
+
+        Parameters
+        ----------
+        R : array_like, shape (..., n, n), or scipy Rotation, optional
+            Orientation, body to space (default: the identity).
+        Omega : array_like, shape (..., n, n), optional
+            Body angular velocity bivector (give it or ``angular_velocity``).
+        angular_velocity : array_like, shape (..., 3), optional
+            n = 3: the body angular velocity vector w.
+        center : array_like, shape (..., n), optional
+            The centre of mass ``q_G`` (default: the origin).
+        velocity : array_like, shape (..., n), optional
+            Its velocity ``v_G`` (default: at rest).
+
+        Returns
+        -------
+        dict of ndarray
+            ``{"q": (*batch, N, n), "v": (*batch, N, n)}``.
+        """
         n = self.n
         top = EulerTop(self.mass_tensor, orientation=True)
         s = top.initial_state(Omega=Omega, R=R, angular_velocity=angular_velocity)
@@ -248,7 +368,13 @@ class AtomsBody(LieGroupSystem):
         }
 
     def euler_top(self) -> EulerTop:
-        """The Euler top with ``B = Σ mᵢ XᵢXᵢᵀ`` these atoms should move as."""
+        """The Euler top with ``B = Σ mᵢ XᵢXᵢᵀ`` these atoms should move as.
+
+        Returns
+        -------
+        EulerTop
+            The top, with its orientation.
+        """
         return EulerTop(self.mass_tensor, orientation=True)
 
     def __repr__(self) -> str:

@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import math
 from abc import ABC, abstractmethod
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -124,18 +124,57 @@ class LieGroupSystem(ABC):
     }
 
     @abstractmethod
-    def generator(self, t: float | np.ndarray, y: State) -> np.ndarray:
-        """The Lie-algebra element ``ξ(t, y)`` with ``ẏ = ρ_*(ξ) y``."""
+    def generator(self, t: float | np.ndarray, y: State) -> np.ndarray | tuple[np.ndarray, ...]:
+        """The Lie-algebra element ``ξ(t, y)`` with ``ẏ = ρ_*(ξ) y``.
+
+        Parameters
+        ----------
+        t : float or ndarray
+            The time (broadcasting against the leading axes of ``y`` where a system allows it).
+        y : dict of ndarray
+            The state, leading batch axes first.
+
+        Returns
+        -------
+        ndarray or tuple of ndarray
+            ξ in the algebra of :attr:`group` (a tuple for a product group), batched as ``y``.
+        """
 
     @abstractmethod
-    def act(self, g: np.ndarray, y: State) -> State:
-        """The right action ``ρ(g, y)``; ``ρ(g h, y) = ρ(h, ρ(g, y))``."""
+    def act(self, g: np.ndarray | tuple[np.ndarray, ...], y: State) -> State:
+        """The right action ``ρ(g, y)``; ``ρ(g h, y) = ρ(h, ρ(g, y))``.
+
+        Parameters
+        ----------
+        g : ndarray or tuple of ndarray
+            Group elements of :attr:`group`, batched as ``y`` (or broadcasting).
+        y : dict of ndarray
+            The state.
+
+        Returns
+        -------
+        dict of ndarray
+            The moved state.
+        """
 
     @abstractmethod
-    def infinitesimal_action(self, xi: np.ndarray, y: State) -> State:
-        """``d/ds ρ(exp(s ξ), y)`` at ``s = 0``: the vector field of the generator."""
+    def infinitesimal_action(self, xi: np.ndarray | tuple[np.ndarray, ...], y: State) -> State:
+        """``d/ds ρ(exp(s ξ), y)`` at ``s = 0``: the vector field of the generator.
 
-    def relative_element(self, y0: State, y1: State):
+        Parameters
+        ----------
+        xi : ndarray or tuple of ndarray
+            An algebra element of :attr:`group`, batched as ``y``.
+        y : dict of ndarray
+            The state.
+
+        Returns
+        -------
+        dict of ndarray
+            The tangent vector at ``y``, field by field.
+        """
+
+    def relative_element(self, y0: State, y1: State) -> np.ndarray | None:
         """The group element ``g`` with ``ρ(g, y₀) = y₁`` read off two states, or None.
 
         Dense output on the group (:mod:`lieint.dense`) needs the increment of a step. A method
@@ -144,16 +183,50 @@ class LieGroupSystem(ABC):
         acted on by right multiplication (``Y ↦ Y g``, e.g. the attitude R) determines it:
         ``g = Y₀⁻¹ Y₁``. The default is None (the state does not determine ``g``; dense output
         then interpolates in the embedding space); systems with such a field override it.
+
+        Parameters
+        ----------
+        y0, y1 : dict of ndarray
+            The states at the two ends of a step.
+
+        Returns
+        -------
+        ndarray or None
+            ``g`` (batched as the states), or None when the states do not determine it.
         """
         return None
 
     # -- derived ---------------------------------------------------------------------
     def vector_field(self, t: float | np.ndarray, y: State) -> State:
-        """``ẏ`` on the embedding space (used by classical and scipy baselines)."""
+        """``ẏ`` on the embedding space (used by classical and scipy baselines).
+
+        Parameters
+        ----------
+        t : float or ndarray
+            The time.
+        y : dict of ndarray
+            The state.
+
+        Returns
+        -------
+        dict of ndarray
+            ``ẏ`` field by field: ``ρ_*(ξ(t, y)) y``.
+        """
         return self.infinitesimal_action(self.generator(t, y), y)
 
     def project(self, y: State) -> State:
-        """Exact projection of each field onto its manifold (default: none)."""
+        """Exact projection of each field onto its manifold (default: none).
+
+        Parameters
+        ----------
+        y : dict of ndarray
+            A state, possibly off its manifold by round-off (e.g. R off SO(n)).
+
+        Returns
+        -------
+        dict of ndarray
+            The nearest state on the manifold (e.g. R by its polar factor).
+        """
         return y
 
     @property
@@ -169,8 +242,25 @@ class LieGroupSystem(ABC):
             for name, shape in self.fields.items()
         }
 
-    def evaluate_invariants(self, t, y: State, names=None) -> dict[str, np.ndarray]:
-        """Evaluate the named invariants (all by default) on states with any leading shape."""
+    def evaluate_invariants(
+        self, t: float | np.ndarray, y: State, names: Iterable[str] | None = None
+    ) -> dict[str, np.ndarray]:
+        """Evaluate the named invariants (all by default) on states with any leading shape.
+
+        Parameters
+        ----------
+        t : float or ndarray
+            The times, broadcasting against the leading axes of ``y``.
+        y : dict of ndarray
+            States with any leading shape (times, batch members).
+        names : iterable of str, optional
+            Names from :attr:`invariants` (default: all of them).
+
+        Returns
+        -------
+        dict of ndarray
+            name → values, shape ``(*lead, ...)``.
+        """
         declared = self.invariants
         names = list(declared) if names is None else list(names)
         unknown = [n for n in names if n not in declared]
@@ -178,8 +268,23 @@ class LieGroupSystem(ABC):
             raise ValueError(f"Unknown invariant(s) {unknown}; this system provides {list(declared)}.")
         return {name: declared[name](t, y) for name in names}
 
-    def evaluate_outputs(self, t, y: State, names) -> dict[str, np.ndarray]:
-        """Evaluate named outputs or invariants on states with any leading shape."""
+    def evaluate_outputs(self, t: float | np.ndarray, y: State, names: Iterable[str]) -> dict[str, np.ndarray]:
+        """Evaluate named outputs or invariants on states with any leading shape.
+
+        Parameters
+        ----------
+        t : float or ndarray
+            The times, broadcasting against the leading axes of ``y``.
+        y : dict of ndarray
+            States with any leading shape.
+        names : iterable of str
+            Names from :attr:`outputs` or :attr:`invariants`.
+
+        Returns
+        -------
+        dict of ndarray
+            name → values, shape ``(*lead, ...)``.
+        """
         outputs, declared = self.outputs, self.invariants
         result = {}
         for name in names:
@@ -194,7 +299,7 @@ class LieGroupSystem(ABC):
                 )
         return result
 
-    def compiled(self):
+    def compiled(self) -> dict | None:
         """What a compiled kernel needs to step this system (see :mod:`lieint.fast`), or None.
 
         A system on ``SO(n)`` or ``SE(n)`` times a vector space may return
@@ -206,12 +311,22 @@ class LieGroupSystem(ABC):
         built-in pieces): every RKMK method — fixed-step and embedded pairs, exponential and
         Cayley coordinates — and classical RK then run compiled
         (:class:`lieint.fast.generic.LieKernel`).
+
+        Returns
+        -------
+        dict or None
+            The declaration, or None: the system runs on the generic numpy path.
         """
         return None
 
     def field_offsets(self) -> dict[str, int]:
-        """Where each field starts in the state flattened field after field (the layout of the
-        compiled kernels' state vector)."""
+        """Where each field starts in the state flattened field after field.
+
+        Returns
+        -------
+        dict of int
+            name → offset in the compiled kernels' state vector (fields in :attr:`fields` order).
+        """
         offsets, start = {}, 0
         for name, shape in self.fields.items():
             offsets[name] = start
@@ -219,14 +334,39 @@ class LieGroupSystem(ABC):
         return offsets
 
     def dynamics_as(self, cls: type, names: tuple[str, ...]) -> bool:
-        """True when none of ``names`` is overridden below ``cls`` or set on the instance: a
-        compiled declaration stands for ``cls``'s equations, and a subclass that changes them
-        integrates other dynamics on the generic path."""
+        """Whether this system has ``cls``'s equations: none of ``names`` overridden below it.
+
+        A compiled declaration stands for ``cls``'s equations, and a subclass that changes them
+        integrates other dynamics on the generic path.
+
+        Parameters
+        ----------
+        cls : type
+            The class whose equations a compiled declaration stands for.
+        names : tuple of str
+            The methods that define them.
+
+        Returns
+        -------
+        bool
+            True when none of ``names`` is overridden below ``cls`` or set on the instance.
+        """
         own = getattr(self, "__dict__", {})
         return all(getattr(type(self), name) is getattr(cls, name) and name not in own for name in names)
 
     def batch_shape(self, y: State) -> tuple[int, ...]:
-        """Leading batch shape of a validated state."""
+        """Leading batch shape of a validated state.
+
+        Parameters
+        ----------
+        y : dict of ndarray
+            A state.
+
+        Returns
+        -------
+        tuple of int
+            Its leading axes (``()`` for one body).
+        """
         name, shape = next(iter(self.fields.items()))
         arr = y[name]
         return arr.shape[: arr.ndim - len(shape)]
@@ -235,6 +375,23 @@ class LieGroupSystem(ABC):
         """Check keys, shapes, finiteness and batch consistency; return float arrays.
 
         Subclasses extend this with their manifold checks (skewness, rotations).
+
+        Parameters
+        ----------
+        y : dict of array_like
+            A state (e.g. from :meth:`initial_state`).
+        name : str, default "y0"
+            The argument's name in error messages.
+
+        Returns
+        -------
+        dict of ndarray
+            The fields as float arrays, checked.
+
+        Raises
+        ------
+        TypeError, ValueError
+            Naming the field, what was expected and what was received.
         """
         if not isinstance(y, Mapping):
             raise TypeError(

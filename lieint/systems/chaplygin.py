@@ -13,8 +13,10 @@ so spec(A_K), ``|Γ|`` and ``ΓᵀA_K²Γ`` are kept to round-off; the energy is
 from __future__ import annotations
 
 from collections.abc import Mapping
+from typing import TYPE_CHECKING
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .._validation import check_skew, describe
 from ..groups.bivectors import inner, skew_part
@@ -24,6 +26,9 @@ from .base import Invariant, LieGroupSystem, Output, State
 from .mass import eigh_or_nan, solve_lyapunov_sym
 from .rigid import casimir_invariant, momentum_outputs, pose_invariants
 from .rolling_ball import RollingPose, check_ball, rolling_initial_kinematics
+
+if TYPE_CHECKING:
+    from scipy.spatial.transform import Rotation
 
 __all__ = ["ChaplyginBall"]
 
@@ -48,15 +53,37 @@ class ChaplyginBall(RollingPose, LieGroupSystem):
     orientation, track_center : bool, default True
         Integrate R / the centre (the centre needs R and brings it along).
 
+    Notes
+    -----
     Invariants: ``energy`` ``T = ¼ tr(Ω A_K)``, ``casimirs`` (rotation angles of A_K),
     ``gamma_norm`` ``|Γ|``, ``gamma_A2_gamma`` ``ΓᵀA_K²Γ``, ``momentum`` ``a = R A_K Rᵀ``
     and ``orthogonality`` (with R).
+
+    Examples
+    --------
+    >>> import numpy as np, lieint
+    >>> ball = lieint.ChaplyginBall(np.diag([0.10, 0.15, 0.20]), mass=1.0, radius=1.0)
+    >>> y0 = ball.initial_state(angular_velocity=[0.3, 1.0, 2.0])
+    >>> sol = lieint.integrate(ball, y0, (0.0, 5.0), h=0.01, method="rkmk4")
+    >>> list(sol.states), round(float(sol.states["center"][-1, 2]), 8)  # the centre stays at height r
+    (['A', 'Gamma', 'R', 'center'], 1.0)
+    >>> bool(sol.drift("energy") < 1e-10 and sol.drift("gamma_norm") < 1e-13)
+    True
     """
 
     autonomous = True
     structure = frozenset({"chaplygin_ball"})
 
-    def __init__(self, mass_tensor, mass, radius, normal=None, *, orientation: bool = True, track_center: bool = True):
+    def __init__(
+        self,
+        mass_tensor: ArrayLike,
+        mass: float,
+        radius: float,
+        normal: ArrayLike | None = None,
+        *,
+        orientation: bool = True,
+        track_center: bool = True,
+    ):
         self.B_C, self.mass, self.radius, _, self.normal = check_ball(mass_tensor, mass, radius, None, normal)
         n = self.n = self.B_C.shape[0]
         for flag, label in ((orientation, "orientation"), (track_center, "track_center")):
@@ -70,27 +97,82 @@ class ChaplyginBall(RollingPose, LieGroupSystem):
 
     # -- physics -----------------------------------------------------------------------
     def contact_mass_tensor(self, Gamma: np.ndarray) -> np.ndarray:
-        """``B_K(Γ) = B_C + M r² ΓΓᵀ``."""
+        """The mass tensor about the contact point, ``B_K(Γ) = B_C + M r² ΓΓᵀ``.
+
+        Parameters
+        ----------
+        Gamma : ndarray, shape (..., n)
+            The plane's normal in the body frame, ``Γ = Rᵀν``.
+
+        Returns
+        -------
+        ndarray, shape (..., n, n)
+            ``B_K``.
+        """
         return self.B_C + self._Mr2 * Gamma[..., :, None] * Gamma[..., None, :]
 
     def momentum(self, Omega: np.ndarray, Gamma: np.ndarray) -> np.ndarray:
-        """``A_K = −(B_K Ω + Ω B_K)``."""
+        """The body momentum about the contact, ``A_K = −(B_K Ω + Ω B_K)``.
+
+        Parameters
+        ----------
+        Omega : ndarray, shape (..., n, n)
+            Body angular velocity bivectors.
+        Gamma : ndarray, shape (..., n)
+            ``Γ = Rᵀν``.
+
+        Returns
+        -------
+        ndarray, shape (..., n, n)
+            ``A_K``.
+        """
         BK = self.contact_mass_tensor(Gamma)
         return -(BK @ Omega + Omega @ BK)
 
     def angular_velocity(self, A: np.ndarray, Gamma: np.ndarray) -> np.ndarray:
-        """Ω from ``A_K = −(B_K Ω + Ω B_K)`` in the eigenbasis of ``B_K(Γ)``."""
+        """Ω from ``A_K = −(B_K Ω + Ω B_K)`` in the eigenbasis of ``B_K(Γ)``.
+
+        Parameters
+        ----------
+        A : ndarray, shape (..., n, n)
+            Body momentum bivectors about the contact.
+        Gamma : ndarray, shape (..., n)
+            ``Γ = Rᵀν``.
+
+        Returns
+        -------
+        ndarray, shape (..., n, n)
+            Ω (NaN for a member whose ``B_K`` is not finite).
+        """
         b, P = eigh_or_nan(self.contact_mass_tensor(Gamma))
         return solve_lyapunov_sym(b, P, -A)
 
     def energy(self, y: State) -> np.ndarray:
-        """``T = ¼ tr(Ω A_K) = −¼⟨Ω, A_K⟩`` (gravity does no work: the centre stays at height r)."""
+        """``T = ¼ tr(Ω A_K) = −¼⟨Ω, A_K⟩`` (gravity does no work: the centre stays at height r).
+
+        Parameters
+        ----------
+        y : dict of ndarray
+            States (any leading shape).
+
+        Returns
+        -------
+        ndarray
+            T per state.
+        """
         return -0.25 * inner(self.angular_velocity(y["A"], y["Gamma"]), y["A"])
 
-    def compiled(self):
-        """The generic compiled kernel's declaration (:mod:`lieint.fast.bodies`, pieces
-        ``"chaplygin_ball"``) for n ≥ 3: parameters n, the offsets of R and of the centre,
-        ``M r²``, r, ``B_C`` and ν."""
+    def compiled(self) -> dict | None:
+        """The generic compiled kernel's declaration (:mod:`lieint.fast.bodies`) for n ≥ 3.
+
+        Pieces ``"chaplygin_ball"``; parameters n, the offsets of R and of the centre,
+        ``M r²``, r, ``B_C`` and ν.
+
+        Returns
+        -------
+        dict or None
+            The declaration, or None (n = 2, or a subclass with other dynamics).
+        """
         if self.n < 3 or not self.dynamics_as(ChaplyginBall, _DYNAMICS):
             return None
         offset = self.field_offsets()
@@ -107,7 +189,7 @@ class ChaplyginBall(RollingPose, LieGroupSystem):
         }
 
     # -- the LieGroupSystem contract ---------------------------------------------------
-    def generator(self, t, y: State) -> np.ndarray:
+    def generator(self, t: float | np.ndarray, y: State) -> np.ndarray:
         return self._twist(self.angular_velocity(y["A"], y["Gamma"]), y["Gamma"])
 
     def act(self, g: np.ndarray, y: State) -> State:
@@ -158,10 +240,35 @@ class ChaplyginBall(RollingPose, LieGroupSystem):
         return self._pose_outputs(out)
 
     # -- states ------------------------------------------------------------------------
-    def initial_state(self, *, R=None, Omega=None, angular_velocity=None, center=None, velocity=None) -> State:
-        """State from the orientation R (default identity), the body angular velocity
-        (``Omega``, or ``angular_velocity`` for n = 3) and the centre (default ``rν``); a given
-        centre ``velocity`` is checked against the rolling constraint."""
+    def initial_state(
+        self,
+        *,
+        R: ArrayLike | Rotation | None = None,
+        Omega: ArrayLike | None = None,
+        angular_velocity: ArrayLike | None = None,
+        center: ArrayLike | None = None,
+        velocity: ArrayLike | None = None,
+    ) -> State:
+        """State from the orientation, the body angular velocity and the centre.
+
+        Parameters
+        ----------
+        R : array_like, shape (..., n, n), or scipy Rotation, optional
+            Orientation, body to space (default: the identity).
+        Omega : array_like, shape (..., n, n), optional
+            Body angular velocity bivector (give it or ``angular_velocity``).
+        angular_velocity : array_like, shape (..., 3), optional
+            n = 3: the body angular velocity vector w.
+        center : array_like, shape (..., n), optional
+            The ball's centre (default ``rν``: on the plane through the origin).
+        velocity : array_like, shape (..., n), optional
+            The centre's velocity, checked against the rolling constraint (it follows from Ω).
+
+        Returns
+        -------
+        dict of ndarray
+            ``{"A", "Gamma"}`` and, as tracked, ``"R"`` and ``"center"``.
+        """
         Om, Rm, p = rolling_initial_kinematics(self, R, Omega, angular_velocity, center, velocity)
         Gam = np.swapaxes(Rm, -1, -2) @ self.normal
         return self._add_pose({"A": self.momentum(Om, Gam), "Gamma": Gam}, Rm, p)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Mapping
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -29,6 +30,9 @@ from .rigid import (
     orientation_output,
     pose_invariants,
 )
+
+if TYPE_CHECKING:
+    from scipy.spatial.transform import Rotation
 
 __all__ = ["EulerTop", "check_mass_tensor"]
 
@@ -162,15 +166,48 @@ class EulerTop(LieGroupSystem):
         return self.inertia.principal_moments
 
     def momentum(self, Omega: np.ndarray) -> np.ndarray:
-        """Body angular momentum ``A = −(BΩ + ΩB)``."""
+        """Body angular momentum ``A = −(BΩ + ΩB)``.
+
+        Parameters
+        ----------
+        Omega : ndarray, shape (..., n, n)
+            Body angular velocity bivectors.
+
+        Returns
+        -------
+        ndarray, shape (..., n, n)
+            A.
+        """
         return self.inertia.momentum(Omega)
 
     def angular_velocity(self, A: np.ndarray) -> np.ndarray:
-        """Inertia operator: Ω with ``A = −(BΩ + ΩB)``, via ``Ω_ij = −A_ij/(b_i + b_j)``."""
+        """Inertia operator: Ω with ``A = −(BΩ + ΩB)``, via ``Ω_ij = −A_ij/(b_i + b_j)``.
+
+        Parameters
+        ----------
+        A : ndarray, shape (..., n, n)
+            Body angular momentum bivectors.
+
+        Returns
+        -------
+        ndarray, shape (..., n, n)
+            Ω, exactly skew.
+        """
         return self.inertia.angular_velocity(A)
 
     def energy(self, A: np.ndarray) -> np.ndarray:
-        """Kinetic energy ``T = ¼ tr(ΩA) = −¼ ⟨Ω, A⟩``."""
+        """Kinetic energy ``T = ¼ tr(ΩA) = −¼ ⟨Ω, A⟩``.
+
+        Parameters
+        ----------
+        A : ndarray, shape (..., n, n)
+            Body angular momentum bivectors.
+
+        Returns
+        -------
+        ndarray, shape (...)
+            T, positive for A ≠ 0.
+        """
         return self.inertia.energy(A)
 
     # -- the LieGroupSystem contract ---------------------------------------------------
@@ -191,7 +228,8 @@ class EulerTop(LieGroupSystem):
 
         Parameters
         ----------
-        t : float
+        t : float or ndarray
+            The time (the free top is autonomous: unused).
         y : dict
             The state.
         xi : ndarray, optional
@@ -244,8 +282,19 @@ class EulerTop(LieGroupSystem):
             out["R"] = y["R"] + y["R"] @ K
         return out
 
-    def relative_element(self, y0: State, y1: State):
-        """``g = R₀ᵀ R₁`` (the attitude is moved by ``R ↦ R g``); None without attitude."""
+    def relative_element(self, y0: State, y1: State) -> np.ndarray | None:
+        """``g = R₀ᵀ R₁`` (the attitude is moved by ``R ↦ R g``); None without attitude.
+
+        Parameters
+        ----------
+        y0, y1 : dict of ndarray
+            The states at the two ends of a step.
+
+        Returns
+        -------
+        ndarray or None
+            ``R₀ᵀ R₁``, or None when the top does not carry R.
+        """
         if not self.orientation:
             return None
         return np.swapaxes(y0["R"], -1, -2) @ y1["R"]
@@ -285,7 +334,7 @@ class EulerTop(LieGroupSystem):
             out["orientation"] = orientation_output(n)
         return out
 
-    def compiled(self):
+    def compiled(self) -> dict | None:
         """What the compiled kernels (:mod:`lieint.fast`) need: for n = 3 the principal moments
         and frame (``"top3"``), for n ≥ 4 the eigenvalues b and eigenbasis P of B (``"topn"``,
         :mod:`lieint.fast.topn` and :mod:`lieint.fast.topn_adaptive`) with, under ``"lie"``, the
@@ -295,6 +344,11 @@ class EulerTop(LieGroupSystem):
         The declaration stands for the Euler top's equations: a subclass that overrides the
         generator, the action or the projection integrates other dynamics and declares None
         (the generic path then runs what it defines) — on the class or set on the instance.
+
+        Returns
+        -------
+        dict or None
+            The declaration (read-only), or None.
         """
         cls, own = type(self), getattr(self, "__dict__", {})
         if any(getattr(cls, name) is not getattr(EulerTop, name) or name in own for name in _DYNAMICS):
@@ -329,13 +383,42 @@ class EulerTop(LieGroupSystem):
         return manakov_labels(self.n)
 
     # -- states ------------------------------------------------------------------------
-    def initial_state(self, *, Omega=None, A=None, R=None, angular_velocity=None) -> State:
+    def initial_state(
+        self,
+        *,
+        Omega: ArrayLike | None = None,
+        A: ArrayLike | None = None,
+        R: ArrayLike | Rotation | None = None,
+        angular_velocity: ArrayLike | None = None,
+    ) -> State:
         """Build a state from physical inputs, broadcasting leading batch dimensions.
 
-        Give exactly one of ``Omega`` (body angular velocity bivector, ``(..., n, n)``),
-        ``A`` (body angular momentum bivector) or, for n = 3, ``angular_velocity``
-        (the vector w with ``Ω = ŵ``, ``(..., 3)``). ``R`` (``(..., n, n)`` in SO(n)) defaults
-        to the identity.
+        Give exactly one of ``Omega``, ``A`` or (n = 3) ``angular_velocity``.
+
+        Parameters
+        ----------
+        Omega : array_like, shape (..., n, n), optional
+            Body angular velocity bivector (a skew matrix, or clifford bivectors).
+        A : array_like, shape (..., n, n), optional
+            Body angular momentum bivector.
+        R : array_like, shape (..., n, n), or scipy Rotation, optional
+            Orientation in SO(n), body to space (default: the identity); a
+            :class:`scipy.spatial.transform.Rotation` (one or a stack) for n = 3.
+        angular_velocity : array_like, shape (..., 3), optional
+            n = 3: the body angular velocity vector w, ``Ω = ŵ``.
+
+        Returns
+        -------
+        dict of ndarray
+            ``{"A": (*batch, n, n), "R": (*batch, n, n)}`` (without R when ``orientation=False``).
+
+        Examples
+        --------
+        >>> import lieint
+        >>> top = lieint.EulerTop.from_principal_moments([1.0, 2.0, 3.0])
+        >>> y0 = top.initial_state(angular_velocity=[[0.0, 1.0, 0.1], [0.5, 0.0, 1.0]])  # two bodies
+        >>> y0["A"].shape, y0["R"].shape
+        ((2, 3, 3), (2, 3, 3))
         """
         given = {k: v for k, v in (("Omega", Omega), ("A", A), ("angular_velocity", angular_velocity)) if v is not None}
         if len(given) != 1:

@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 from collections.abc import Mapping
+from typing import TYPE_CHECKING
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .._validation import check_finite_positive, check_rotation, check_vector, describe
 from ..groups.bivectors import skew_part, vee, wedge
@@ -17,6 +19,9 @@ from .mass import check_mass_tensor, moments_tensor
 from .rigid import momentum_outputs, orientation_output, pose_invariants
 
 __all__ = ["HeavyTop"]
+
+if TYPE_CHECKING:
+    from scipy.spatial.transform import Rotation
 
 #: what the compiled declaration stands for (see :meth:`LieGroupSystem.dynamics_as`)
 _DYNAMICS = ("generator", "act", "infinitesimal_action", "vector_field", "project")
@@ -55,6 +60,15 @@ class HeavyTop(LieGroupSystem):
     n ≥ 4 the rotation angles of ``P_Γ A P_Γ`` (A restricted to ``Γ^⊥``, which ``v ∧ Γ`` cannot
     change); ``gamma_norm`` ``|Γ|``; ``orthogonality``. Named constructors add the extra
     integral of their case (``spin`` for Lagrange, ``kovalevskaya``).
+
+    Examples
+    --------
+    >>> import lieint
+    >>> top = lieint.HeavyTop.lagrange(1.0, 0.5, mass=1.0, length=0.2)  # a fast symmetric top
+    >>> y0 = top.initial_state(angular_velocity=[0.1, 0.0, 20.0])
+    >>> sol = lieint.integrate(top, y0, (0.0, 2.0), h=0.001, method="rkmk4")
+    >>> bool(sol.drift("casimirs") < 1e-12 and sol.drift("spin") < 1e-12 and sol.drift("energy") < 1e-12)
+    True
     """
 
     autonomous = True
@@ -62,7 +76,15 @@ class HeavyTop(LieGroupSystem):
     #: R moves only itself and nothing reads it (lets the rotor form skip computing it)
     orientation_is_passive = True
 
-    def __init__(self, mass_tensor, mass, center_of_mass, gravity, *, orientation: bool = True):
+    def __init__(
+        self,
+        mass_tensor: ArrayLike,
+        mass: float,
+        center_of_mass: ArrayLike,
+        gravity: ArrayLike,
+        *,
+        orientation: bool = True,
+    ):
         check_mass_tensor(mass_tensor, "mass_tensor")  # the potential needs a body: B ⪰ 0
         self.top = EulerTop(mass_tensor, orientation=False)
         self.inertia = self.top.inertia
@@ -85,25 +107,67 @@ class HeavyTop(LieGroupSystem):
 
     # -- named cases (n = 3) -----------------------------------------------------------
     @classmethod
-    def lagrange(cls, I1: float, I3: float, mass: float, length: float, g: float = 9.81, **kw) -> HeavyTop:
+    def lagrange(
+        cls, I1: float, I3: float, mass: float, length: float, g: float = 9.81, *, orientation: bool = True
+    ) -> HeavyTop:
         """Lagrange top: symmetric ``I₁ = I₂``, centre of mass on the axis, ``X_G = (0, 0, ℓ)``.
 
         Extra first integral ``spin``: the body angular velocity ``w₃`` about the axis.
+
+        Parameters
+        ----------
+        I1 : float
+            Equatorial principal moment ``I₁ = I₂`` about the fixed point.
+        I3 : float
+            Axial moment (a body needs ``I₃ ≤ 2 I₁``).
+        mass : float
+            Total mass M.
+        length : float
+            Distance ℓ from the fixed point to the centre of mass along the axis.
+        g : float, default 9.81
+            Gravity's magnitude (pointing along −e₃ in space).
+        orientation : bool, default True
+            Integrate R too.
+
+        Returns
+        -------
+        HeavyTop
+            The top, with the invariant ``spin``.
         """
-        top = cls._principal([I1, I1, I3], mass, [0.0, 0.0, length], g, **kw)
+        top = cls._principal([I1, I1, I3], mass, [0.0, 0.0, length], g, orientation=orientation)
         top._extra["spin"] = Invariant(
             lambda t, y: vee(top.top.angular_velocity(y["A"]))[..., 2], "integral", "spin w₃ about the axis"
         )
         return top
 
     @classmethod
-    def kovalevskaya(cls, I3: float, mass: float, length: float, g: float = 9.81, **kw) -> HeavyTop:
+    def kovalevskaya(
+        cls, I3: float, mass: float, length: float, g: float = 9.81, *, orientation: bool = True
+    ) -> HeavyTop:
         """Kovalevskaya top: ``I₁ = I₂ = 2 I₃``, centre of mass in the equatorial plane, ``X_G = (ℓ, 0, 0)``.
 
         Extra first integral ``kovalevskaya``: ``(p² − q² + c Γ₁)² + (2pq + c Γ₂)²`` with
         ``w = (p, q, r)`` and ``c = M ℓ / I₃`` (Γ = Rᵀg points down).
+
+        Parameters
+        ----------
+        I3 : float
+            Axial principal moment (the equatorial ones are ``2 I₃``).
+        mass : float
+            Total mass M.
+        length : float
+            Distance ℓ from the fixed point to the centre of mass, along e₁.
+        g : float, default 9.81
+            Gravity's magnitude (pointing along −e₃ in space).
+        orientation : bool, default True
+            Integrate R too.
+
+        Returns
+        -------
+        HeavyTop
+            The top, with the invariant ``kovalevskaya``.
         """
-        top = cls._principal([2 * I3, 2 * I3, I3], mass, [length, 0.0, 0.0], g, **kw)
+        top = cls._principal([2 * I3, 2 * I3, I3], mass, [length, 0.0, 0.0], g, orientation=orientation)
         c = mass * length / I3
 
         def kovalevskaya(t, y):
@@ -151,10 +215,17 @@ class HeavyTop(LieGroupSystem):
             out["R"] = project_to_so(y["R"])
         return out
 
-    def compiled(self):
-        """The generic compiled kernel's declaration (:mod:`lieint.fast.bodies`, pieces
-        ``"heavy_top"``) for n ≥ 3: parameters n, the offset of R, whether B is diagonal, the
-        eigenbasis P of B, ``−1/(b_i + b_j)``, ``M X_G`` and ``|g|``."""
+    def compiled(self) -> dict | None:
+        """The generic compiled kernel's declaration (:mod:`lieint.fast.bodies`) for n ≥ 3.
+
+        Pieces ``"heavy_top"``; parameters n, the offset of R, whether B is diagonal, the
+        eigenbasis P of B, ``−1/(b_i + b_j)``, ``M X_G`` and ``|g|``.
+
+        Returns
+        -------
+        dict or None
+            The declaration, or None (n = 2, or a subclass with other dynamics).
+        """
         if self.n < 3 or not self.dynamics_as(HeavyTop, _DYNAMICS) or not self.top.dynamics_as(EulerTop, _TOP):
             return None
         inertia, n = self.inertia, self.n
@@ -172,11 +243,37 @@ class HeavyTop(LieGroupSystem):
 
     # -- physics -----------------------------------------------------------------------
     def energy(self, A: np.ndarray, Gamma: np.ndarray) -> np.ndarray:
-        """``H = T − U``: ``T = ¼ tr(ΩA)``, ``U = M⟨Γ, X_G⟩``."""
+        """``H = T − U``: ``T = ¼ tr(ΩA)``, ``U = M⟨Γ, X_G⟩``.
+
+        Parameters
+        ----------
+        A : ndarray, shape (..., n, n)
+            Body angular momentum bivectors.
+        Gamma : ndarray, shape (..., n)
+            Body gravity ``Γ = Rᵀg``.
+
+        Returns
+        -------
+        ndarray, shape (...)
+            H.
+        """
         return self.top.energy(A) - Gamma @ self._MXG
 
     def casimirs(self, A: np.ndarray, Gamma: np.ndarray) -> np.ndarray:
-        """n = 3: ``⟨Π, Γ⟩`` (shape ``(..., 1)``); n ≥ 4: rotation angles of ``P_Γ A P_Γ``."""
+        """The Casimirs: n = 3 ``⟨Π, Γ⟩``; n ≥ 4 the rotation angles of ``P_Γ A P_Γ``.
+
+        Parameters
+        ----------
+        A : ndarray, shape (..., n, n)
+            Body angular momentum bivectors (``A = −Π̂`` for n = 3).
+        Gamma : ndarray, shape (..., n)
+            Body gravity ``Γ = Rᵀg``.
+
+        Returns
+        -------
+        ndarray, shape (..., k)
+            n = 3: ``k = 1``; n ≥ 4: ``k = ⌊(n − 1)/2⌋`` angles.
+        """
         if self.n == 3:
             return np.sum(-vee(A) * Gamma, axis=-1, keepdims=True)
         u = Gamma / np.linalg.norm(Gamma, axis=-1, keepdims=True)
@@ -206,9 +303,34 @@ class HeavyTop(LieGroupSystem):
         return out
 
     # -- states ------------------------------------------------------------------------
-    def initial_state(self, *, R=None, Omega=None, A=None, angular_velocity=None) -> State:
-        """State from the orientation R (default identity) and one of ``Omega``, ``A`` or,
-        for n = 3, ``angular_velocity``; ``Γ = Rᵀ g``. Leading batch dimensions broadcast."""
+    def initial_state(
+        self,
+        *,
+        R: ArrayLike | Rotation | None = None,
+        Omega: ArrayLike | None = None,
+        A: ArrayLike | None = None,
+        angular_velocity: ArrayLike | None = None,
+    ) -> State:
+        """State from the orientation R and one of ``Omega``, ``A`` or (n = 3) ``angular_velocity``.
+
+        ``Γ = Rᵀ g``. Leading batch dimensions broadcast.
+
+        Parameters
+        ----------
+        R : array_like, shape (..., n, n), or scipy Rotation, optional
+            Orientation, body to space (default: the identity).
+        Omega : array_like, shape (..., n, n), optional
+            Body angular velocity bivector.
+        A : array_like, shape (..., n, n), optional
+            Body angular momentum bivector.
+        angular_velocity : array_like, shape (..., 3), optional
+            n = 3: the body angular velocity vector w.
+
+        Returns
+        -------
+        dict of ndarray
+            ``{"A", "Gamma", "R"}`` (without R when ``orientation=False``).
+        """
         top = EulerTop(self.B, orientation=True)
         s = top.initial_state(Omega=Omega, A=A, R=R, angular_velocity=angular_velocity)
         Rm = s["R"]

@@ -24,6 +24,7 @@ from dataclasses import dataclass
 from types import MappingProxyType
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .._validation import as_float_array, check_finite_positive, check_vector, describe
 from ..groups.bivectors import wedge
@@ -53,35 +54,70 @@ class Particle(LieGroupSystem):
     structure = frozenset({"newtonian"})
     field_kinds = MappingProxyType({"q": "point", "v": "vector"})
 
-    def __init__(self, mass, n: int):
+    def __init__(self, mass: float, n: int):
         self.mass = check_finite_positive(mass, "mass")
         self.n = n
         self.fields = {"q": (n,), "v": (n,)}
         self.group = ProductGroup(VectorSpace((n,)), VectorSpace((n,)))
 
     # -- physics ---------------------------------------------------------------------
-    def acceleration(self, t, q: np.ndarray) -> np.ndarray:
-        """``q̈ = f(q)/m`` (batched)."""
+    def acceleration(self, t: float | np.ndarray, q: np.ndarray) -> np.ndarray:
+        """``q̈ = f(q)/m`` (batched).
+
+        Parameters
+        ----------
+        t : float or ndarray
+            The time.
+        q : ndarray, shape (..., n)
+            Positions.
+
+        Returns
+        -------
+        ndarray, shape (..., n)
+            q̈.
+        """
         raise NotImplementedError
 
     def potential_energy(self, q: np.ndarray) -> np.ndarray:
-        """``V(q)`` with ``f = −∇V``."""
+        """``V(q)`` with ``f = −∇V``.
+
+        Parameters
+        ----------
+        q : ndarray, shape (..., n)
+            Positions.
+
+        Returns
+        -------
+        ndarray, shape (...)
+            V(q).
+        """
         raise NotImplementedError
 
     def energy(self, y: State) -> np.ndarray:
-        """``½ m |q̇|² + V(q)``."""
+        """``½ m |q̇|² + V(q)``.
+
+        Parameters
+        ----------
+        y : dict of ndarray
+            States ``{"q", "v"}`` (any leading shape).
+
+        Returns
+        -------
+        ndarray
+            The energy per state.
+        """
         v = y["v"]
         return 0.5 * self.mass * np.sum(v * v, axis=-1) + self.potential_energy(y["q"])
 
     # -- the LieGroupSystem contract ---------------------------------------------------
-    def generator(self, t, y: State):
+    def generator(self, t: float | np.ndarray, y: State) -> np.ndarray | tuple[np.ndarray, ...]:
         return (y["v"], self.acceleration(t, y["q"]))
 
-    def act(self, g, y: State) -> State:
+    def act(self, g: np.ndarray | tuple[np.ndarray, ...], y: State) -> State:
         dq, dv = g
         return {"q": y["q"] + dq, "v": y["v"] + dv}
 
-    def infinitesimal_action(self, xi, y: State) -> State:
+    def infinitesimal_action(self, xi: np.ndarray | tuple[np.ndarray, ...], y: State) -> State:
         return {"q": xi[0], "v": xi[1]}
 
     @property
@@ -94,8 +130,21 @@ class Particle(LieGroupSystem):
         out["momentum"] = Output(lambda t, y: self.mass * y["v"], (self.n,), "linear momentum m q̇", "vector")
         return out
 
-    def initial_state(self, *, position, velocity=None) -> State:
-        """State from the ``position`` q and ``velocity`` q̇ (default 0), batched alike."""
+    def initial_state(self, *, position: ArrayLike, velocity: ArrayLike | None = None) -> State:
+        """State from the ``position`` q and ``velocity`` q̇ (default 0), batched alike.
+
+        Parameters
+        ----------
+        position : array_like, shape (..., n)
+            The position q.
+        velocity : array_like, shape (..., n), optional
+            The velocity q̇ (default: at rest).
+
+        Returns
+        -------
+        dict of ndarray
+            ``{"q", "v"}``, batched alike.
+        """
         q = check_vector(position, "position", self.n, batch=True)
         v = np.zeros_like(q) if velocity is None else check_vector(velocity, "velocity", self.n, batch=True)
         batch = np.broadcast_shapes(q.shape[:-1], v.shape[:-1])
@@ -156,6 +205,8 @@ class CentralForceParticle(Particle):
     strength, exponent : float, optional
         Parameters of a named potential.
 
+    Notes
+    -----
     Invariants: ``energy`` ``½m|q̇|² + V(r)`` and ``angular_momentum``, the bivector
     ``m (q − C) ∧ q̇`` (seed §6, any n).
 
@@ -169,7 +220,15 @@ class CentralForceParticle(Particle):
     True
     """
 
-    def __init__(self, mass, centre, potential="kepler", *, strength: float = 1.0, exponent: float | None = None):
+    def __init__(
+        self,
+        mass: float,
+        centre: ArrayLike,
+        potential: RadialPotential | str = "kepler",
+        *,
+        strength: float = 1.0,
+        exponent: float | None = None,
+    ):
         c = as_float_array(centre, "centre")
         if c.ndim != 1 or c.size < 2:
             raise ValueError(f"`centre` must be a vector of dimension n ≥ 2; got shape {c.shape}.")
@@ -177,12 +236,38 @@ class CentralForceParticle(Particle):
         self.centre = c
         self.potential = _radial_potential(potential, strength, exponent)
 
-    def acceleration(self, t, q):
+    def acceleration(self, t: float | np.ndarray, q: np.ndarray) -> np.ndarray:
+        """``q̈ = −V'(r) (q − C)/(m r)``.
+
+        Parameters
+        ----------
+        t : float or ndarray
+            The time.
+        q : ndarray, shape (..., n)
+            Positions.
+
+        Returns
+        -------
+        ndarray, shape (..., n)
+            q̈.
+        """
         d = q - self.centre
         r = np.linalg.norm(d, axis=-1, keepdims=True)
         return -(self.potential.derivative(r) / (self.mass * r)) * d
 
-    def potential_energy(self, q):
+    def potential_energy(self, q: np.ndarray) -> np.ndarray:
+        """``V(|q − C|)``.
+
+        Parameters
+        ----------
+        q : ndarray, shape (..., n)
+            Positions.
+
+        Returns
+        -------
+        ndarray, shape (...)
+            V(q).
+        """
         return self.potential.value(np.linalg.norm(q - self.centre, axis=-1))
 
     @property
@@ -227,10 +312,23 @@ class ConstantForceParticle(Particle):
     force : array_like, shape (n,)
         The force f ≠ 0; its direction is ``e = f/|f|``.
 
+    Notes
+    -----
     Invariants: ``energy`` ``½m|q̇|² − ⟨f, q⟩`` and ``force_bivector`` ``e ∧ q̇`` (seed §6).
+
+    Examples
+    --------
+    A throw under gravity: classical RK4 is exact on the parabola.
+
+    >>> import lieint
+    >>> stone = lieint.ConstantForceParticle(2.0, [0.0, 0.0, -19.62])
+    >>> y0 = stone.initial_state(position=[0.0, 0.0, 0.0], velocity=[1.0, 0.0, 4.905])
+    >>> sol = lieint.integrate(stone, y0, (0.0, 1.0), h=0.1, method="rk4")
+    >>> sol.states["q"][-1].round(12).tolist()  # back on the ground after 1 s
+    [1.0, 0.0, 0.0]
     """
 
-    def __init__(self, mass, force):
+    def __init__(self, mass: float, force: ArrayLike):
         f = as_float_array(force, "force")
         if f.ndim != 1 or f.size < 2 or not np.linalg.norm(f) > 0:
             raise ValueError(f"`force` must be a nonzero vector of dimension n ≥ 2; got {describe(f)}.")
@@ -238,10 +336,36 @@ class ConstantForceParticle(Particle):
         self.force = f
         self.direction = f / np.linalg.norm(f)
 
-    def acceleration(self, t, q):
+    def acceleration(self, t: float | np.ndarray, q: np.ndarray) -> np.ndarray:
+        """``q̈ = f/m``.
+
+        Parameters
+        ----------
+        t : float or ndarray
+            The time.
+        q : ndarray, shape (..., n)
+            Positions.
+
+        Returns
+        -------
+        ndarray, shape (..., n)
+            q̈, the same everywhere.
+        """
         return np.broadcast_to(self.force / self.mass, np.shape(q)).copy()
 
-    def potential_energy(self, q):
+    def potential_energy(self, q: np.ndarray) -> np.ndarray:
+        """``V(q) = −⟨f, q⟩``.
+
+        Parameters
+        ----------
+        q : ndarray, shape (..., n)
+            Positions.
+
+        Returns
+        -------
+        ndarray, shape (...)
+            V(q).
+        """
         return -(q @ self.force)
 
     @property
@@ -283,6 +407,8 @@ class SurfaceParticle(Particle):
     force : array_like, shape (n,), optional
         Constant force f (None: none).
 
+    Notes
+    -----
     Invariants: ``energy`` ``½m|q̇|² − ⟨f, q⟩``; the defects ``constraint`` ``h(q) − 1`` and
     ``tangency`` ``⟨∇h(q), q̇⟩``; on a surface of revolution (or a sphere) with f along its axis
     (or f = 0), ``clairaut`` ``(q − C) ∧ q̇ ∧ e`` (for n = 3 the one component, m-free: the
@@ -303,7 +429,7 @@ class SurfaceParticle(Particle):
 
     structure = frozenset({"surface_constrained"})
 
-    def __init__(self, mass, surface: Surface, force=None):
+    def __init__(self, mass: float, surface: Surface, force: ArrayLike | None = None):
         if not isinstance(surface, Surface):
             raise TypeError(
                 f"`surface` must be a Surface (Sphere, Ellipsoid, SurfaceOfRevolution); got {type(surface).__name__} "
@@ -325,26 +451,73 @@ class SurfaceParticle(Particle):
             return self.force / fnorm
         return None
 
-    def external_force(self, t, q) -> np.ndarray:
-        """The applied force f (constant), broadcast to q's shape."""
+    def external_force(self, t: float | np.ndarray, q: np.ndarray) -> np.ndarray:
+        """The applied force f (constant), broadcast to q's shape.
+
+        Parameters
+        ----------
+        t : float or ndarray
+            The time.
+        q : ndarray, shape (..., n)
+            Positions.
+
+        Returns
+        -------
+        ndarray, shape (..., n)
+            f.
+        """
         return np.broadcast_to(self.force, np.shape(q))
 
     def multiplier(self, q: np.ndarray, v: np.ndarray) -> np.ndarray:
-        """λ of the constraint force ``λ∇h`` (see the class docstring)."""
+        """λ of the constraint force ``λ∇h`` (see the class docstring).
+
+        Parameters
+        ----------
+        q, v : ndarray, shape (..., n)
+            Position on the surface and tangent velocity.
+
+        Returns
+        -------
+        ndarray, shape (...)
+            λ.
+        """
         g = self.surface.gradient(q)
         return -(g @ self.force + self.mass * self.surface.hessian_form(q, v)) / np.sum(g * g, axis=-1)
 
-    def generator(self, t, y: State):
+    def generator(self, t: float | np.ndarray, y: State) -> np.ndarray | tuple[np.ndarray, ...]:
         q, v = y["q"], y["v"]
         lam = self.multiplier(q, v)
         acc = (self.force + lam[..., None] * self.surface.gradient(q)) / self.mass
         return (v, acc)
 
-    def potential_energy(self, q):
+    def potential_energy(self, q: np.ndarray) -> np.ndarray:
+        """``V(q) = −⟨f, q⟩``.
+
+        Parameters
+        ----------
+        q : ndarray, shape (..., n)
+            Positions.
+
+        Returns
+        -------
+        ndarray, shape (...)
+            V(q).
+        """
         return -(q @ self.force)
 
     def project(self, y: State) -> State:
-        """q onto ``h = 1`` by Newton along ∇h (to round-off), then v onto the tangent space."""
+        """q onto ``h = 1`` by Newton along ∇h (to round-off), then v onto the tangent space.
+
+        Parameters
+        ----------
+        y : dict of ndarray
+            A state ``{"q", "v"}`` near the surface.
+
+        Returns
+        -------
+        dict of ndarray
+            The state on the surface, with a tangent velocity.
+        """
         q = y["q"]
         for _ in range(50):
             g = self.surface.gradient(q)
@@ -379,10 +552,23 @@ class SurfaceParticle(Particle):
             )
         return declared
 
-    def initial_state(self, *, position, velocity=None) -> State:
-        """State from a ``position`` on the surface (``|h(q) − 1| ≤ 1e-9``) and a tangent
-        ``velocity`` (``|⟨∇h, q̇⟩| ≤ 1e-9 |∇h||q̇|``); both are then projected exactly.
-        ``surface.point(direction)`` gives a point of the surface."""
+    def initial_state(self, *, position: ArrayLike, velocity: ArrayLike | None = None) -> State:
+        """State from a ``position`` on the surface and a tangent ``velocity``, projected exactly.
+
+        ``surface.point(direction)`` gives a point of the surface.
+
+        Parameters
+        ----------
+        position : array_like, shape (..., n)
+            A point with ``|h(q) − 1| ≤ 1e-9``.
+        velocity : array_like, shape (..., n), optional
+            A tangent velocity, ``|⟨∇h, q̇⟩| ≤ 1e-9 |∇h||q̇|`` (default: at rest).
+
+        Returns
+        -------
+        dict of ndarray
+            ``{"q", "v"}`` on the surface to round-off.
+        """
         y = super().initial_state(position=position, velocity=velocity)
         off = np.abs(self.surface.h(y["q"]) - 1.0)
         if np.any(off > 1e-9):

@@ -7,15 +7,20 @@ The generator depends on t only (structure tag ``"time_only"``), which is what M
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
+from typing import TYPE_CHECKING
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .._validation import as_float_array, as_rotation_array, check_rotation, describe
 from ..groups.bivectors import hat
 from ..groups.so import SO, project_to_so
 from .base import Invariant, LieGroupSystem, Output, State
 from .rigid import orthogonality_invariant
+
+if TYPE_CHECKING:
+    from scipy.spatial.transform import Rotation
 
 __all__ = ["PrescribedRotation"]
 
@@ -54,7 +59,7 @@ class PrescribedRotation(LieGroupSystem):
     autonomous = False
     structure = frozenset({"time_only"})
 
-    def __init__(self, rates, times=None, *, n: int = 3):
+    def __init__(self, rates: Callable[[float], ArrayLike] | ArrayLike, times: ArrayLike | None = None, *, n: int = 3):
         if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 2:
             raise ValueError(f"`n` must be an integer >= 2; got {n!r}.")
         self.n = int(n)
@@ -116,20 +121,42 @@ class PrescribedRotation(LieGroupSystem):
         return omega
 
     # -- the LieGroupSystem contract ---------------------------------------------------
-    def generator(self, t, y: State) -> np.ndarray:
+    def generator(self, t: float | np.ndarray, y: State) -> np.ndarray:
         X = self._omega(float(np.asarray(t).reshape(-1)[0]))  # ξ depends on one time only
         batch = self.batch_shape(y)
         return np.broadcast_to(X, (*batch, self.n, self.n)).copy() if batch else X
 
     def body_rate(self, t: float) -> np.ndarray:
-        """Ω(t), the prescribed body angular velocity (skew ``(n, n)``)."""
+        """Ω(t), the prescribed body angular velocity.
+
+        Parameters
+        ----------
+        t : float
+            One time (inside the samples' range for sampled rates).
+
+        Returns
+        -------
+        ndarray, shape (n, n)
+            Ω(t), skew.
+        """
         return self._omega(float(t))
 
     def act(self, g: np.ndarray, y: State) -> State:
         return {"R": y["R"] @ g}
 
-    def relative_element(self, y0: State, y1: State):
-        """``g = R₀ᵀ R₁``."""
+    def relative_element(self, y0: State, y1: State) -> np.ndarray:
+        """``g = R₀ᵀ R₁``.
+
+        Parameters
+        ----------
+        y0, y1 : dict of ndarray
+            The states at the two ends of a step.
+
+        Returns
+        -------
+        ndarray, shape (..., n, n)
+            ``R₀ᵀ R₁``.
+        """
         return np.swapaxes(y0["R"], -1, -2) @ y1["R"]
 
     def infinitesimal_action(self, xi: np.ndarray, y: State) -> State:
@@ -148,15 +175,26 @@ class PrescribedRotation(LieGroupSystem):
         out["orientation"] = Output(lambda t, y: y["R"], (self.n, self.n), "orientation R (body to space)", "rotation")
         return out
 
-    def initial_state(self, *, R=None) -> State:
-        """``{"R": R}`` (default: the identity)."""
+    def initial_state(self, *, R: ArrayLike | Rotation | None = None) -> State:
+        """``{"R": R}`` (default: the identity).
+
+        Parameters
+        ----------
+        R : array_like, shape (..., n, n), or scipy Rotation, optional
+            The initial orientation, body to space.
+
+        Returns
+        -------
+        dict of ndarray
+            ``{"R": (*batch, n, n)}``.
+        """
         R = np.eye(self.n) if R is None else as_rotation_array(R, "R")
         if R.shape[-2:] != (self.n, self.n):
             raise ValueError(f"`R` must have shape (..., {self.n}, {self.n}); got shape {R.shape}.")
         check_rotation(R, "R")
         return {"R": R.copy()}
 
-    def validate_state(self, y, name: str = "y0") -> State:
+    def validate_state(self, y: Mapping[str, np.ndarray], name: str = "y0") -> State:
         out = super().validate_state(y, name)
         check_rotation(out["R"], f"{name}['R']")
         return out

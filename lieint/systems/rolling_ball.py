@@ -17,8 +17,10 @@ along the computed path by construction.
 from __future__ import annotations
 
 from collections.abc import Mapping
+from typing import TYPE_CHECKING
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .._validation import (
     as_bivector_array,
@@ -42,6 +44,9 @@ _DYNAMICS = (
     "generator", "act", "infinitesimal_action", "vector_field", "project", "contact_mass_tensor", "body_gravity",
     "angular_acceleration", "_twist", "_move_pose", "_pose_rate", "_project_pose",
 )  # fmt: skip
+
+if TYPE_CHECKING:
+    from scipy.spatial.transform import Rotation
 
 __all__ = ["RollingBall", "RollingPose", "check_ball", "rolling_initial_kinematics"]
 
@@ -148,7 +153,18 @@ class RollingPose:
         return out
 
     def contact_point(self, center: np.ndarray) -> np.ndarray:
-        """Contact point ``K = q_C − rν`` on the plane."""
+        """Contact point ``K = q_C − rν`` on the plane.
+
+        Parameters
+        ----------
+        center : ndarray, shape (..., n)
+            The ball's centre ``q_C``.
+
+        Returns
+        -------
+        ndarray, shape (..., n)
+            K.
+        """
         return center - self.radius * self.normal
 
     def _pose_outputs(self, out: dict) -> dict:
@@ -188,11 +204,28 @@ class RollingBall(RollingPose, LieGroupSystem):
         Integrate the centre (needed for the centre, the contact path, and the energy on an
         incline).
 
+    Notes
+    -----
     State fields: ``"Omega"`` (body angular velocity), ``"Gamma"`` (``Rᵀν``), ``"G"`` (``Rᵀg``,
     only for a tilted gravity), ``"R"``, ``"center"`` (as requested).
 
     Invariants: ``energy`` ``T − U`` (``T = −½ tr(Ω B_K Ω)``, ``U = M⟨g, q_C + R X_G⟩``),
     ``gamma_norm`` ``|Γ|``, ``orthogonality``.
+
+    Examples
+    --------
+    A ball whose centre of mass is off its centre, rolling under gravity:
+
+    >>> import numpy as np, lieint
+    >>> ball = lieint.RollingBall(
+    ...     np.diag([0.10, 0.15, 0.20]), mass=1.0, radius=1.0, center_of_mass=[0.0, 0.1, -0.2], gravity=[0, 0, -9.81]
+    ... )
+    >>> y0 = ball.initial_state(angular_velocity=[0.3, 1.0, 2.0])
+    >>> sol = lieint.integrate(ball, y0, (0.0, 5.0), h=0.005, method="rkmk4")
+    >>> list(sol.states)
+    ['Omega', 'Gamma', 'R', 'center']
+    >>> bool(sol.drift("energy") < 1e-10 and sol.drift("gamma_norm") < 1e-13)
+    True
     """
 
     autonomous = True
@@ -200,12 +233,12 @@ class RollingBall(RollingPose, LieGroupSystem):
 
     def __init__(
         self,
-        mass_tensor,
-        mass,
-        radius,
-        center_of_mass=None,
-        gravity=None,
-        normal=None,
+        mass_tensor: ArrayLike,
+        mass: float,
+        radius: float,
+        center_of_mass: ArrayLike | None = None,
+        gravity: ArrayLike | None = None,
+        normal: ArrayLike | None = None,
         *,
         orientation: bool = True,
         track_center: bool = True,
@@ -234,7 +267,18 @@ class RollingBall(RollingPose, LieGroupSystem):
 
     # -- physics -----------------------------------------------------------------------
     def contact_mass_tensor(self, Gamma: np.ndarray) -> np.ndarray:
-        """``B_K = B_C + M (X_G κᵀ + κ X_Gᵀ) + M κκᵀ`` with ``κ = rΓ``."""
+        """The mass tensor about the contact, ``B_K = B_C + M (X_G κᵀ + κ X_Gᵀ) + M κκᵀ``, ``κ = rΓ``.
+
+        Parameters
+        ----------
+        Gamma : ndarray, shape (..., n)
+            ``Γ = Rᵀν``.
+
+        Returns
+        -------
+        ndarray, shape (..., n, n)
+            ``B_K``.
+        """
         k = self.radius * Gamma
         M = self.mass
         BK = self.B_C + M * k[..., :, None] * k[..., None, :]
@@ -243,14 +287,36 @@ class RollingBall(RollingPose, LieGroupSystem):
             BK = BK + M * (XG[:, None] * k[..., None, :] + k[..., :, None] * XG[None, :])
         return BK
 
-    def body_gravity(self, y: State):
-        """``G = Rᵀg`` (None without gravity)."""
+    def body_gravity(self, y: State) -> np.ndarray | None:
+        """``G = Rᵀg`` (None without gravity).
+
+        Parameters
+        ----------
+        y : dict of ndarray
+            States (any leading shape).
+
+        Returns
+        -------
+        ndarray or None
+            G, shape ``(..., n)``.
+        """
         if self.gravity is None:
             return None
         return y["G"] if self._tilted else self._g_normal * y["Gamma"]
 
     def angular_acceleration(self, y: State) -> np.ndarray:
-        """``Ω̇`` from equation (*) in the body frame (Lyapunov solve in the eigenbasis of B_K)."""
+        """``Ω̇`` from equation (*) in the body frame (Lyapunov solve in the eigenbasis of B_K).
+
+        Parameters
+        ----------
+        y : dict of ndarray
+            States (any leading shape).
+
+        Returns
+        -------
+        ndarray, shape (..., n, n)
+            ``Ω̇``.
+        """
         Om, Gam = y["Omega"], y["Gamma"]
         k = self.radius * Gam
         BK = self.contact_mass_tensor(Gam)
@@ -264,12 +330,34 @@ class RollingBall(RollingPose, LieGroupSystem):
         return solve_lyapunov_sym(b, P, C)
 
     def kinetic_energy(self, y: State) -> np.ndarray:
-        """``T = −½ tr(Ω B_K Ω) = ½⟨Ω, B_K Ω⟩``."""
+        """``T = −½ tr(Ω B_K Ω) = ½⟨Ω, B_K Ω⟩``.
+
+        Parameters
+        ----------
+        y : dict of ndarray
+            States (any leading shape).
+
+        Returns
+        -------
+        ndarray
+            T per state.
+        """
         Om = y["Omega"]
         return 0.5 * inner(Om, self.contact_mass_tensor(y["Gamma"]) @ Om)
 
     def energy(self, y: State) -> np.ndarray:
-        """``H = T − U``, ``U = M⟨g, q_C + R X_G⟩ = M(⟨g, p⟩ + ⟨G, X_G⟩)``."""
+        """``H = T − U``, ``U = M⟨g, q_C + R X_G⟩ = M(⟨g, p⟩ + ⟨G, X_G⟩)``.
+
+        Parameters
+        ----------
+        y : dict of ndarray
+            States (any leading shape).
+
+        Returns
+        -------
+        ndarray
+            H per state.
+        """
         T = self.kinetic_energy(y)
         if self.gravity is None:
             return T
@@ -281,11 +369,18 @@ class RollingBall(RollingPose, LieGroupSystem):
             U = U + self.mass * self._g_normal * self.radius
         return T - U
 
-    def compiled(self):
-        """The generic compiled kernel's declaration (:mod:`lieint.fast.bodies`, pieces
-        ``"rolling_ball"``) for n ≥ 3: parameters n, the offsets of R, the centre and G, M, r,
+    def compiled(self) -> dict | None:
+        """The generic compiled kernel's declaration (:mod:`lieint.fast.bodies`) for n ≥ 3.
+
+        Pieces ``"rolling_ball"``; parameters n, the offsets of R, the centre and G, M, r,
         the gravity mode (0 none, 1 along ν with ``G = ⟨g, ν⟩Γ``, 2 tilted: G a field),
-        ``⟨g, ν⟩``, ``|g|``, ``B_C``, ``X_G`` and ν; the vector factor carries ``δΩ`` (n²)."""
+        ``⟨g, ν⟩``, ``|g|``, ``B_C``, ``X_G`` and ν; the vector factor carries ``δΩ`` (n²).
+
+        Returns
+        -------
+        dict or None
+            The declaration, or None (n = 2, or a subclass with other dynamics).
+        """
         if self.n < 3 or not self.dynamics_as(RollingBall, _DYNAMICS):
             return None
         offset = self.field_offsets()
@@ -305,10 +400,10 @@ class RollingBall(RollingPose, LieGroupSystem):
         }
 
     # -- the LieGroupSystem contract ---------------------------------------------------
-    def generator(self, t, y: State):
+    def generator(self, t: float | np.ndarray, y: State) -> np.ndarray | tuple[np.ndarray, ...]:
         return (self._twist(y["Omega"], y["Gamma"]), self.angular_acceleration(y))
 
-    def act(self, g, y: State) -> State:
+    def act(self, g: np.ndarray | tuple[np.ndarray, ...], y: State) -> State:
         pose, dOm = g
         Q, v = self._split(pose)
         Qt = np.swapaxes(Q, -1, -2)
@@ -318,7 +413,7 @@ class RollingBall(RollingPose, LieGroupSystem):
         self._move_pose(out, y, Q, v)
         return out
 
-    def infinitesimal_action(self, xi, y: State) -> State:
+    def infinitesimal_action(self, xi: np.ndarray | tuple[np.ndarray, ...], y: State) -> State:
         pose, dOm = xi
         Om, V = self._split(pose)
         out = {"Omega": dOm, "Gamma": -(Om @ y["Gamma"][..., None])[..., 0]}
@@ -353,13 +448,35 @@ class RollingBall(RollingPose, LieGroupSystem):
         return self._pose_outputs(out)
 
     # -- states ------------------------------------------------------------------------
-    def initial_state(self, *, R=None, Omega=None, angular_velocity=None, center=None, velocity=None) -> State:
-        """State from the orientation R (default identity), the body angular velocity
-        (``Omega`` bivector, or ``angular_velocity`` vector for n = 3) and the centre
-        (default ``rν``, touching the plane at the origin).
+    def initial_state(
+        self,
+        *,
+        R: ArrayLike | Rotation | None = None,
+        Omega: ArrayLike | None = None,
+        angular_velocity: ArrayLike | None = None,
+        center: ArrayLike | None = None,
+        velocity: ArrayLike | None = None,
+    ) -> State:
+        """State from the orientation, the body angular velocity and the centre.
 
-        ``velocity`` (the centre's space velocity), if given, is checked against the rolling
-        constraint ``q̇_C = ω k = r R Ω Rᵀ ν``.
+        Parameters
+        ----------
+        R : array_like, shape (..., n, n), or scipy Rotation, optional
+            Orientation, body to space (default: the identity).
+        Omega : array_like, shape (..., n, n), optional
+            Body angular velocity bivector (give it or ``angular_velocity``).
+        angular_velocity : array_like, shape (..., 3), optional
+            n = 3: the body angular velocity vector w.
+        center : array_like, shape (..., n), optional
+            The ball's centre (default ``rν``, touching the plane at the origin).
+        velocity : array_like, shape (..., n), optional
+            The centre's space velocity, checked against the rolling constraint
+            ``q̇_C = ω k = r R Ω Rᵀ ν``.
+
+        Returns
+        -------
+        dict of ndarray
+            ``{"Omega", "Gamma"}``, ``"G"`` for a tilted gravity and, as tracked, ``"R"``, ``"center"``.
         """
         Om, Rm, p = rolling_initial_kinematics(self, R, Omega, angular_velocity, center, velocity)
         Rt = np.swapaxes(Rm, -1, -2)
