@@ -212,6 +212,12 @@ def integrate(
     if h is not None:
         h = check_finite_positive(h, "h")
     if stepper.adaptive or stepper.self_controlled:
+        for name, tol in (("rtol", rtol), ("atol", atol)):
+            if np.ndim(tol) > 0:  # scipy takes an atol per component; lieint's error norms take one
+                raise TypeError(
+                    f"`{name}` must be one positive number (per-component tolerances, which scipy's atol "
+                    f"allows, are not supported); got an array of shape {np.shape(tol)}."
+                )
         rtol = check_finite_positive(rtol, "rtol")
         atol = check_finite_positive(atol, "atol")
         if first_step is not None:

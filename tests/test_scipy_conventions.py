@@ -236,6 +236,12 @@ def test_bad_first_step(top, y0, kw, exc, match):
         lieint.integrate(top, y0, (0.0, 5.0), **kw)
 
 
+def test_tolerances_are_scalars_and_the_message_says_so(top, y0):
+    for name in ("rtol", "atol"):
+        with pytest.raises(TypeError, match=rf"`{name}` must be one positive number \(per-component tolerances"):
+            lieint.integrate(top, y0, (0.0, 1.0), method="RK45", **{name: np.full(18, 1e-8)})
+
+
 # -- status ----------------------------------------------------------------------------------------
 
 
