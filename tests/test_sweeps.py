@@ -129,10 +129,15 @@ def test_refusals():
         plan_from_scene(TOP.replace('method = "rkmk4"', 'method = "scipy:DOP853"'))
     with pytest.raises(SweepError, match=r"`spread`.*is required for an ensemble"):
         plan_from_scene(TOP, ensemble=3)
+    # (a free top takes any positive moments, I₁ = 6 > I₂ + I₃ too: tests/test_any_moments.py)
     with pytest.raises(
-        SweepError, match=r"the scene at body.principal_moments\[0\] = 6 is invalid: .*I_i <= I_j \+ I_k"
+        SweepError, match=r"the scene at body.principal_moments\[0\] = -1 is invalid: .*must be positive"
     ):
-        plan_from_scene(TOP, {"body.principal_moments[0]": [1.0, 6.0]})
+        plan_from_scene(TOP, {"body.principal_moments[0]": [1.0, -1.0]})
+    with pytest.raises(
+        SweepError, match=r"body.principal_moments\[2\] = 3 is invalid: .*must satisfy I_i <= I_j \+ I_k"
+    ):
+        plan_from_scene(HEAVY, {"body.principal_moments[2]": [0.5, 3.0]})  # a heavy top needs a mass distribution
     with pytest.raises(SweepError, match="`chunk` must be a positive integer"):
         plan_from_scene(TOP, chunk=0)
 
