@@ -17,6 +17,7 @@ from collections.abc import Mapping
 import numpy as np
 
 from .._validation import check_skew, describe
+from ..fast.forms import BUILTIN_PIECES, PiecesForm
 from ..groups.bivectors import inner, skew_part
 from ..groups.se import SE
 from ..groups.so import SO
@@ -88,23 +89,15 @@ class ChaplyginBall(RollingPose, LieGroupSystem):
         return -0.25 * inner(self.angular_velocity(y["A"], y["Gamma"]), y["A"])
 
     def compiled(self):
-        """The generic compiled kernel's declaration (:mod:`lieint.fast.bodies`, pieces
-        ``"chaplygin_ball"``) for n ≥ 3: parameters n, the offsets of R and of the centre,
-        ``M r²``, r, ``B_C`` and ν."""
+        """The compiled engine's form (:class:`lieint.fast.forms.PiecesForm`, the Chaplygin ball's
+        pieces in :mod:`lieint.fast.balls`) for n ≥ 3: parameters n, the offsets of R and of the
+        centre, ``M r²``, r, ``B_C`` and ν."""
         if self.n < 3 or not self.dynamics_as(ChaplyginBall, _DYNAMICS):
             return None
         offset = self.field_offsets()
         head = [self.n, offset.get("R", -1), offset.get("center", -1), self._Mr2, self.radius]
         params = np.concatenate([head, self.B_C.ravel(), self.normal])
-        return {
-            "kind": "lie",
-            "pieces": "chaplygin_ball",
-            "params": params,
-            "n": self.n,
-            "translation": self.track_center,
-            "abelian": 0,
-            "fields": self.fields,
-        }
+        return PiecesForm(BUILTIN_PIECES.chaplygin, params, self.n, self.track_center, 0, self.fields)
 
     # -- the LieGroupSystem contract ---------------------------------------------------
     def generator(self, t, y: State) -> np.ndarray:

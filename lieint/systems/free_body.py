@@ -7,6 +7,7 @@ from collections.abc import Mapping
 import numpy as np
 
 from .._validation import check_finite_positive, check_rotation, check_vector, describe
+from ..fast.forms import BUILTIN_PIECES, PiecesForm
 from ..groups.so import SO
 from ..groups.vector import ProductGroup, VectorSpace
 from .base import Invariant, LieGroupSystem, Output, State
@@ -88,9 +89,9 @@ class FreeBody(LieGroupSystem):
         return out
 
     def compiled(self):
-        """The generic compiled kernel's declaration (:mod:`lieint.fast.bodies`, pieces
-        ``"free_body"``) for n ≥ 3: parameters n, the offsets of R and of the centre, whether B
-        is diagonal, the eigenbasis P of B, ``−1/(b_i + b_j)`` and g."""
+        """The compiled engine's form (:class:`lieint.fast.forms.PiecesForm`, the free body's
+        pieces in :mod:`lieint.fast.bodies`) for n ≥ 3: parameters n, the offsets of R and of the
+        centre, whether B is diagonal, the eigenbasis P of B, ``−1/(b_i + b_j)`` and g."""
         if self.n < 3 or not self.dynamics_as(FreeBody, _DYNAMICS) or not self.top.dynamics_as(EulerTop, _TOP):
             return None
         inertia, n = self.inertia, self.n
@@ -98,15 +99,7 @@ class FreeBody(LieGroupSystem):
         g = np.zeros(n) if self.gravity is None else self.gravity
         head = [n, offset.get("R", -1), float(inertia.diagonal)]
         params = np.concatenate([head, inertia.kernel_params, [offset["center"]], g])
-        return {
-            "kind": "lie",
-            "pieces": "free_body",
-            "params": params,
-            "n": n,
-            "translation": False,
-            "abelian": 2 * n,
-            "fields": self.fields,
-        }
+        return PiecesForm(BUILTIN_PIECES.free_body, params, n, False, 2 * n, self.fields)
 
     def energy(self, y: State) -> np.ndarray:
         v = y["velocity"]

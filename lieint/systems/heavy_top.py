@@ -7,6 +7,7 @@ from collections.abc import Mapping
 import numpy as np
 
 from .._validation import check_finite_positive, check_rotation, check_vector, describe
+from ..fast.forms import BUILTIN_PIECES, PiecesForm
 from ..groups.bivectors import skew_part, vee, wedge
 from ..groups.se import SE, se_join, se_split
 from ..groups.so import project_to_so
@@ -150,23 +151,15 @@ class HeavyTop(LieGroupSystem):
         return out
 
     def compiled(self):
-        """The generic compiled kernel's declaration (:mod:`lieint.fast.bodies`, pieces
-        ``"heavy_top"``) for n ≥ 3: parameters n, the offset of R, whether B is diagonal, the
+        """The compiled engine's form (:class:`lieint.fast.forms.PiecesForm`, the heavy top's
+        pieces in :mod:`lieint.fast.bodies`) for n ≥ 3: parameters n, the offset of R, whether B is diagonal, the
         eigenbasis P of B, ``−1/(b_i + b_j)``, ``M X_G`` and ``|g|``."""
         if self.n < 3 or not self.dynamics_as(HeavyTop, _DYNAMICS) or not self.top.dynamics_as(EulerTop, _TOP):
             return None
         inertia, n = self.inertia, self.n
         head = [n, self.field_offsets().get("R", -1), float(inertia.diagonal)]
         params = np.concatenate([head, inertia.kernel_params, self._MXG, [np.linalg.norm(self.gravity)]])
-        return {
-            "kind": "lie",
-            "pieces": "heavy_top",
-            "params": params,
-            "n": n,
-            "translation": True,
-            "abelian": 0,
-            "fields": self.fields,
-        }
+        return PiecesForm(BUILTIN_PIECES.heavy_top, params, n, True, 0, self.fields)
 
     # -- physics -----------------------------------------------------------------------
     def energy(self, A: np.ndarray, Gamma: np.ndarray) -> np.ndarray:
