@@ -7,8 +7,8 @@ note that says why, so that a newcomer does not conclude the method is broken:
 * the plain adaptive Lie pairs (``rkmk23``, ``rkmk45``, ``rkmk853``): a Lie-group step keeps the
   Casimir ``|A|`` exactly, so its energy error is a pure frequency error and the phase error grows
   like t² instead of t; near a separatrix (the default scene starts next to the top's unstable
-  middle axis) the global error is several orders of magnitude above rtol (docs/theory.md §13). The ``+energy`` pairs keep
-  the energy too and follow rtol on the free top;
+  middle axis) the global error is several orders of magnitude above rtol (docs/theory.md §13).
+  The ``+energy`` pairs keep the energy too and follow rtol on the free top;
 * any other method: the global error also carries how the motion amplifies the local errors.
 """
 
@@ -29,8 +29,8 @@ _LIE_PAIR = (
     "{names}: global error up to {worst:.0e} × rtol here. A Lie-group step keeps the Casimir |A| "
     "exactly, so its energy error is a pure frequency error and the phase error grows like t² instead "
     "of t; near a separatrix (the default scene starts next to the top's unstable middle axis) the "
-    "plain pairs' global error is several orders of magnitude above rtol. The '+energy' pairs keep the energy as well and follow rtol "
-    "on the free top (docs/theory.md §13)."
+    "plain pairs' global error is several orders of magnitude above rtol. The '+energy' pairs keep "
+    "the energy as well and follow rtol on the free top (docs/theory.md §13)."
 )
 _OTHER = (
     "{names}: global error up to {worst:.0e} × rtol here. rtol bounds each step's local error; the "
