@@ -46,9 +46,12 @@ def add_compare_parser(sub, scene=None):
             "unstable middle axis, T = 100, with its attitude; a uniform ball on an incline) or else against "
             "DOP853 at rtol 1e-13 whose own error is estimated by a second run and printed; errors the "
             "reference cannot resolve are marked. Prints the table and the equal-cost table (error reached "
-            "within each CPU budget) and writes work_precision.csv/.json (with the machine and thread "
-            "settings), work_precision.png and long_run.png (invariant drift at the scene's step) into "
-            "--out-dir (one sub-directory per scene when several are studied)."
+            "within each CPU budget), with numbered notes where a series' error is far above its rtol, and "
+            "writes work_precision.csv/.json (with the machine and thread settings), work_precision.png "
+            "(about eight representative methods), work_precision_<family>.png (one figure per method family, "
+            "every series) and long_run.png (invariant drift at the scene's step) into --out-dir (one "
+            "sub-directory per scene when several are studied). The printed table fits 120 columns; --wide "
+            "prints every column."
         ),
         formatter_class=argparse.ArgumentDefaultsHelpFormatter,
     )

@@ -102,9 +102,12 @@ def _band(ax, t, series, label, color, log_floor=None):
     from .._plotting import envelope
 
     lo, med, hi = np.nanpercentile(series, [10, 50, 90], axis=1)
+    band_clamped = False
     if log_floor is not None:
+        band_clamped = bool(np.any(lo < log_floor))  # the band's edge drawn at the floor: said too
         lo, hi = np.maximum(lo, log_floor), np.maximum(hi, log_floor)
     color, thinned, clamped = _line(ax, t, med, f"{label} (median)", color, log_floor=log_floor)
+    clamped = clamped or band_clamped
     x, band_lo, _, _ = envelope(t, lo, BINS, log=log_floor is not None)
     _, _, band_hi, _ = envelope(t, hi, BINS, log=log_floor is not None)
     ax.fill_between(x, band_lo, band_hi, color=color, alpha=0.2, lw=0)
