@@ -232,6 +232,7 @@ def _print_text(study, fmt, written, wide: bool = False) -> None:
         "'!' = fallback to the generic path"
     )
     print()
+    wide = wide or fmt == "markdown"  # Markdown tables are for pages, not terminals: every column
     print(format_rows(study, fmt, wide=wide))
     print()
     print("error reached within a CPU budget (best measured point with median CPU time <= the budget):")

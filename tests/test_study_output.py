@@ -345,3 +345,15 @@ def test_plot_of_a_4d_run_draws_every_component_thinned_with_clamped_zeros_said(
     ).any()
     assert said == clamped
     matplotlib.pyplot.close(fig)
+
+
+def test_lieint_compare_prints_at_most_120_columns(capsys, tmp_path):
+    from lieint.cli import main
+
+    argv = ["compare", "--methods", "rkmk4,rkmk853,rk4,scipy:DOP853", "--t-end", "5", "--repeats", "1"]
+    assert main([*argv, "--no-plots", "--out-dir", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    assert "err/rtol" in out and "rkmk853" in out
+    assert max(map(len, out.splitlines())) <= 120
+    assert main([*argv, "--no-plots", "--wide", "--out-dir", str(tmp_path)]) == 0
+    assert "CPU min [ms]" in capsys.readouterr().out
