@@ -1,4 +1,4 @@
-"""Small drawing helpers shared by the figures of ``lieint compare`` and ``lieint plot``.
+"""Small drawing functions shared by the figures of ``lieint compare`` and ``lieint plot``.
 
 * :func:`series_styles` — a colour and a marker for each of n series, no two alike;
 * :func:`envelope` — thin a long series to a min/max envelope a figure can show;
