@@ -137,7 +137,7 @@ def _build_parser() -> argparse.ArgumentParser:
     analyze = sub.add_parser(
         "analyze",
         help="count toward integrability and decide holonomy for a scene's system",
-        description="At the scene's initial state: the lecture's reduction equation dim(phase space) - "
+        description="At the scene's initial state: the reduction equation (docs/theory.md §7) dim(phase space) - "
         "#independent integrals - isotropy - (1 if an invariant measure), with the numerical ranks, and "
         "whether the velocity constraint is holonomic (Frobenius test by Lie brackets). Nothing is integrated; "
         "an ensemble is analysed at its first member.",
@@ -146,7 +146,7 @@ def _build_parser() -> argparse.ArgumentParser:
     analyze.add_argument(
         "--integrals", choices=("momentum", "manakov"), default="momentum", help="which first integrals to count"
     )
-    analyze.add_argument("--json", action="store_true", help="print JSON instead of the lecture's form")
+    analyze.add_argument("--json", action="store_true", help="print JSON instead of the equation's form")
     _add_sweep_parser(sub)
     return parser
 

@@ -7,7 +7,7 @@ curve ``u(θ)``, ``θ ∈ [0, 1]``, is the cubic Hermite polynomial with
 
 * ``u(0) = 0``, ``u′(0) = h ξ(t₀, y₀)`` (the group path leaves ``y₀`` with velocity ``ξ``);
 * ``u(1) = u₁``, ``u′(1) = h dexp⁻¹_{−u₁}(ξ(t₁, y₁))`` (the right-trivialised derivative of
-  ``exp(u)`` at ``u₁`` equals ``ξ(t₁, y₁)``, see MATH.md §6 for the sign of the right action),
+  ``exp(u)`` at ``u₁`` equals ``ξ(t₁, y₁)``, see docs/theory.md §6 and §14 for the sign of the right action),
 
 and ``y(t₀ + θh) = ρ(exp(u(θ)), y₀)``. The interpolant therefore lies on the orbit of ``y₀``
 (R orthogonal, the spectrum of A kept, to round-off), matches the step's end points exactly,

@@ -116,8 +116,8 @@ def test_first_ten_flips_of_the_dzhanibekov_top():
     exact = euler_top_flip_times([1.0, 2.0, 3.0], w0, 200.0)
     assert exact.size >= 10
     # rtol 1e-14: with DOP853's estimate the pair takes scipy's steps, and near the separatrix its
-    # energy error (the Casimir kept) shifts the flips ~15× more per rtol than DOP853's (the guide,
-    # "Adaptive steps and rtol"); 1e-12 gave 2.5e-7 s at the tenth flip
+    # energy error (the Casimir kept) shifts the flips ~15× more per rtol than DOP853's (docs/theory.md
+    # §13, docs/measurements/adaptive.md); 1e-12 gave 2.5e-7 s at the tenth flip
     sol = lieint.integrate(TOP, y0, (0.0, 200.0), method="rkmk853", rtol=1e-14, atol=1e-17, events=middle_axis_rate)
     found = sol.t_events[0]
     assert found.size == exact.size

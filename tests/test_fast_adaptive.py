@@ -52,7 +52,7 @@ def test_compiled_adaptive_matches_the_generic_controller(rng, method, orientati
     assert fast.t[-1] == ref.t[-1] == T and fast.success
     # the controller's round-off floor (module docstring), below the methods' own error: at
     # rtol 1e-6 measured up to 2e-6 over 36 cases, and the generic path moves by 1e-6 when y₀
-    # changes by one ulp (docs/guide.md, "Speed")
+    # changes by one ulp (docs/measurements/speed.md, "Adaptive steps, compiled")
     np.testing.assert_allclose(fast.t, ref.t, rtol=0, atol=10 * RTOL)
     for name in ref.states:
         np.testing.assert_allclose(fast.states[name], ref.states[name], rtol=0, atol=10 * RTOL)

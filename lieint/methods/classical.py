@@ -1,4 +1,4 @@
-"""Classical explicit Runge–Kutta on the embedded equations: the baseline (MATH.md §6).
+"""Classical explicit Runge–Kutta on the embedded equations: the baseline (docs/theory.md §6).
 
 The state's arrays are stepped as points of the ambient vector space with the system's
 vector field ``ẏ = ρ_*(ξ(t, y)) y``; nothing keeps R on SO(n) or the spectrum of A fixed

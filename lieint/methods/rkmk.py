@@ -1,4 +1,4 @@
-"""Runge–Kutta–Munthe-Kaas methods (Lie–Euler is the one-stage case), MATH.md §6.
+"""Runge–Kutta–Munthe-Kaas methods (Lie–Euler is the one-stage case), docs/theory.md §6.
 
 The systems of lieint are moved by *right* actions ρ, so the group path obeys
 ``ġ = g ξ``; with ``g = exp(u)`` the stage equation is ``u̇ = dexp⁻¹_{−u}(ξ)`` (the odd

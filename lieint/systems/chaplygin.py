@@ -1,7 +1,7 @@
 """The Chaplygin ball: centre of mass at the geometric centre, gravity along the normal.
 
 With ``X_G = 0`` and g ∥ ν, the momentum about the contact point ``a = −(b_K ω + ω b_K)`` is
-constant in space (MATH.md §4), so the body momentum ``A_K = Rᵀ a R`` is isospectral::
+constant in space (docs/theory.md §4), so the body momentum ``A_K = Rᵀ a R`` is isospectral::
 
     Ȧ_K = [A_K, Ω],   Γ̇ = −ΩΓ,   A_K = −(B_K Ω + Ω B_K),   B_K(Γ) = B_C + M r² ΓΓᵀ,
 

@@ -1,4 +1,4 @@
-"""The n-dimensional Euler top: a rigid body with a fixed point, no forces (MATH.md §2)."""
+"""The n-dimensional Euler top: a rigid body with a fixed point, no forces (docs/theory.md §2)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""A free rigid body in space: pose on SE(n), rotation as the Euler top (MATH.md §5)."""
+"""A free rigid body in space: pose on SE(n), rotation as the Euler top (docs/theory.md §5)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The heavy top: a rigid body with a fixed point under constant gravity (MATH.md §3)."""
+"""The heavy top: a rigid body with a fixed point under constant gravity (docs/theory.md §3)."""
 
 from __future__ import annotations
 

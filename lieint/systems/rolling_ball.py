@@ -1,4 +1,4 @@
-"""A ball rolling without sliding on a fixed plane, any n ≥ 2 (MATH.md §4).
+"""A ball rolling without sliding on a fixed plane, any n ≥ 2 (docs/theory.md §4).
 
 Body frame (what is integrated), with ``Γ = Rᵀν``, ``G = Rᵀg``, ``κ = rΓ``::
 
