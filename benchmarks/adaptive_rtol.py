@@ -9,8 +9,8 @@ The 3D Euler top, I = (1, 2, 3), atol = 1e-3·rtol; error = max over the accepte
         [--energy] [--energy-pairs [--no-R]] [--equal-steps]
 
 ``--quick`` runs rtol 1e-4 … 1e-8 only (the rkmk23 rows at 1e-9 and 1e-10 take ~10⁵ steps).
-``--energy`` prints, instead, the experiment that tests the explanation in the guide
-("Adaptive steps and rtol"): rkmk45 whose every accepted state is moved along its group orbit
+``--energy`` prints, instead, the experiment that tests the explanation in docs/theory.md §13
+(tables: docs/measurements/adaptive.md): rkmk45 whose every accepted state is moved along its group orbit
 (so the Casimir stays exact) back onto the initial energy level, beside rkmk45 and RK45.
 ``--energy-pairs [--no-R]`` prints global error / rtol of every pair, the same pair with the
 energy kept (``rkmk23+energy`` …, :mod:`lieint.methods.energy_projection`) and scipy's pair,

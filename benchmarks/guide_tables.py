@@ -1,10 +1,11 @@
-"""Regenerate the guide's work–precision tables from real ``lieint compare`` runs.
+"""Regenerate the documentation's work–precision tables from real ``lieint compare`` runs.
 
-Each table of ``docs/guide.md`` between ``<!-- study-table: ID -->`` and ``<!-- /study-table -->``
-is printed by the command written next to it; this script runs each command once (through the
-same code as the command line, :func:`lieint.compare.studies`), prints every table with its
-command, and with ``--write`` puts them into the guide. ``tests/test_guide_tables.py`` checks
-that every row shown can be produced by the command printed next to it.
+Each table of ``docs/measurements/work_precision.md`` between ``<!-- study-table: ID -->`` and
+``<!-- /study-table -->`` is printed by the command written next to it; this script runs each
+command once (through the same code as the command line, :func:`lieint.compare.studies`), prints
+every table with its command, and with ``--write`` puts them into that page.
+``tests/test_guide_tables.py`` checks that every row shown can be produced by the command
+printed next to it.
 
     OPENBLAS_NUM_THREADS=1 python benchmarks/guide_tables.py [--write]
 """
@@ -16,7 +17,8 @@ import re
 import shlex
 from pathlib import Path
 
-GUIDE = Path(__file__).resolve().parents[1] / "docs" / "guide.md"
+#: the page that holds the generated tables
+PAGE = Path(__file__).resolve().parents[1] / "docs" / "measurements" / "work_precision.md"
 
 #: (table id, command, what is shown: "rows" or "equal-cost")
 TABLES = (
@@ -43,7 +45,7 @@ def parse_command(command: str):
 
 
 def render(table_id: str, command: str, kind: str, study) -> str:
-    """The guide block of one table."""
+    """The page's block of one table."""
     from lieint.study import format_equal_cost, format_rows
 
     meta = study.metadata
@@ -63,7 +65,7 @@ def render(table_id: str, command: str, kind: str, study) -> str:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--write", action="store_true", help="replace the tables in docs/guide.md")
+    parser.add_argument("--write", action="store_true", help=f"replace the tables in {PAGE}")
     opts = parser.parse_args()
     from lieint.compare import studies
 
@@ -73,17 +75,17 @@ def main() -> None:
         if command not in results:
             (_, study), *more = list(studies(parse_command(command)))
             if more:
-                raise ValueError(f"the guide's commands study one scene each: {command!r}")
+                raise ValueError(f"the tables' commands study one scene each: {command!r}")
             results[command] = study
         blocks[table_id] = render(table_id, command, kind, results[command])
         print(blocks[table_id], end="\n\n")
     if opts.write:
-        text = GUIDE.read_text(encoding="utf-8")
+        text = PAGE.read_text(encoding="utf-8")
         missing = set(blocks) - {m.group("id") for m in BLOCK.finditer(text)}
         if missing:
-            raise SystemExit(f"docs/guide.md has no block for {sorted(missing)}")
-        GUIDE.write_text(BLOCK.sub(lambda m: blocks[m.group("id")], text), encoding="utf-8")
-        print(f"wrote {len(blocks)} tables into {GUIDE}")
+            raise SystemExit(f"{PAGE} has no block for {sorted(missing)}")
+        PAGE.write_text(BLOCK.sub(lambda m: blocks[m.group("id")], text), encoding="utf-8")
+        print(f"wrote {len(blocks)} tables into {PAGE}")
 
 
 if __name__ == "__main__":

@@ -137,7 +137,7 @@ def _build_parser() -> argparse.ArgumentParser:
     analyze = sub.add_parser(
         "analyze",
         help="count toward integrability and decide holonomy for a scene's system",
-        description="At the scene's initial state: the lecture's reduction equation dim(phase space) - "
+        description="At the scene's initial state: the reduction equation (docs/theory.md §7) dim(phase space) - "
         "#independent integrals - isotropy - (1 if an invariant measure), with the numerical ranks, and "
         "whether the velocity constraint is holonomic (Frobenius test by Lie brackets). Nothing is integrated; "
         "an ensemble is analysed at its first member.",
@@ -146,12 +146,24 @@ def _build_parser() -> argparse.ArgumentParser:
     analyze.add_argument(
         "--integrals", choices=("momentum", "manakov"), default="momentum", help="which first integrals to count"
     )
-    analyze.add_argument("--json", action="store_true", help="print JSON instead of the lecture's form")
+    analyze.add_argument("--json", action="store_true", help="print JSON instead of the equation's form")
     _add_sweep_parser(sub)
     return parser
 
 
 def _add_sweep_parser(sub) -> None:
+    warm = sub.add_parser(
+        "warmup",
+        help="compile the compiled engine's kernels ahead of the first run (clusters, CI)",
+        description=(
+            "Compile the compiled engine's kernels for the built-in systems (each with fixed-step RKMK in "
+            "exponential and Cayley coordinates, the embedded pairs' controller loop, classical RK and, for the "
+            "3D top, SIMD lanes) into numba's disk cache, so that later runs start at once. Items already cached "
+            "take a fraction of a second."
+        ),
+    )
+    warm.add_argument("systems", nargs="*", metavar="SYSTEM", help="which systems (default: all; see --list)")
+    warm.add_argument("--list", action="store_true", help="list the systems warmup knows and exit")
     sw = sub.add_parser(
         "sweep",
         help="integrate a parameter / initial-condition sweep of a scene on dask, into a Zarr store",
@@ -188,6 +200,28 @@ def _add_sweep_parser(sub) -> None:
     sw.add_argument("--resume", action="store_true", help="continue an interrupted store; committed chunks are skipped")
     sw.add_argument("--overwrite", action="store_true", help="replace an existing store")
     sw.add_argument("--quiet", action="store_true", help="no progress bar")
+
+
+def _warmup(args) -> int:
+    from .warmup import WARMUP_SYSTEMS, warmup
+
+    if args.list:
+        print("\n".join(WARMUP_SYSTEMS))
+        return 0
+    unknown = [name for name in args.systems if name not in WARMUP_SYSTEMS]
+    if unknown:
+        print(f"lieint warmup: unknown system(s) {unknown}; choose from {list(WARMUP_SYSTEMS)}", file=sys.stderr)
+        return 2
+    print(f"{'system':16} {'method family':34} {'CPU s':>7} {'wall s':>7}  state")
+
+    def report(item):
+        state = "compiled" if item.compiled else "cached"
+        print(f"{item.system:16} {item.family:34} {item.cpu:7.2f} {item.wall:7.2f}  {state}", flush=True)
+
+    items = warmup(args.systems or None, report=report)
+    total = sum(item.cpu for item in items)
+    print(f"{len(items)} kernels ready ({total:.1f} s CPU); later runs load them from numba's disk cache.")
+    return 0
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -46,9 +46,12 @@ def add_compare_parser(sub, scene=None):
             "unstable middle axis, T = 100, with its attitude; a uniform ball on an incline) or else against "
             "DOP853 at rtol 1e-13 whose own error is estimated by a second run and printed; errors the "
             "reference cannot resolve are marked. Prints the table and the equal-cost table (error reached "
-            "within each CPU budget) and writes work_precision.csv/.json (with the machine and thread "
-            "settings), work_precision.png and long_run.png (invariant drift at the scene's step) into "
-            "--out-dir (one sub-directory per scene when several are studied)."
+            "within each CPU budget), with numbered notes where a series' error is far above its rtol, and "
+            "writes work_precision.csv/.json (with the machine and thread settings), work_precision.png "
+            "(about eight representative methods), work_precision_<family>.png (one figure per method family, "
+            "every series) and long_run.png (invariant drift at the scene's step) into --out-dir (one "
+            "sub-directory per scene when several are studied). The printed table fits 120 columns; --wide "
+            "prints every column."
         ),
         formatter_class=argparse.ArgumentDefaultsHelpFormatter,
     )
@@ -80,6 +83,12 @@ def add_compare_parser(sub, scene=None):
     cmp.add_argument("--t-end", type=_positive_float, help="override the scenes' span (T = t_end - t_start)")
     cmp.add_argument("--out-dir", default="lieint-compare", help="where the tables and figures go")
     cmp.add_argument("--no-plots", action="store_true", help="write the tables only")
+    cmp.add_argument(
+        "--wide",
+        action="store_true",
+        help="print every column (min and median CPU and wall time, evaluations, variant); the default "
+        "table fits 120 columns",
+    )
     cmp.add_argument(
         "--long-run", type=_positive_float, default=10.0, metavar="FACTOR", help="span of long_run.png in scene spans"
     )
@@ -152,7 +161,14 @@ def run_compare(args) -> int:
     from pathlib import Path
 
     from .scenes import SceneError
-    from .study import as_dict, format_equal_cost, format_rows, plot_long_run, plot_work_precision, write_table
+    from .study import (
+        as_dict,
+        format_rows,
+        plot_long_run,
+        plot_work_precision,
+        plot_work_precision_families,
+        write_table,
+    )
 
     try:
         several = len(selected_scenes(args.scene, args.all, args.t_end)) > 1
@@ -183,10 +199,11 @@ def run_compare(args) -> int:
         written = list(write_table(study, out_dir))
         if not args.no_plots:
             written.append(plot_work_precision(study, out_dir / "work_precision.png"))
+            written.extend(plot_work_precision_families(study, out_dir))
             written.append(plot_long_run(study.scene, out_dir / "long_run.png", factor=args.long_run))
         results.append(study)
         if text:
-            _print_text(study, args.format, written, format_rows, format_equal_cost)
+            _print_text(study, args.format, written, getattr(args, "wide", False))
         elif args.format == "csv":
             print(f"# scene: {study.scene.name}")
             print(format_rows(study, "csv"))
@@ -196,31 +213,52 @@ def run_compare(args) -> int:
     return 0
 
 
-def _print_text(study, fmt, written, format_rows, format_equal_cost) -> None:
+def _print_text(study, fmt, written, wide: bool = False) -> None:
+    import textwrap
+
+    from .study import format_equal_cost, format_rows
+    from .study.notes import rtol_notes
+
     meta = study.metadata
     machine = meta["machine"]
     heading = "## " if fmt == "markdown" else ""
-    print(f"{heading}{study.describe()}")
-    print(
+    width = 118
+
+    def say(text: str) -> None:
+        if fmt == "markdown":
+            print(text)
+        else:
+            print(textwrap.fill(text, width, subsequent_indent="  ", break_on_hyphens=False, break_long_words=False))
+
+    say(f"{heading}{study.describe()}")
+    variant = {v.name for e in study.plan if e.family != "scipy" for v in e.variants}
+    say(
         f"machine: {machine['processor']}, {machine['cpu_count']} CPUs, load average {machine['load_average']}; "
-        f"numba threads {meta['numba_threads']}; "
-        f"{meta['sweep']} sweep, up to {meta['repeats']} timed calls per point after a warm-up; "
-        f"CPU/wall in ms; '*' = error not resolved by the reference"
+        f"numba threads {meta['numba_threads']}; {meta['sweep']} sweep, up to {meta['repeats']} timed calls per "
+        f"point after a warm-up; CPU = median per call in ms; lieint's methods: {', '.join(sorted(variant)) or '—'}; "
+        "scipy's solvers plain and with projected saves (proj.); '*' = not resolved by the reference; "
+        "'!' = fallback to the generic path"
     )
     print()
-    print(format_rows(study, fmt))
+    wide = wide or fmt == "markdown"  # Markdown tables are for pages, not terminals: every column
+    print(format_rows(study, fmt, wide=wide))
     print()
     print("error reached within a CPU budget (best measured point with median CPU time <= the budget):")
-    print(format_equal_cost(study, fmt))
+    print(format_equal_cost(study, fmt, wide=wide))
+    notes = rtol_notes(study)
+    if notes:
+        print()
+    for note in notes:
+        say(f"[{note.number}] {note.text}")
     fallbacks = [r for r in study.rows if r.fallback]
     for r in fallbacks:
-        print(f"fallback: {r.method} {r.setting} ran on the generic path: {r.backend_reason}")
+        say(f"fallback: {r.method} {r.setting} ran on the generic path: {r.backend_reason}")
     for name, reason in meta["not_applicable"].items():
-        print(f"not applicable: {name}: {reason}")
+        say(f"not applicable: {name}: {reason}")
     for skip in meta["skipped"]:
-        print(f"skipped: {skip['method']} ({skip['variant']}) {', '.join(skip['settings'])}: {skip['reason']}")
+        say(f"skipped: {skip['method']} ({skip['variant']}) {', '.join(skip['settings'])}: {skip['reason']}")
     for r in study.rows:
         if not r.success:
-            print(f"failed: {r.method} ({r.variant}) {r.setting}: {r.message}")
-    print("wrote " + ", ".join(str(p) for p in written))
+            say(f"failed: {r.method} ({r.variant}) {r.setting}: {r.message}")
+    say("wrote " + ", ".join(str(p) for p in written))
     print()

@@ -7,7 +7,7 @@ curve ``u(θ)``, ``θ ∈ [0, 1]``, is the cubic Hermite polynomial with
 
 * ``u(0) = 0``, ``u′(0) = h ξ(t₀, y₀)`` (the group path leaves ``y₀`` with velocity ``ξ``);
 * ``u(1) = u₁``, ``u′(1) = h dexp⁻¹_{−u₁}(ξ(t₁, y₁))`` (the right-trivialised derivative of
-  ``exp(u)`` at ``u₁`` equals ``ξ(t₁, y₁)``, see MATH.md §6 for the sign of the right action),
+  ``exp(u)`` at ``u₁`` equals ``ξ(t₁, y₁)``, see docs/theory.md §6 and §14 for the sign of the right action),
 
 and ``y(t₀ + θh) = ρ(exp(u(θ)), y₀)``. The interpolant therefore lies on the orbit of ``y₀``
 (R orthogonal, the spectrum of A kept, to round-off), matches the step's end points exactly,
@@ -30,14 +30,14 @@ reuses it).
 
 from __future__ import annotations
 
-from bisect import bisect_right
+from bisect import bisect_left, bisect_right
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
-__all__ = ["DenseOutput", "EmbeddedHermite", "Increment", "LieHermite", "Restep"]
+__all__ = ["DenseOutput", "EmbeddedHermite", "Increment", "LieHermite", "Restep", "StepTable", "earlier_nodes"]
 
 
 @dataclass(frozen=True)
@@ -220,6 +220,8 @@ class DenseOutput:
 
     Calling it with one time returns the state dict at that time; with an array of times
     ``(m,)`` a dict of ``(m, *batch, ...)`` arrays. Times outside ``[t0, t_end]`` are refused.
+    The steps come one by one (:meth:`append`, the generic path) or as tables of steps
+    (:meth:`extend`, a compiled run: each step's interpolant is built when first asked for).
 
     Examples
     --------
@@ -234,28 +236,51 @@ class DenseOutput:
 
     def __init__(self, t0: float):
         self.t0 = float(t0)
-        self.ends: list[float] = []
-        self.pieces: list[Callable[[float], dict]] = []
+        # segments of steps: ([step ends], [interpolants]) of the generic path, or a StepTable;
+        # `_last` holds each segment's last end, for the bisection
+        self._segments: list = []
+        self._last: list[float] = []
 
     def append(self, t1: float, piece: Callable[[float], dict]) -> None:
-        self.ends.append(float(t1))
-        self.pieces.append(piece)
+        """One step's interpolant, ending at ``t1``."""
+        if not self._segments or isinstance(self._segments[-1], StepTable):
+            self._segments.append(([], []))
+            self._last.append(float(t1))
+        ends, pieces = self._segments[-1]
+        ends.append(float(t1))
+        pieces.append(piece)
+        self._last[-1] = float(t1)
+
+    def extend(self, table: StepTable) -> None:
+        """The steps of ``table`` (as far as its ``end``)."""
+        if table.steps:
+            self._segments.append(table)
+            self._last.append(table.end)
 
     @property
     def t_end(self) -> float:
-        return self.ends[-1] if self.ends else self.t0
+        return self._last[-1] if self._last else self.t0
+
+    @property
+    def steps(self) -> int:
+        return sum(len(seg[0]) if isinstance(seg, tuple) else seg.steps for seg in self._segments)
 
     def _one(self, t: float) -> dict:
         if not self.t0 <= t <= self.t_end:
             raise ValueError(f"`t` must lie in the integrated span [{self.t0}, {self.t_end}]; got {t!r}.")
-        i = min(bisect_right(self.ends, t), len(self.pieces) - 1)
         # a time equal to a step's end belongs to that step (its interpolant ends there exactly)
-        if i > 0 and self.ends[i - 1] == t:
+        k = min(bisect_left(self._last, t), len(self._segments) - 1)
+        segment = self._segments[k]
+        if isinstance(segment, StepTable):
+            return segment(t)
+        ends, pieces = segment
+        i = min(bisect_right(ends, t), len(pieces) - 1)
+        if i > 0 and ends[i - 1] == t:
             i -= 1
-        return self.pieces[i](t)
+        return pieces[i](t)
 
     def __call__(self, t):
-        if not self.pieces:
+        if not self._segments:
             raise ValueError("the run took no step; there is nothing to interpolate.")
         arr = np.asarray(t, dtype=float)
         if arr.ndim == 0:
@@ -268,4 +293,122 @@ class DenseOutput:
         return {k: np.stack([r[k] for r in rows]) for k in rows[0]}
 
     def __repr__(self) -> str:
-        return f"DenseOutput(t0={self.t0}, t_end={self.t_end}, steps={len(self.pieces)})"
+        return f"DenseOutput(t0={self.t0}, t_end={self.t_end}, steps={self.steps})"
+
+
+def earlier_nodes(group, history) -> list:
+    """The earlier step ends a Lie-group interpolant also passes through, in the chart of the
+    current step's start: ``history`` holds ``(t_j, ξ_j, u_j)`` of the last steps (oldest first);
+    ``y_j = ρ(exp(−u_{n−1}) ⋯ exp(−u_j), y_n)`` for a right action. The principal log of the chain
+    follows the path back only while the path turns by less than π (bounded by the steps' ad
+    radii): beyond, fewer nodes (a lower degree)."""
+    earlier, g, reach = [], None, 0.0
+    for tj, xij, uj in reversed(history):
+        back = group.exp(group.negate(uj))
+        g = back if g is None else group.multiply(g, back)
+        reach += float(np.max(group.ad_spectral_radius(uj), initial=0.0))
+        if earlier and not reach < np.pi:
+            break
+        earlier.append((tj, group.negate(uj) if len(earlier) == 0 else group.log(g), xij))
+    return earlier
+
+
+def _take(x, j):
+    """Element j of an array, or of each array of a tuple (a product group's algebra)."""
+    if isinstance(x, tuple):
+        return tuple(_take(part, j) for part in x)
+    return x[j]
+
+
+class StepTable:
+    """A stretch of accepted steps as arrays (what a compiled run hands over): the step ends
+    ``t`` ``(m + 1,)`` (the stretch's start first), the states there ``rows`` (a dict of
+    ``(m + 1, ...)`` arrays) and each step's increment in the algebra ``increments`` (``(m, ...)``,
+    a tuple of them on a product group, or a function of j giving the increment of step j; None
+    for steps on the embedding space, classical RK).
+
+    The interpolant of step j is built when first asked for, exactly as
+    :class:`lieint.observe.StepObserver` builds that of a step of the generic path: the cubic
+    Hermite curve in the algebra (:class:`LieHermite`, with the earlier step ends of
+    ``history`` and of the table for methods of order p > 4), or on the state arrays
+    (:class:`EmbeddedHermite`). ``cayley``: the increments are Cayley coordinates of the step's
+    element (its log is taken when the interpolant is built). ``end``: where the table stops
+    (a terminal event within its last step).
+    """
+
+    def __init__(self, system, t, rows: dict, increments, *, cayley=False, extra_nodes=0, history=()):
+        self.system = system
+        self.t = np.asarray(t, dtype=float)
+        self.rows, self.increments, self.cayley = rows, increments, bool(cayley)
+        self.extra_nodes = int(extra_nodes)
+        self.history = list(history)  # (t_j, ξ_j, u_j) of the steps before the table
+        self.steps = self.t.size - 1
+        self.end = float(self.t[-1])
+        self.nfev = 0
+        self._field: dict[int, object] = {}
+        self._pieces: dict[int, object] = {}
+
+    def row(self, i: int) -> dict:
+        return {k: v[i] for k, v in self.rows.items()}
+
+    def _evaluate(self, i: int):
+        """ξ (or the vector field, classical RK) at step end i, evaluated once."""
+        cached = self._field.get(i)
+        if cached is None:
+            lie = self.increments is not None
+            evaluate = self.system.generator if lie else self.system.vector_field
+            cached = self._field[i] = evaluate(float(self.t[i]), self.row(i))
+            self.nfev += 1
+        return cached
+
+    def increment(self, j: int):
+        """``u_j`` with ``y_{j+1} = ρ(exp(u_j), y_j)``."""
+        u = self.increments(j) if callable(self.increments) else _take(self.increments, j)
+        if self.cayley:
+            group = self.system.group
+            u = group.log(group.cay(u))
+        return u
+
+    def history_before(self, j: int) -> list:
+        """``(t_i, ξ_i, u_i)`` of the ``extra_nodes`` steps before step j (oldest first)."""
+        if not self.extra_nodes:
+            return []
+        own = [(float(self.t[i]), self._evaluate(i), self.increment(i)) for i in range(max(0, j - self.extra_nodes), j)]
+        return (self.history + own)[-self.extra_nodes :]
+
+    def interpolant(self, j: int):
+        """The interpolant of step j (built once)."""
+        piece = self._pieces.get(j)
+        if piece is not None:
+            return piece
+        t0, t1, y0, y1 = float(self.t[j]), float(self.t[j + 1]), self.row(j), self.row(j + 1)
+        d0, d1 = self._evaluate(j), self._evaluate(j + 1)
+        if self.increments is None:
+            piece = EmbeddedHermite(t0, t1, y0, y1, d0, d1)
+        else:
+            earlier = earlier_nodes(self.system.group, self.history_before(j))
+            piece = LieHermite(self.system, t0, t1, y0, self.increment(j), d0, d1, y1, earlier)
+        self._pieces[j] = piece
+        return piece
+
+    def step_of(self, t: float) -> int:
+        """The step whose interval holds t (a time equal to a step's end belongs to that step)."""
+        j = int(np.searchsorted(self.t, t, side="left")) - 1
+        return min(max(j, 0), self.steps - 1)
+
+    def __call__(self, t: float) -> dict:
+        j = self.step_of(float(t))
+        if float(t) == self.t[j + 1]:
+            return self.row(j + 1)
+        return self.interpolant(j)(t)
+
+    def truncate(self, end: float) -> None:
+        """Stop the table at ``end`` (a terminal event within its steps)."""
+        self.end = float(end)
+        keep = self.step_of(self.end) + 1
+        self.t, self.steps = self.t[: keep + 1], keep
+        self.rows = {k: v[: keep + 1] for k, v in self.rows.items()}
+
+    def next_history(self) -> list:
+        """The history the next table starts from (the last steps of this one)."""
+        return self.history_before(self.steps) if self.extra_nodes else []

@@ -16,6 +16,7 @@ hold the times ``(k_i,)`` and the states (dict of ``(k_i, ...)`` arrays) of the 
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -29,12 +30,18 @@ EVENT_XTOL = 1e-12
 
 @dataclass
 class Event:
-    """One event function with its settings (see the module docstring)."""
+    """One event function with its settings (see the module docstring).
+
+    ``vectorized``: whether ``fn`` takes the rows of many steps at once (times ``(m,)``, states
+    of ``(m, ...)`` arrays) and returns ``(m,)`` values — True, False, or None: tried once on a
+    compiled run's steps and kept when it agrees with the one-row calls (see
+    :meth:`EventLog.segment`)."""
 
     fn: Callable
     terminal: int = 0
     direction: float = 0.0
     name: str = ""
+    vectorized: bool | None = None
 
     def __call__(self, t: float, y: dict) -> float:
         value = self.fn(t, y)
@@ -70,7 +77,10 @@ def as_events(events) -> list[Event]:
             direction = float(direction)
         except (TypeError, ValueError):
             raise ValueError(f"`events[{i}].direction` must be a number; got {direction!r}.") from None
-        out.append(Event(fn, count, direction, getattr(fn, "__name__", f"event {i}")))
+        vectorized = getattr(fn, "vectorized", None)
+        if vectorized is not None and not isinstance(vectorized, (bool, np.bool_)):
+            raise ValueError(f"`events[{i}].vectorized` must be True, False or None; got {vectorized!r}.")
+        out.append(Event(fn, count, direction, getattr(fn, "__name__", f"event {i}"), vectorized))
     return out
 
 
@@ -92,11 +102,12 @@ class EventLog:
     def start(self, t0: float, y0: dict) -> None:
         self.values = [ev(t0, y0) for ev in self.events]
 
-    def step(self, t0: float, t1: float, y1: dict, interpolant) -> tuple[float, dict] | None:
-        """Record the events in ``(t0, t1]``; return ``(t, y)`` of a terminal one, else None."""
+    def step(self, t0: float, t1: float, y1: dict, interpolant, new=None) -> tuple[float, dict] | None:
+        """Record the events in ``(t0, t1]``; return ``(t, y)`` of a terminal one, else None
+        (``new``: the events' values at ``(t1, y1)`` when known)."""
         from scipy.optimize import brentq
 
-        new = [ev(t1, y1) for ev in self.events]
+        new = [ev(t1, y1) for ev in self.events] if new is None else list(new)
         found = []
         for i, (ev, a, b) in enumerate(zip(self.events, self.values, new, strict=True)):
             up, down = a < 0 <= b, a > 0 >= b
@@ -119,6 +130,56 @@ class EventLog:
                 self.stop = (t_event, y_event)
                 return self.stop
         return None
+
+    def segment(self, table) -> tuple[float, dict] | None:
+        """Record the events over the steps of a :class:`lieint.dense.StepTable` (a compiled
+        run's): every event's values at the step ends at once where the event function takes
+        many rows (:meth:`values_at`), then, at each step where one changes sign, what
+        :meth:`step` does for that step (the time by Brent's method on its interpolant).
+        Returns ``(t, y)`` of a terminal event, else None."""
+        m = table.steps
+        if not m:
+            return None
+        values = np.stack([self.values_at(ev, table) for ev in self.events])  # (events, m)
+        before = np.concatenate([np.asarray(self.values, dtype=float)[:, None], values[:, :-1]], axis=1)
+        up, down = (before < 0) & (values >= 0), (before > 0) & (values <= 0)
+        direction = np.array([ev.direction for ev in self.events])[:, None]
+        crossing = (up & (direction >= 0)) | (down & (direction <= 0))
+        for j in np.flatnonzero(crossing.any(axis=0)):
+            self.values = list(before[:, j])
+            stop = self.step(float(table.t[j]), float(table.t[j + 1]), table.row(j + 1), table.interpolant(int(j)),
+                             new=values[:, j])  # fmt: skip
+            if stop is not None:
+                return stop
+        self.values = list(values[:, -1])
+        return None
+
+    @staticmethod
+    def values_at(ev: Event, table) -> np.ndarray:
+        """``g(t_i, y_i)`` at the ends of the table's steps (``(m,)``, the start excluded): one call
+        with every row when the event function takes many (``ev.vectorized``; when not said, tried
+        and kept if its values agree with one-row calls at three rows), else one call a row."""
+        m = table.steps
+        rows = {k: v[1:] for k, v in table.rows.items()}
+        times = table.t[1:]
+        if ev.vectorized is not False and m > 1:
+            try:
+                with np.errstate(all="ignore"):
+                    got = np.asarray(ev.fn(times, rows), dtype=float)
+            except Exception:  # a function of one row: called row by row below
+                got = None
+            if got is not None and got.shape == (m,):
+                if ev.vectorized is None:  # the first look: three rows one by one must agree
+                    picks = sorted({0, m // 2, m - 1})
+                    one = [ev(float(times[i]), {k: v[i] for k, v in rows.items()}) for i in picks]
+                    same = all(a == b or (math.isfinite(a) and abs(a - b) <= 1e-13 * max(abs(a), abs(b)))
+                               for a, b in zip(one, got[picks], strict=True))  # fmt: skip
+                    ev.vectorized = bool(same)
+                if ev.vectorized:
+                    return got
+            elif ev.vectorized is None:
+                ev.vectorized = False
+        return np.array([ev(float(times[i]), {k: v[i] for k, v in rows.items()}) for i in range(m)], dtype=float)
 
     def results(self, like: dict) -> tuple[list[np.ndarray], list[dict]]:
         """``t_events`` and ``y_events`` (dicts of stacked arrays, empty ones shaped like ``like``)."""

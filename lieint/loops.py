@@ -70,16 +70,13 @@ class Segment:
 
 
 def fixed_loop(driver: Driver, y0: dict):
-    """The compiled kernel where one covers system, method and step, else the generic loop."""
+    """The compiled engine where it covers system and method, else the generic loop (dense
+    output, events and ``t_eval`` are served from the engine's steps too)."""
     if driver.backend_request == "numpy":
         return _FixedLoop(driver, "backend='numpy' asked for the generic path")
-    if driver.observer is not None:
-        if driver.backend_request == "numba":
-            raise ValueError("`backend='numba'`: dense output, events and `t_eval` need the generic path; use 'auto'.")
-        return _FixedLoop(driver, "dense output, events or t_eval watch every step")
-    from . import fast
+    from .fast.engine import engine_for
 
-    kernel, reason = fast.kernel_for(driver.system, driver.method, y0, driver.plan)
+    kernel, reason = engine_for(driver.system, driver.method, y0, project=driver.project)
     if kernel is not None:
         return _KernelLoop(driver, kernel)
     if driver.backend_request == "numba":
@@ -195,9 +192,12 @@ class _KernelLoop(_CompiledRows):
     def advance(self, carry: Carry, max_steps: int | None, with_start: bool = False) -> Segment:
         """At most ``max_steps`` steps (all that remain by default) in one kernel call;
         ``with_start`` puts the carry's state first among the rows (the kernel writes it where
-        it writes the others: a whole run's rows need no concatenation)."""
+        it writes the others: a whole run's rows need no concatenation). With dense output,
+        events or ``t_eval`` the steps go in stretches the observer sees (:meth:`_observed`)."""
         d, plan = self.d, self.d.plan
         k_to = plan.nsteps if max_steps is None else min(plan.nsteps, carry.k + max_steps)
+        if d.observer is not None:
+            return self._observed(carry, k_to, with_start)
         saves = plan.saves_between(d.save_every, carry.k, k_to)
         new, states = self.kernel.advance(carry.state, carry.k, k_to, plan, saves, d.project, with_start=with_start)
         s = int(with_start)
@@ -229,6 +229,60 @@ class _KernelLoop(_CompiledRows):
         """The whole run from a fresh carry: its first row (the starting state) and every saved
         row in one segment."""
         return self.advance(carry, None, with_start=True)
+
+    def _observed(self, carry: Carry, k_end: int, with_start: bool) -> Segment:
+        """Steps to ``k_end`` in stretches of growing length (512 … 8,192 steps: a terminal event
+        wastes little, the memory of the kept steps stays bounded), each stretch's every step
+        kept (its state and increment) and handed to the observer as a table of steps
+        (:meth:`lieint.observe.StepObserver.segment`), which locates the events on the steps'
+        interpolants, extends the dense output and saves the ``t_eval`` rows."""
+        d, plan, kernel = self.d, self.d.plan, self.kernel
+        times, parts, failure = [], [], None
+        if with_start:
+            times.append(np.array([carry.t]))
+            parts.append({k: v[None] for k, v in kernel.user_state(carry.state).items()})
+        chunk = 512
+        nothing = np.empty(0, dtype=np.int64)
+        while carry.k < k_end:
+            k_from, k_to = carry.k, min(k_end, carry.k + chunk)
+            chunk = min(2 * chunk, 8192)
+            start = kernel.user_state(carry.state)
+            # every step is kept: the saved rows are among them (no second copy, no second conversion)
+            new, _, (kept_Y, kept_U) = kernel.advance(carry.state, k_from, k_to, plan, nothing, d.project, keep=True)
+            steps = kernel.user_rows(kept_Y)
+            good = _finite_rows(steps)
+            if good < k_to - k_from:  # the run stops before the first non-finite state
+                done = k_from + good
+                failure = _nonfinite(done + 1, plan.time(done + 1), f"Reduce the step `h` = {plan.h:g}")
+                steps = {k: v[:good] for k, v in steps.items()}
+                kept_U, k_to = kept_U[:good], done
+                new = kernel.internal(_last(steps, start))
+            saves = plan.saves_between(d.save_every, k_from, k_to)
+            states = {k: v[saves - k_from - 1] for k, v in steps.items()}
+            rows = {k: np.concatenate([start[k][None], v]) for k, v in steps.items()}
+            table = d.observer.table(
+                plan.times(np.arange(k_from, k_to + 1)), rows, self._increments(kept_U), kernel.tableau.cayley
+            )
+            stopped = d.observer.segment(table)
+            done = k_from + table.steps
+            carry.nfev += kernel.stages * (done - k_from)
+            carry.k, carry.t = done, plan.time(done)
+            carry.state = new if not stopped else kernel.internal(d.observer.stop[1])
+            times.append(plan.times(saves))
+            parts.append(states)
+            if stopped:
+                carry.t = d.observer.stop[0]
+            if stopped or failure:
+                break
+        return _stopped(d, carry, _joined(times, parts, failure, self.user_state(carry)))
+
+    def _increments(self, kept_U):
+        """The kept steps' increments in the user's algebra, converted when an interpolant asks
+        for one (None for classical RK, whose dense output interpolates the state arrays)."""
+        if self.kernel.method.family != "rkmk":
+            return None
+        kernel = self.kernel
+        return lambda j: _take(kernel.increments(kept_U[j : j + 1]), 0)
 
 
 class _AdaptiveLoop(_GenericRows):
@@ -297,16 +351,13 @@ class _AdaptiveLoop(_GenericRows):
 
 
 def adaptive_loop(driver: Driver, y0: dict):
-    """The compiled adaptive kernel where one covers system and method, else the generic loop."""
+    """The compiled engine's controller loop where it covers system and method, else the generic
+    loop (dense output, events and ``t_eval`` are served from the engine's steps too)."""
     if driver.backend_request == "numpy":
         return _AdaptiveLoop(driver, "backend='numpy' asked for the generic path")
-    if driver.observer is not None:
-        if driver.backend_request == "numba":
-            raise ValueError("`backend='numba'`: dense output, events and `t_eval` need the generic path; use 'auto'.")
-        return _AdaptiveLoop(driver, "dense output, events or t_eval watch every step")
-    from .fast.adaptive import adaptive_kernel_for
+    from .fast.engine import engine_for
 
-    kernel, reason = adaptive_kernel_for(driver.system, driver.method, y0)
+    kernel, reason = engine_for(driver.system, driver.method, y0, adaptive=True, project=driver.project)
     if kernel is not None:
         return _AdaptiveKernelLoop(driver, kernel)
     if driver.backend_request == "numba":
@@ -326,20 +377,19 @@ class _AdaptiveKernelLoop(_CompiledRows, _AdaptiveLoop):
 
     def start(self, y0: dict) -> Carry:
         d = self.d
-        compiled = getattr(self.kernel, "initial_step", None)
-        if d.h is not None or compiled is None:
-            carry = super().start(y0)
-            carry.state, carry.method_state = self.kernel.start(y0), None
-            return carry
-        # the first trial step with the kernel's compiled vector field (two evaluations of the
-        # generic one cost 40–85 µs of an adaptive call on the heavy top and the balls)
         state = self.kernel.start(y0)
-        h = compiled(state, d.t0, d.t1, d.controller, d.method.error_order)
+        if d.h is not None:
+            h = d.h
+        else:  # the first trial step with the engine's compiled vector field (two evaluations
+            # of the generic one cost 40–85 µs of an adaptive call on the heavy top and the balls)
+            h = self.kernel.initial_step(y0, d.t0, d.t1, d.controller, d.method.error_order)
         return Carry(0, d.t0, state, min(h, d.t1 - d.t0), None)
 
     def advance(self, carry: Carry, max_steps: int | None) -> Segment:
         d = self.d
         left = np.iinfo(np.int64).max if max_steps is None else max_steps
+        if d.observer is not None:
+            return self._observed(carry, left)
         times, parts, failure = [], [], None
         budget, held = _row_budget(d, self.user_state(carry)), 0
         while carry.t < d.t1 and left > 0:
@@ -361,10 +411,50 @@ class _AdaptiveKernelLoop(_CompiledRows, _AdaptiveLoop):
             if small:
                 failure = self._too_small(t)
                 break
-        states = {name: np.concatenate([p[name] for p in parts]) for name in parts[0]} if parts else {}
-        if not parts:
-            states = {name: np.empty((0, *np.shape(v))) for name, v in self.user_state(carry).items()}
-        return Segment(np.concatenate(times) if times else np.empty(0), states, failure)
+        return _joined(times, parts, failure, self.user_state(carry))
+
+    def _observed(self, carry: Carry, left: int) -> Segment:
+        """Accepted steps in stretches of growing length (as :meth:`_KernelLoop._observed`), every
+        accepted step kept for the observer; the user's rows are the steps a run without an
+        observer saves (every ``save_every``-th accepted step and the last)."""
+        d, kernel = self.d, self.kernel
+        times, parts, failure = [], [], None
+        budget, held = _row_budget(d, self.user_state(carry)), 0
+        chunk = 256
+        while carry.t < d.t1 and left > 0:
+            start, t_start, k_start = self.user_state(carry), carry.t, carry.k
+            state, (t, h, k), (acc, rej, nfev), t_steps, steps, small, (_, kept_U) = kernel.advance_adaptive(
+                carry.state, carry.t, d.t1, carry.h, carry.k, min(left, chunk), 1, d.project, d.controller,
+                self.h_min, keep=True,
+            )  # fmt: skip
+            chunk = min(2 * chunk, 8192)
+            carry.state, carry.t, carry.h, carry.k = state, t, h, k
+            carry.nrejected += rej
+            carry.nfev += nfev
+            left -= acc
+            rows = {name: np.concatenate([start[name][None], v]) for name, v in steps.items()}
+            table = d.observer.table(
+                np.concatenate([[t_start], t_steps]), rows, self._increments(kept_U), kernel.tableau.cayley
+            )
+            stopped = d.observer.segment(table)
+            numbers = k_start + 1 + np.arange(table.steps)
+            keep = (numbers % d.save_every == 0) | (t_steps[: table.steps] == d.t1)
+            times.append(t_steps[: table.steps][keep])
+            parts.append({name: v[: table.steps][keep] for name, v in steps.items()})
+            held += int(keep.sum())
+            budget.hold(held)
+            if stopped:
+                carry.k, carry.t = k_start + table.steps, d.observer.stop[0]
+                carry.state = kernel.internal(d.observer.stop[1])
+                break
+            if small:
+                failure = self._too_small(t)
+                break
+        return _stopped(d, carry, _joined(times, parts, failure, self.user_state(carry)))
+
+    def _increments(self, kept_U):
+        kernel = self.kernel
+        return lambda j: _take(kernel.increments(kept_U[j : j + 1]), 0)
 
 
 class ScipyLoop:
@@ -469,7 +559,7 @@ def _stopped(d: Driver, carry: Carry, segment: Segment) -> Segment:
     if stop is None or (carry.t == stop[0] and segment.rows and segment.t[-1] == stop[0]):
         return segment
     t_stop, y_stop = stop
-    if d.kind != "scipy":
+    if d.kind != "scipy" and not isinstance(d.loop, _CompiledRows):  # a compiled loop set its own
         carry.state = y_stop
     carry.t = t_stop
     keep = segment.t < t_stop
@@ -478,6 +568,41 @@ def _stopped(d: Driver, carry: Carry, segment: Segment) -> Segment:
         {k: np.concatenate([v[keep], np.asarray(y_stop[k])[None]]) for k, v in segment.states.items()},
         segment.failure,
     )
+
+
+def _joined(times: list, parts: list[dict], failure, like: dict) -> Segment:
+    """One segment of the saved times and rows of several kernel calls."""
+    if not parts:
+        return Segment(np.empty(0), {name: np.empty((0, *np.shape(v))) for name, v in like.items()}, failure)
+    states = {name: np.concatenate([p[name] for p in parts]) for name in parts[0]}
+    return Segment(np.concatenate(times), states, failure)
+
+
+def _finite_rows(rows: dict) -> int:
+    """How many leading rows of ``rows`` (a dict of ``(m, ...)`` arrays) are finite."""
+    from .fast.finite import all_finite  # numba is loaded: a kernel just ran
+
+    if all_finite(list(rows.values())):  # the usual case, in one compiled pass
+        return int(next(iter(rows.values())).shape[0])
+    finite = None
+    for v in rows.values():
+        ok = np.isfinite(v).all(axis=tuple(range(1, v.ndim)))
+        finite = ok if finite is None else finite & ok
+    if finite is None or finite.all():
+        return 0 if finite is None else int(finite.size)
+    return int(np.argmin(finite))
+
+
+def _last(rows: dict, start: dict) -> dict:
+    """The last row of ``rows``, or ``start`` when there is none."""
+    if next(iter(rows.values())).shape[0] == 0:
+        return start
+    return {k: v[-1] for k, v in rows.items()}
+
+
+def _take(x, j):
+    """Element j of an array, or of each array of a tuple (a product group's algebra)."""
+    return tuple(_take(part, j) for part in x) if isinstance(x, tuple) else x[j]
 
 
 def _stack(rows: list[dict], like: dict) -> dict:

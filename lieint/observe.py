@@ -14,7 +14,7 @@ import dataclasses
 
 import numpy as np
 
-from .dense import DenseOutput, EmbeddedHermite, Increment, LieHermite, Restep
+from .dense import DenseOutput, EmbeddedHermite, Increment, LieHermite, Restep, StepTable, earlier_nodes
 from .events import EventLog, as_events
 
 __all__ = ["StepObserver", "group_action_of"]
@@ -109,6 +109,40 @@ class StepObserver:
             return True
         return False
 
+    def segment(self, table) -> bool:
+        """After a stretch of compiled steps (a :class:`lieint.dense.StepTable`); True when a
+        terminal event stops the run (within the table: ``stop`` holds its time and state)."""
+        stop = self.log.segment(table) if self.log.events else None
+        if stop is not None:
+            table.truncate(stop[0])
+        if self.dense is not None:
+            self.dense.extend(table)
+        if self.t_eval is not None:
+            self._save_table(table, stop)
+        self.history = table.next_history()
+        self.nfev += table.nfev
+        table.nfev = 0
+        if stop is not None:
+            self.stop = stop
+            return True
+        return False
+
+    def table(self, t, rows: dict, increments, cayley: bool = False):
+        """A :class:`~lieint.dense.StepTable` of steps ending at ``t`` (the stretch's start first),
+        with this run's history of earlier steps."""
+        return StepTable(
+            self.system, t, rows, increments, cayley=cayley, extra_nodes=self.extra_nodes, history=self.history
+        )
+
+    def _save_table(self, table, stop) -> None:
+        """The ``t_eval`` rows within the table (as far as its end)."""
+        te, t_end = self.t_eval, table.end
+        while self.next_eval < te.size and te[self.next_eval] <= t_end:
+            s = float(te[self.next_eval])
+            y = stop[1] if stop is not None and s == stop[0] else table(s)
+            self.rows.append(self.system.project(y) if self.project else y)
+            self.next_eval += 1
+
     def _save_until(self, t_end: float, y_end: dict, interpolant, t1: float) -> None:
         if self.t_eval is None:
             return
@@ -141,17 +175,7 @@ class StepObserver:
         if lie:
             group = system.group
             u = increment.algebra(group)
-            earlier, g, reach = [], None, 0.0
-            for tj, xij, uj in reversed(self.history):
-                back = group.exp(group.negate(uj))
-                # y_j = ρ(exp(−u_{n−1}) ⋯ exp(−u_j), y_n) for a right action
-                g = back if g is None else group.multiply(g, back)
-                # the principal log of the chain follows the path back only while the path turns
-                # by less than π (bounded by the steps' ad radii): beyond, a lower degree
-                reach += float(np.max(group.ad_spectral_radius(uj), initial=0.0))
-                if earlier and not reach < np.pi:
-                    break
-                earlier.append((tj, group.negate(uj) if len(earlier) == 0 else group.log(g), xij))
+            earlier = earlier_nodes(group, self.history)
             if self.extra_nodes:
                 self.history = [*self.history, (t0, d0, u)][-self.extra_nodes :]
             mismatch = None

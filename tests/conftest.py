@@ -19,13 +19,14 @@ def random_rotation(rng, n, batch=()):
 
 def compiled_methods() -> list[str]:
     """The registry's fixed-step methods whose ``compiled()`` declares a form the compiled
-    kernels take ("rkmk": exponential coordinates with a truncated dexp⁻¹; "rk": classical RK)."""
+    engine takes ("rkmk": exponential coordinates with a truncated dexp⁻¹; "rk": classical RK)."""
     import lieint
 
     names = []
     for name in lieint.method_names():
         method = lieint.get_method(name)
-        if not method.adaptive and (method.compiled() or {}).get("kind") in ("rkmk", "rk"):
+        form = method.compiled()
+        if not method.adaptive and getattr(form, "family", None) in ("rkmk", "rk"):
             names.append(name)
     return names
 
@@ -54,7 +55,7 @@ def radius_spy(monkeypatch):
     original = _KernelLoop.generator_radius
 
     def spy(self, states, limit=0.0):
-        seen.append((self.kernel._radius_bound, original(self, states, limit)))
+        seen.append((self.kernel.radius_bound, original(self, states, limit)))
         return seen[-1][1]
 
     monkeypatch.setattr(_KernelLoop, "generator_radius", spy)

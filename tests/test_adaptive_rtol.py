@@ -1,5 +1,5 @@
-"""What the adaptive pairs' tolerance buys, measured against scipy's pairs (see the guide,
-"Adaptive steps and rtol"): the controller and the norm are scipy's; the Lie pairs' larger
+"""What the adaptive pairs' tolerance buys, measured against scipy's pairs (see
+docs/measurements/adaptive.md): the controller and the norm are scipy's; the Lie pairs' larger
 global error comes from their error structure (the Casimir kept, the energy not)."""
 
 from __future__ import annotations

@@ -1,5 +1,5 @@
-"""The lecture's count toward integrability (seed §9, MATH.md §7) and the Frobenius test
-(seed §10, MATH.md §9): the lecture's numbers reproduced exactly at random generic states."""
+"""The count toward integrability (docs/theory.md §7) and the Frobenius test (docs/theory.md §9):
+the numbers of theory §7 reproduced exactly at random generic states."""
 
 from __future__ import annotations
 
@@ -28,7 +28,7 @@ def generic_chaplygin(rng, n):
     return ball, ball.initial_state(Omega=random_skew(rng, n), R=random_rotation(rng, n))
 
 
-# -- MATH.md §7: the lecture's reduction equations -------------------------------------------------
+# -- docs/theory.md §7: the reduction equations --------------------------------------------------------
 
 
 @pytest.mark.parametrize(
@@ -52,8 +52,8 @@ def test_euler_top_counts(rng, n, equation, rank, isotropy):
 def test_euler_top_4d_with_schottky_frahm_is_integrable(rng):
     top, y = generic_top(rng, 4)
     count = integrability_count(top, y, integrals="manakov")
-    # the lecture: 12 − 1 − 6 − 2 − 1 − 1 = 1 (Schottky's integral, then its Hamiltonian flow);
-    # MATH.md §7 writes the same as 12 − 8 − 2 − 1 = 1
+    # docs/theory.md §7: 12 − 1 − 6 − 2 − 1 − 1 = 1 (Schottky's integral, then its Hamiltonian flow),
+    # the same as 12 − 8 − 2 − 1 = 1
     assert count.equation() == "12 − 1 − 6 − 2 − 1 − 1 = 1"
     assert count.integrals == 8 and count.extra_integrals == 1
     assert 12 - 8 - 2 - 1 == count.result == 1
@@ -72,11 +72,11 @@ def test_chaplygin_ball_3d_count(rng):
     assert count.measure == 1 and count.isotropy == 2
 
 
-def test_chaplygin_ball_4d_count_and_the_lecture_arithmetic(rng):
+def test_chaplygin_ball_4d_count_and_its_arithmetic(rng):
     ball, y = generic_chaplygin(rng, 4)
     count = integrability_count(ball, y)
     assert count.terms() == [15, 1, 6, 3, 1]
-    # the lecture writes "15 − 1 − 6 − 3 − 1 = 3"; the terms it names sum to 4
+    # docs/theory.md §7: the source writes "15 − 1 − 6 − 3 − 1 = 3"; the terms it names sum to 4
     assert 15 - 1 - 6 - 3 - 1 == 4 != 3
     assert count.result == 4 and count.equation() == "15 − 1 − 6 − 3 − 1 = 4"
 
@@ -114,7 +114,7 @@ def test_particle_on_a_surface_of_revolution_count(n, equation):
         integrability_count(q, q.initial_state(position=[1.0, 0.0, 0.0]))
 
 
-def test_report_prints_the_lecture_form(rng, capsys):
+def test_report_prints_the_reduction_equation(rng, capsys):
     top, y = generic_top(rng, 3)
     integrability_count(top, y, verbose=True)
     out = capsys.readouterr().out
@@ -144,7 +144,7 @@ def test_numerical_rank_states_its_threshold():
     assert numerical_rank(M, 1e-10).rank == 3
 
 
-# -- MATH.md §9: holonomic or not -----------------------------------------------------------------
+# -- docs/theory.md §9: holonomic or not ------------------------------------------------------------
 
 
 def test_rolling_ball_is_nonholonomic():

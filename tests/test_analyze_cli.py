@@ -24,7 +24,7 @@ import lieint.cli
         ("atoms_top", "count toward integrability: not available", "admissible velocities 6, Lie brackets reach 6"),
     ],
 )
-def test_analyze_prints_the_lecture_form(scene, equation, holonomy, capsys):
+def test_analyze_prints_the_reduction_equation(scene, equation, holonomy, capsys):
     assert lieint.cli.main(["analyze", scene]) == 0
     out = capsys.readouterr().out
     assert equation in out and holonomy in out

@@ -1,4 +1,4 @@
-"""The rigid body as atoms (MATH.md §8): N atoms held by central reactions move as the Euler
+"""The rigid body as atoms (docs/theory.md §8): N atoms held by central reactions move as the Euler
 top with ``B = Σ mᵢ XᵢXᵢᵀ`` — an independent truth for EulerTop, compared at tight tolerance."""
 
 from __future__ import annotations
@@ -11,7 +11,7 @@ import lieint
 from lieint.groups.bivectors import wedge
 from lieint.systems.atoms import reaction_pairs
 
-#: (n, N, bound) — MATH.md §8 states 4e-13, 1e-9, 3e-12 over t = 2 for some bodies; both runs
+#: (n, N, bound) — both runs
 #: here are DOP853 at rtol = atol = 1e-13, which resolve the comparison to about 1e-12 for any body
 CASES = [(3, 6, 1e-12), (4, 7, 1e-12), (5, 9, 1e-12)]
 

@@ -33,7 +33,7 @@ def test_hat_is_cross_product_and_bivector_sign(rng):
     w, x = rng.normal(size=(2, 5, 3))
     np.testing.assert_allclose((hat(w) @ x[..., None])[..., 0], np.cross(w, x), atol=1e-14)
     np.testing.assert_allclose(vee(hat(w)), w)
-    # MATH.md §1: the bivector of ŵ is −(w₁ e₂∧e₃ + w₂ e₃∧e₁ + w₃ e₁∧e₂).
+    # docs/theory.md §1: the bivector of ŵ is −(w₁ e₂∧e₃ + w₂ e₃∧e₁ + w₃ e₁∧e₂).
     e = np.eye(3)
     w1 = np.array([0.7, -1.3, 2.1])
     expected = -(w1[0] * wedge(e[1], e[2]) + w1[1] * wedge(e[2], e[0]) + w1[2] * wedge(e[0], e[1]))

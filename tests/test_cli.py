@@ -14,25 +14,29 @@ def test_compare_prints_the_table_and_writes_files(tmp_path, capsys):
     code = main(["compare", "--methods", "rkmk4,rk4,scipy:DOP853", "--t-end", "5", "--out-dir", str(tmp_path)])
     assert code == 0
     out = capsys.readouterr().out
-    for word in (
-        "method",
-        "variant",
+    for word in (  # the table that fits a terminal
+        "method [variant]",
         "step/tol",
         "back end",
-        "CPU min [ms]",
-        "CPU med [ms]",
-        "wall min [ms]",
-        "wall med [ms]",
+        "CPU [ms]",
         "error",
-        "energy drift",
-        "Casimir drift",
+        "err/rtol",
+        "energy",
+        "Casimirs",
+        "scipy:DOP853 (proj.)",
         "numba threads 1",
         "error reached within a CPU budget",
     ):
         assert word in out
-    assert "exact (Jacobi elliptic, attitude by quadrature)" in out
+    assert "exact (Jacobi elliptic, attitude by quadrature)" in " ".join(out.split())  # wrapped at 118 columns
     for name in ("work_precision.csv", "work_precision.json", "work_precision.png", "long_run.png"):
         assert (tmp_path / name).stat().st_size > 100
+    assert (tmp_path / "work_precision_fixed_lie.png").exists() and (tmp_path / "work_precision_classical.png").exists()
+    argv = ["compare", "--methods", "rkmk4,scipy:DOP853", "--t-end", "2", "--repeats", "1", "--no-plots", "--wide"]
+    assert main([*argv, "--out-dir", str(tmp_path / "wide")]) == 0
+    wide = capsys.readouterr().out
+    for word in ("variant", "CPU min [ms]", "CPU med [ms]", "wall min [ms]", "wall med [ms]", "energy drift"):
+        assert word in wide
     rows = json.loads((tmp_path / "work_precision.json").read_text())["rows"]
     assert {r["method"] for r in rows} == {"rkmk4", "rk4", "scipy:DOP853"}
     assert {r["variant"] for r in rows if r["method"] == "scipy:DOP853"} == {"plain", "projected saves"}

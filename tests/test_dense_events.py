@@ -116,8 +116,8 @@ def test_first_ten_flips_of_the_dzhanibekov_top():
     exact = euler_top_flip_times([1.0, 2.0, 3.0], w0, 200.0)
     assert exact.size >= 10
     # rtol 1e-14: with DOP853's estimate the pair takes scipy's steps, and near the separatrix its
-    # energy error (the Casimir kept) shifts the flips ~15× more per rtol than DOP853's (the guide,
-    # "Adaptive steps and rtol"); 1e-12 gave 2.5e-7 s at the tenth flip
+    # energy error (the Casimir kept) shifts the flips ~15× more per rtol than DOP853's (docs/theory.md
+    # §13, docs/measurements/adaptive.md); 1e-12 gave 2.5e-7 s at the tenth flip
     sol = lieint.integrate(TOP, y0, (0.0, 200.0), method="rkmk853", rtol=1e-14, atol=1e-17, events=middle_axis_rate)
     found = sol.t_events[0]
     assert found.size == exact.size
@@ -191,11 +191,14 @@ def test_bad_events_are_refused():
         lieint.integrate(TOP, batch, (0.0, 1.0), h=0.1, events=lambda t, y: y["A"][..., 0, 1])
 
 
-def test_watched_runs_take_the_generic_path():
-    with pytest.raises(ValueError, match="`backend='numba'`: dense output, events and `t_eval`"):
-        lieint.integrate(TOP, Y0, (0.0, 1.0), h=0.1, backend="numba", dense_output=True)
-    sol = lieint.integrate(TOP, Y0, (0.0, 1.0), h=0.1, t_eval=[0.0, 0.5, 1.0])
-    assert sol.stats.backend == "numpy" and "watch every step" in sol.stats.backend_reason
-    # one extra generator evaluation per step for the interpolant's end
+def test_watched_runs_stay_compiled_and_evaluate_only_the_interpolants_they_use():
+    """Dense output, events and t_eval run on the compiled engine; the generic path's observer
+    evaluates ξ at every step's end (one per step), the engine's only at the ends of the steps
+    whose interpolant is asked for (here the two steps holding 0.45 and 1.0 is a step end)."""
+    sol = lieint.integrate(TOP, Y0, (0.0, 1.0), h=0.1, backend="numba", t_eval=[0.0, 0.45, 1.0])
+    assert sol.stats.backend == "numba"
     plain = lieint.integrate(TOP, Y0, (0.0, 1.0), h=0.1, backend="numpy")
-    assert sol.nfev == plain.nfev + plain.nsteps + 1
+    generic = lieint.integrate(TOP, Y0, (0.0, 1.0), h=0.1, backend="numpy", t_eval=[0.0, 0.45, 1.0])
+    assert generic.nfev == plain.nfev + plain.nsteps + 1  # one extra evaluation per step
+    assert sol.nfev == plain.nfev + 2  # the two ends of the one step interpolated
+    np.testing.assert_allclose(sol.states["A"], generic.states["A"], rtol=0, atol=1e-14)

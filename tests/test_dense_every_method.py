@@ -53,7 +53,7 @@ def run_kwargs(name: str, h: float) -> dict:
     if is_fixed(name):
         return {"h": h}
     # rkmk853 takes DOP853's steps; near the separatrix its energy error (the Casimir kept) shifts
-    # the flip ~10⁴× more per rtol (the guide, "Adaptive steps and rtol"): 1e-7 s at rtol 1e-9
+    # the flip ~10⁴× more per rtol (docs/measurements/adaptive.md): 1e-7 s at rtol 1e-9
     return {"rtol": 1e-11, "atol": 1e-14} if name == "rkmk853" else {"rtol": 1e-9, "atol": 1e-12}
 
 
@@ -124,8 +124,8 @@ def first_flip(name, h):
     y0 = TOP.initial_state(angular_velocity=W0)
     kwargs = run_kwargs(name, h)
     if name == "rkmk23+energy":
-        # 2.5× fewer steps than RK23 near the separatrix, as much error per rtol on A (the guide's
-        # table): 2.1e-8 s on this flip at rtol 1e-9, 2.4e-9 s at 1e-10
+        # 2.5× fewer steps than RK23 near the separatrix, as much error per rtol on A (the tables of
+        # docs/measurements/adaptive.md): 2.1e-8 s on this flip at rtol 1e-9, 2.4e-9 s at 1e-10
         kwargs = {"rtol": 1e-10, "atol": 1e-13}
     sol = lieint.integrate(TOP, y0, (0.0, 12.0), method=name, events=middle_axis_rate, **kwargs)
     assert sol.t_events[0].size == 1 and sol.t[-1] == sol.t_events[0][0]

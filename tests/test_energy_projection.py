@@ -1,6 +1,6 @@
 """Adaptive pairs that keep the energy on the group orbit (``rkmk23+energy``, ``rkmk45+energy``,
 ``rkmk853+energy``; :mod:`lieint.methods.energy_projection`): what they keep, the order they keep,
-and the tolerance proportionality they restore (the guide, "Adaptive steps and rtol")."""
+and the tolerance proportionality they restore (docs/measurements/adaptive.md)."""
 
 from __future__ import annotations
 
@@ -206,7 +206,7 @@ def test_the_commuting_part_of_the_top_s_generator():
     assert np.abs(A @ part - part @ A).max() < 1e-15
     assert np.abs(np.sum(rest * A, axis=(-2, -1))).max() < 1e-14
     lam = np.sum(part * A, axis=(-2, -1)) / np.sum(A * A, axis=(-2, -1))
-    # λ = ⟨Ω, A⟩/⟨A, A⟩ = −4T/|A|² (T = −¼⟨Ω, A⟩, MATH.md's sign convention)
+    # λ = ⟨Ω, A⟩/⟨A, A⟩ = −4T/|A|² (T = −¼⟨Ω, A⟩, the sign convention of docs/theory.md §1–§2)
     assert np.ptp(lam) < 1e-14
     assert lam[0] == pytest.approx(-4 * TOP.energy(A[0]) / np.sum(A[0] * A[0]), rel=1e-14)
 

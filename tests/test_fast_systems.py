@@ -137,7 +137,7 @@ def test_compiled_and_generic_agree_for_every_method(n, name):
             kw = dict(t_span=(0.0, 0.4), h=0.02, method=method, coordinates=coordinates, project=project)
             fast = lieint.integrate(system, y0, backend="numba", **kw)
             ref = lieint.integrate(system, y0, backend="numpy", **kw)
-            assert fast.stats.backend == "numba" and "Lie-group kernel" in fast.stats.backend_reason
+            assert fast.stats.backend == "numba" and "compiled pieces" in fast.stats.backend_reason
             for field, expected in ref.states.items():
                 scale = max(1.0, float(np.max(np.abs(expected))))
                 err = float(np.max(np.abs(fast.states[field] - expected))) / scale
@@ -284,15 +284,9 @@ class _Spinner(lieint.LieGroupSystem):
         return {"R": y["R"] @ xi}
 
     def compiled(self):
-        return {
-            "kind": "lie",
-            "pieces": self.pieces,
-            "params": np.concatenate([[3.0], _OMEGA0.ravel()]),
-            "n": 3,
-            "translation": False,
-            "abelian": 0,
-            "fields": self.fields,
-        }
+        from lieint.fast.forms import PiecesForm
+
+        return PiecesForm(self.pieces, np.concatenate([[3.0], _OMEGA0.ravel()]), 3, False, 0, self.fields)
 
 
 def test_a_system_outside_the_package_opts_in_with_its_own_pieces():
@@ -416,7 +410,7 @@ def test_the_adaptive_pairs_of_the_n_dimensional_top_run_compiled(n):
         kw = dict(t_span=(0.0, 2.0), method=method, rtol=1e-8, atol=1e-10, project=project)
         fast = lieint.integrate(system, state, backend="numba", **kw)
         ref = lieint.integrate(system, state, backend="numpy", **kw)
-        assert f"compiled {n}D-top kernel, adaptive" in fast.stats.backend_reason
+        assert f"{n}D top (principal frame), adaptive" in fast.stats.backend_reason
         steps = (fast.t.size, fast.stats.nrejected, fast.nfev)
         assert steps == (ref.t.size, ref.stats.nrejected, ref.nfev), method
         for field, expected in ref.states.items():
@@ -431,7 +425,7 @@ def test_cayley_coordinates_run_compiled_on_the_euler_top(n):
     rng = np.random.default_rng(20 + n)
     top = lieint.EulerTop(_spd(rng, n, 0.5, 1.5))
     y0 = initial(top, rng)
-    kernel = "Lie-group kernel on so(3)" if n == 3 else f"compiled {n}D-top kernel"
+    kernel = "compiled pieces on so(3)" if n == 3 else f"{n}D top (principal frame)"
     for kw in (dict(h=0.02, method="rkmk4"), dict(method="rkmk45", rtol=1e-8, atol=1e-10)):
         fast = lieint.integrate(top, y0, (0.0, 1.0), coordinates="cayley", backend="numba", **kw)
         ref = lieint.integrate(top, y0, (0.0, 1.0), coordinates="cayley", backend="numpy", **kw)

@@ -5,7 +5,7 @@ import pytest
 from conftest import random_rotation
 
 import lieint
-from lieint.fast import use_threads
+from lieint.fast.engine import use_threads
 
 
 def top3():

@@ -1,4 +1,4 @@
-"""Group axioms and the maps of MATH.md §6, for n = 2…6 and batch shapes."""
+"""Group axioms and the maps of docs/theory.md §6, for n = 2…6 and batch shapes."""
 
 import itertools
 

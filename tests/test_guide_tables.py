@@ -1,6 +1,6 @@
-"""Every row of the guide's work–precision tables can be produced by the command printed next to it.
+"""Every row of the documentation's work–precision tables can be produced by the command printed next to it.
 
-The tables (``docs/guide.md``, blocks ``<!-- study-table: ID -->``) are written by
+The tables (``docs/measurements/work_precision.md``, blocks ``<!-- study-table: ID -->``) are written by
 ``benchmarks/guide_tables.py``. Here each block's command is parsed by the real command-line
 parser and planned by the real study plan: every row shown must be a point of that plan (a
 subset check, so a method registered later does not break this test), and the cheap rows are
@@ -19,7 +19,7 @@ from lieint.study.measure import measure_point
 from lieint.study.reference import state_scale
 
 ROOT = Path(__file__).resolve().parents[1]
-GUIDE = ROOT / "docs" / "guide.md"
+PAGE = ROOT / "docs" / "measurements" / "work_precision.md"
 BLOCK = re.compile(r"<!-- study-table: (?P<id>[\w-]+) -->\n(?P<body>.*?)<!-- /study-table -->", re.S)
 SERIES = re.compile(r"^(?P<method>\S+)(?: \((?P<variant>[^)]+)\))? \[(?P<backend>[^\]]+)\]$")
 
@@ -33,7 +33,7 @@ def _script():
 
 def _blocks():
     out = []
-    for m in BLOCK.finditer(GUIDE.read_text(encoding="utf-8")):
+    for m in BLOCK.finditer(PAGE.read_text(encoding="utf-8")):
         body = m.group("body")
         command = re.search(r"`(lieint compare[^`]*)`", body)
         lines = [line for line in body.splitlines() if line.startswith("|")]
@@ -45,12 +45,12 @@ def _blocks():
 BLOCKS = _blocks()
 
 
-def test_the_guide_has_the_generated_tables_with_their_commands():
+def test_the_measurements_page_has_the_generated_tables_with_their_commands():
     script = _script()
     assert {tid for tid, _, _ in BLOCKS} == {tid for tid, _, _ in script.TABLES}
     commands = {tid: cmd for tid, cmd, _ in script.TABLES}
     for tid, command, cells in BLOCKS:
-        assert command == commands[tid], f"{tid}: the guide's command is not the one the script runs"
+        assert command == commands[tid], f"{tid}: the page's command is not the one the script runs"
         assert len(cells) >= 2, f"{tid}: no table under the command (run benchmarks/guide_tables.py --write)"
 
 

@@ -1,4 +1,4 @@
-"""Heavy top (MATH.md §3): Casimirs to round-off, energy at the method's order, named cases."""
+"""Heavy top (docs/theory.md §3): Casimirs to round-off, energy at the method's order, named cases."""
 
 import numpy as np
 import pytest

@@ -1,4 +1,4 @@
-"""Particles (MATH.md §10): bivector and trivector first integrals, the surface constraint kept
+"""Particles (docs/theory.md §10): bivector and trivector first integrals, the surface constraint kept
 by RATTLE, Verlet's and RATTLE's orders fitted against exact solutions and a tight reference."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Rolling balls (MATH.md §4) against truths that do not come from lieint."""
+"""Rolling balls (docs/theory.md §4) against truths that do not come from lieint."""
 
 import numpy as np
 import pytest

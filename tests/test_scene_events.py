@@ -45,7 +45,7 @@ def test_the_scene_records_each_flip_of_the_dzhanibekov_top():
     run = run_scene(parse_scene(FLIPS))
     exact = euler_top_flip_times([1.0, 2.0, 3.0], [0.01, 1.0, 0.01], 60.0)
     found = run.solution.t_events[0]
-    # rtol 1e-13 (not 1e-12) since rkmk853 takes DOP853's steps: see the guide, "Adaptive steps and rtol"
+    # rtol 1e-13 (not 1e-12) since rkmk853 takes DOP853's steps: see docs/measurements/adaptive.md
     assert found.size == exact.size == 3
     assert np.max(np.abs(found - exact)) <= 1e-8
 

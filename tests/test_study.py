@@ -82,18 +82,18 @@ def _point(scene_name, method, n, t_end=20.0, **scene_changes):
 
 
 def _kernel_declining_steps_above(monkeypatch, h_max: float) -> None:
-    """A compiled kernel that declines steps above ``h_max`` (the compiled 3D-top kernel itself
-    covers every step now): how the study sees a run the driver sends down the generic path."""
-    import lieint.fast
+    """A compiled engine that declines steps above ``h_max`` (the engine itself covers every
+    step): how the study sees a run the driver sends down the generic path."""
+    from lieint import driver, loops
 
-    kernel_for = lieint.fast.kernel_for
+    fixed_loop = loops.fixed_loop
 
-    def declining(system, method, y0, plan):
-        if plan.h > h_max:
-            return None, f"this kernel declines steps above {h_max}"
-        return kernel_for(system, method, y0, plan)
+    def declining(run, y0):
+        if run.plan.h > h_max:
+            return loops._FixedLoop(run, f"this kernel declines steps above {h_max}")
+        return fixed_loop(run, y0)
 
-    monkeypatch.setattr(lieint.fast, "kernel_for", declining)
+    monkeypatch.setattr(driver, "fixed_loop", declining)
 
 
 def test_a_fallback_to_the_generic_path_is_recorded_and_said(monkeypatch):

@@ -3,13 +3,13 @@ The rigid body as atoms
 =======================
 
 Seven atoms in four dimensions, held rigid by central reactions ``Rᵢ = Σₖ σᵢₖ (qₖ − qᵢ)``
-whose tensions σ are solved at each instant from the lecture's linear system (seed §7,
-MATH.md §8). Nothing in the atoms' equations knows about rotations, mass tensors or Lie
-algebras; yet they move as the Euler top with ``B = Σ mᵢ XᵢXᵢᵀ``.
+whose tensions σ are solved at each instant from a linear system (the theory, §8). Nothing in
+the atoms' equations knows about rotations, mass tensors or Lie algebras; yet they move as the
+Euler top with ``B = Σ mᵢ XᵢXᵢᵀ``.
 
 What to conclude: the atoms (DOP853 at 1e-13) and :class:`lieint.EulerTop` (DOP853 at 1e-13)
-agree to the accuracy of the two integrations (about 1e-11 here; MATH.md §8 states 1e-9 for
-its n = 4 body) — the atoms are an independent truth for the top's equations
+agree to the accuracy of the two integrations (about 1e-11 here) — the atoms are an
+independent truth for the top's equations
 ``Ȧ = [A, Ω]``, ``Ṙ = RΩ``. The reactions are central: their sum and their total torque
 ``Σ qᵢ ∧ Rᵢ`` vanish to round-off, while each reaction is of the size of the centripetal forces.
 """

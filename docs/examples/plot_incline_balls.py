@@ -2,9 +2,9 @@
 n-balls rolling down an incline
 ===============================
 
-Uniform solid balls in n = 2…5 dimensions released on a plane tilted by θ = π/6. The lecture
-gives the centre's acceleration down the slope as ``(n+2)/(n+4) · g sin θ`` (a rolling disk:
-2/3; the 3D ball: 5/7).
+Uniform solid balls in n = 2…5 dimensions released on a plane tilted by θ = π/6. The
+rolling-ball equation (*) (the theory, §4) gives the centre's acceleration down the slope as
+``(n+2)/(n+4) · g sin θ`` (a rolling disk: 2/3; the 3D ball: 5/7).
 
 What to conclude: RKMK4 reproduces the law in every dimension to about 1e-9 relative; the
 higher the dimension, the smaller the share of the rotational inertia and the faster the ball.

@@ -4,7 +4,7 @@ A particle on an egg: RATTLE and Clairaut's integral
 
 A particle slides without friction on the egg ``ρ² + z² + 0.3 z³ = 1`` (a surface of
 revolution about e₃ given by its profile) under gravity along the axis. The constraint force
-``λ∇h`` (MATH.md §10) and the force are both in the plane of ``q − C`` and e₃, so Clairaut's
+``λ∇h`` (the theory, §10) and the force are both in the plane of ``q − C`` and e₃, so Clairaut's
 trivector ``(q − C) ∧ q̇ ∧ e₃`` — the angular momentum about the axis — is a first integral
 (Newton, Principia I.55).
 

@@ -1,6 +1,6 @@
-"""Analyses of a system from the lecture's last sections: counting toward integrability
-(seed §9; :func:`integrability_count`) and the Frobenius test of a velocity constraint
-(seed §10; :func:`is_holonomic`)."""
+"""Analyses of a system: counting toward integrability (docs/theory.md §7;
+:func:`integrability_count`) and the Frobenius test of a velocity constraint (docs/theory.md §9;
+:func:`is_holonomic`)."""
 
 from .holonomy import Distribution, HolonomyResult, constraint_of, is_holonomic, rolling_constraint
 from .integrability import IntegrabilityCount, PhaseChart, integrability_count, phase_chart

@@ -1,4 +1,4 @@
-"""Holonomic or not: the Frobenius test of a velocity constraint (seed §10; MATH.md §9).
+"""Holonomic or not: the Frobenius test of a velocity constraint (docs/theory.md §9).
 
 A constraint ``L(x) ẋ = 0`` allows the velocities of the distribution ``D = ker L``. It is
 holonomic — the motion stays on a submanifold of dimension ``dim D``, which is then the true
@@ -221,13 +221,13 @@ def is_holonomic(
     return result
 
 
-# -- constraints of the lecture's systems -------------------------------------------------------------
+# -- constraints of the built-in systems (docs/theory.md §4, §9, §10) ------------------------------
 
 
 def rolling_constraint(
     n: int, radius: float = 1.0, R: ArrayLike | None = None, normal: ArrayLike | None = None
 ) -> Distribution:
-    """A ball of radius r rolling without sliding on a plane of Rⁿ (MATH.md §4, §9).
+    """A ball of radius r rolling without sliding on a plane of Rⁿ (docs/theory.md §4, §9).
 
     Configuration ``(R, p) ∈ SO(n) × plane`` (dimension ``n(n−1)/2 + n − 1``); admissible
     velocities ``Ṙ = RΩ``, ``ṗ = r R Ω Rᵀ ν`` for every body Ω ∈ so(n) (dimension

@@ -1,16 +1,16 @@
-"""Counting toward integrability (seed §9; MATH.md §7).
+"""Counting toward integrability (docs/theory.md §7).
 
-The lecture's reduction equation::
+The reduction equation::
 
     dim(phase space) − #independent first integrals − dim(isotropy) − (1 if an invariant measure)
 
 The integrals are counted by the rank of their Jacobian at the state (central differences in a
 chart of the phase space, rows normalised, SVD rank with a stated threshold), group by group in
-the order the lecture names them (energy, then the momentum components, then further
+the order docs/theory.md §7 names them (energy, then the momentum components, then further
 integrals). The isotropy is the dimension of the symmetries that keep the level set of the
 integrals: ``dim{ξ ∈ so(n) : [ξ, a] = 0}`` for the Euler top (rotations about the momentum
-bivector a), plus the translations of the plane for a rolling ball. Two conventions are the
-lecture's:
+bivector a), plus the translations of the plane for a rolling ball. Two conventions are those of
+docs/theory.md §7:
 
 * For a Hamiltonian system (the Euler top, a particle in a central field) the Liouville measure
   is not counted; each integral beyond energy and momentum decreases the count by two (itself
@@ -55,14 +55,14 @@ class PhaseChart:
     Attributes
     ----------
     name : str
-        The system as the lecture names it ("Euler top n = 3").
+        The system's name ("Euler top n = 3").
     dimension : int
         Dimension of the phase space.
     point : callable
         ``z ∈ R^dimension ↦ state`` (``z = 0``: the state), a chart of the phase space.
     integrals : dict
         Group name → ``f(state) -> array``: the first integrals, group by group ("energy",
-        "momentum a", …) in the order the lecture subtracts them.
+        "momentum a", …) in the order docs/theory.md §7 subtracts them.
     extra : dict
         Further integrals (e.g. Manakov's), counted after the isotropy.
     symmetry : str
@@ -73,7 +73,7 @@ class PhaseChart:
     hamiltonian : bool
         A symplectic structure (each extra integral brings its Hamiltonian flow).
     measure : bool
-        An invariant measure counted by the lecture (Chaplygin's).
+        An invariant measure counted as in docs/theory.md §7 (Chaplygin's).
     isotropy_description : str
         How the isotropy arises, for the report (may be empty).
     """
@@ -92,7 +92,7 @@ class PhaseChart:
 
 @dataclass(frozen=True)
 class IntegrabilityCount:
-    """The lecture's reduction equation at one state (see the module docstring).
+    """The reduction equation (docs/theory.md §7) at one state (see the module docstring).
 
     Attributes
     ----------
@@ -136,7 +136,7 @@ class IntegrabilityCount:
     isotropy_description: str = ""
 
     def terms(self) -> list[int]:
-        """The numbers of the reduction equation, as the lecture writes it."""
+        """The numbers of the reduction equation, as docs/theory.md §7 writes it."""
         out = [self.phase_dimension, *self.integral_ranks.values(), self.isotropy]
         if self.extra_integrals:
             out.append(self.extra_integrals)
@@ -159,7 +159,7 @@ class IntegrabilityCount:
         return "not enough reduced"
 
     def report(self) -> str:
-        """The lecture-form equation and the figures behind it."""
+        """The equation as docs/theory.md §7 writes it, and the figures behind it."""
         ranks = ", ".join(f"{name} {r}" for name, r in self.integral_ranks.items())
         jr, ir = self.jacobian_rank, self.isotropy_rank
         lines = [
@@ -210,7 +210,7 @@ def integrability_count(
     step: float = DIFFERENCE_STEP,
     verbose: bool = True,
 ) -> IntegrabilityCount:
-    """The lecture's count toward integrability at ``state`` (module docstring; MATH.md §7).
+    """The count toward integrability at ``state`` (module docstring; docs/theory.md §7).
 
     Parameters
     ----------
@@ -226,7 +226,7 @@ def integrability_count(
     step : float
         Central-difference step in the chart.
     verbose : bool, default True
-        Print the report in the lecture's form (the returned object's ``report()``).
+        Print the report in the form of docs/theory.md §7 (the returned object's ``report()``).
 
     Returns
     -------

@@ -1,6 +1,6 @@
 """Compiled pieces of the rolling balls for :mod:`lieint.fast.generic` (numba, cached on disk).
 
-The equations are the generic path's, in the lecture's notation (MATH.md §4–§5):
+The equations are the generic path's (docs/theory.md §4–§5):
 
 * Chaplygin ball, ``(Q, v)·(A_K, Γ, R, q) = (QᵀA_KQ, QᵀΓ, RQ, q + Rv)``,
   ``ξ = (Ω, rΩΓ)`` with ``A_K = −(B_K Ω + Ω B_K)``, ``B_K = B_C + M r² ΓΓᵀ``;
@@ -44,7 +44,7 @@ from .pieces import CompiledPieces
 from .products import mm_loops as mm
 from .products import mv
 
-__all__ = ["BALL_PIECES"]
+__all__ = ["CHAPLYGIN", "ROLLING_BALL"]
 
 
 # -- the balls ---------------------------------------------------------------------------------
@@ -241,9 +241,9 @@ def _ball_projection(y, par, out, work):
 
 
 #: the balls' pieces, by the name their systems' ``compiled()`` declares
-BALL_PIECES = {
-    "chaplygin_ball": CompiledPieces(
-        _chaplygin_generator, _chaplygin_action, _chaplygin_field, _chaplygin_projection, _chaplygin_work
-    ),
-    "rolling_ball": CompiledPieces(_ball_generator, _ball_action, _ball_field, _ball_projection, _ball_work),
-}
+#: the Chaplygin ball's pieces (:data:`lieint.fast.forms.BUILTIN_PIECES`)
+CHAPLYGIN = CompiledPieces(
+    _chaplygin_generator, _chaplygin_action, _chaplygin_field, _chaplygin_projection, _chaplygin_work
+)
+#: the rolling ball's pieces (:data:`lieint.fast.forms.BUILTIN_PIECES`)
+ROLLING_BALL = CompiledPieces(_ball_generator, _ball_action, _ball_field, _ball_projection, _ball_work)

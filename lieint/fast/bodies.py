@@ -3,7 +3,7 @@
 Each system's ``compiled()`` names its pieces (``"pieces": "heavy_top"``) and packs its
 parameters into one float vector whose first entries are ``n`` and the offsets of its fields
 in the flattened state; these functions read that layout. The equations are the generic
-path's, in the lecture's notation (MATH.md §3–§5):
+path's (docs/theory.md §3–§5):
 
 * Euler top, ``Q·(A, R) = (QᵀAQ, RQ)``, ``ξ = Ω(A)`` (its adaptive pairs for n ≥ 4);
 * heavy top, ``(Q, v)·(A, Γ, R) = (Qᵀ(A + v∧Γ)Q, QᵀΓ, RQ)``, ``ξ = (Ω(A), M X_G)``;
@@ -22,7 +22,6 @@ import numpy as np
 from numba import njit
 
 from ._jit import NO_REFCOUNT
-from .balls import BALL_PIECES
 from .flat import (
     conj_flat_into,
     copy_into,
@@ -40,7 +39,7 @@ from .pieces import CompiledPieces
 from .products import mm_loops as mm
 from .products import mv
 
-__all__ = ["PIECES"]
+__all__ = ["EULER_TOP", "FREE_BODY", "HEAVY_TOP"]
 
 # -- the rigid body with constant B: heavy top and free body ------------------------------------
 # params: n, oR, ident, P (n²), M = −1/(b_i + b_j) (n², 0 on the diagonal), then the system's own
@@ -238,10 +237,9 @@ def _free_projection(y, par, out, work):
     project_pose(y, out, int(par[1]), -1, n, np.empty(0), 0.0)
 
 
-#: the built-in systems' pieces, by the name their ``compiled()`` declares
-PIECES = {
-    "euler_top": CompiledPieces(_top_generator, _top_action, _top_field, _top_projection, _body_work),
-    "heavy_top": CompiledPieces(_heavy_generator, _heavy_action, _heavy_field, _heavy_projection, _body_work),
-    "free_body": CompiledPieces(_free_generator, _free_action, _free_field, _free_projection, _body_work),
-    **BALL_PIECES,
-}
+#: the Euler top's pieces (its Cayley coordinates in 3D; :data:`lieint.fast.forms.BUILTIN_PIECES`)
+EULER_TOP = CompiledPieces(_top_generator, _top_action, _top_field, _top_projection, _body_work)
+#: the heavy top's pieces
+HEAVY_TOP = CompiledPieces(_heavy_generator, _heavy_action, _heavy_field, _heavy_projection, _body_work)
+#: the free body's pieces
+FREE_BODY = CompiledPieces(_free_generator, _free_action, _free_field, _free_projection, _body_work)

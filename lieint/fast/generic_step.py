@@ -5,7 +5,7 @@ state (numba, cached on disk).
 :func:`lie_step` and :func:`move` take their work arrays from :func:`step_work` (allocated once
 per run and thread); :data:`lie_step_uncounted` and :data:`move_uncounted` are their copies
 without reference counts, for Cayley coordinates at every n and exponential coordinates at
-n = 3; :func:`step_either` and :func:`move_either` pick one. The algebra is
+n = 3 (the form's ``rkmk_uncounted`` family, :mod:`lieint.fast.generic`). The algebra is
 :mod:`lieint.fast.se_algebra`'s.
 """
 
@@ -24,7 +24,7 @@ from .se_algebra import (
     out_of_range_3,
 )
 
-__all__ = ["lie_step", "lie_step_uncounted", "move", "move_either", "move_uncounted", "step_either", "step_work"]
+__all__ = ["lie_step", "lie_step_uncounted", "move", "move_uncounted", "step_work"]
 
 
 @njit(cache=True, **NO_REFCOUNT)
@@ -111,28 +111,6 @@ _UNCOUNTED = compiled_copies(
     **NO_REFCOUNT,
 )
 lie_step_uncounted, move_uncounted = _UNCOUNTED["lie_step"], _UNCOUNTED["move"]
-
-
-@njit(cache=True, inline="always")
-def step_either(
-    uncounted, gen, act, y, par, nv, tab, b, h, coeffs, KW, Kv, Ka, y_stage, y1, cayley, S, Sv, ua, aug, work
-):
-    """:func:`lie_step`, or its copy without reference counts when ``uncounted`` (Cayley
-    coordinates, or n = 3)."""
-    if uncounted:
-        return lie_step_uncounted(
-            gen, act, y, par, nv, tab, b, h, coeffs, KW, Kv, Ka, y_stage, y1, cayley, S, Sv, ua, aug, work
-        )
-    return lie_step(gen, act, y, par, nv, tab, b, h, coeffs, KW, Kv, Ka, y_stage, y1, cayley, S, Sv, ua, aug, work)
-
-
-@njit(cache=True, inline="always")
-def move_either(uncounted, act, y, par, nv, KW, Kv, Ka, w, h, out, cayley, S, Sv, ua, aug, work):
-    """:func:`move`, or its copy without reference counts when ``uncounted``."""
-    if uncounted:
-        move_uncounted(act, y, par, nv, KW, Kv, Ka, w, h, out, cayley, S, Sv, ua, aug, work)
-    else:
-        move(act, y, par, nv, KW, Kv, Ka, w, h, out, cayley, S, Sv, ua, aug, work)
 
 
 @njit(cache=True)

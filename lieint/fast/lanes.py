@@ -32,13 +32,13 @@ line that then bounced between the cores: two threads were 20–30 % slower per 
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
 
 from . import LANES_BLOCK
 from .fused import fma
 from .quaternions import rotation_into
 
-__all__ = ["run_lanes"]
+__all__ = ["NAMESPACES", "block_lanes", "blocks_from_state", "blocks_to_user", "increments_to_user"]
 
 _BLOCK = LANES_BLOCK
 #: the row length of the block's arrays: the block and 8 doubles (64 bytes) of padding
@@ -207,194 +207,232 @@ def _finish_lane(u, P, qb, ca, cb, ch, sh, project, l):
     qb[0, l], qb[1, l], qb[2, l], qb[3, l] = r0, r1, r2, r3
 
 
+# -- the lanes as a block form of the one compiled loop (lieint.fast.loop) ---------------------------
+# A unit of the loop is a block of L lanes (L = d/7 − 8, chosen per run: 128, or fewer for a small
+# ensemble, a multiple of 8): y = (Π (3 rows), q (4 rows)), each row of L + 8 doubles (8 of padding).
+# Lanes beyond the ensemble hold Π = 0, q = 1 (harmless: nothing moves them); the rows the loop
+# saves are the blocks as they are, turned into the user's A and R by :func:`blocks_to_user`.
+# par = (I⁻¹ (3), P (9), orientation, identity frame), as the per-body form's.
+
+
+@njit(cache=True, inline="always")
+def _block_views(y, row):
+    return y[: 3 * row].reshape((3, row)), y[3 * row : 7 * row].reshape((4, row))
+
+
 @njit(cache=True)
-def _save_rows(row, l0, L, P, qb, frame, identity, out_A, out_R):
-    """Row ``row`` of the user's states for the block's lanes: ``A = −(frame Π)^`` (the
-    principal frame's ``P(−Π̂)Pᵀ``, exactly skew) and, when ``out_R`` holds bodies,
-    ``R = R(q) frameᵀ`` (:func:`lieint.fast.quaternions.rotation_into`); written where the rows
-    are kept, so no array of quaternions or momenta is kept for the conversion after the run."""
-    orient = out_R.shape[1] > 0
-    for l in range(L):
-        m = l0 + l
-        x, y, z = P[0, l], P[1, l], P[2, l]
-        if not identity:
-            x, y, z = (
-                frame[0, 0] * P[0, l] + frame[0, 1] * P[1, l] + frame[0, 2] * P[2, l],
-                frame[1, 0] * P[0, l] + frame[1, 1] * P[1, l] + frame[1, 2] * P[2, l],
-                frame[2, 0] * P[0, l] + frame[2, 1] * P[1, l] + frame[2, 2] * P[2, l],
-            )
-        A = out_A[row, m]
-        A[0, 0], A[0, 1], A[0, 2] = 0.0, z, -y
-        A[1, 0], A[1, 1], A[1, 2] = -z, 0.0, x
-        A[2, 0], A[2, 1], A[2, 2] = y, -x, 0.0
-        if not orient:
-            continue
-        R = out_R[row, m]
-        rotation_into(qb[0, l], qb[1, l], qb[2, l], qb[3, l], R)
-        if not identity:
-            for i in range(3):
-                r0, r1, r2 = R[i, 0], R[i, 1], R[i, 2]
-                for j in range(3):
-                    R[i, j] = r0 * frame[j, 0] + r1 * frame[j, 1] + r2 * frame[j, 2]
+def block_prepare(ctx):
+    return ctx
+
+
+@njit(cache=True)
+def block_scratch(fx, meth, par, d):
+    """The stage slopes K (s, 3, row), u, t, the coefficients' rows and private copies of the
+    shared parameters: a view of an array shared between threads counts references on one cache
+    line that then bounces between the cores at every stage (measured: 20–30 % of a two-thread
+    run)."""
+    row = d // 7
+    s = meth.b.shape[0]
+    return (
+        np.zeros((s, 3, row)), np.zeros((3, row)), np.zeros((3, row)), np.zeros(row), np.zeros(row), np.zeros(row),
+        np.zeros(row), par[0:3].copy(), meth.A.copy(), meth.b.reshape((1, s)).copy(), meth.coeffs.copy(),
+    )  # fmt: skip
 
 
 @njit(cache=True, error_model="numpy")  # no Python division checks: they would stop the SIMD passes
-def _lanes_block(
-    blk, pi, q, Iinv, A, b, c, coeffs, h, h_last, k_from, k_to, nsteps, save_steps, project, frame, identity, first,
-    out_A, out_R,
-):  # fmt: skip
-    """Block ``blk`` of lanes over steps k_from < k ≤ k_to; returns -1 or the step at which a
-    stage increment reached the dexp⁻¹ radius ``|u| = 2π`` (the block stops there). The
-    user's rows (:func:`_save_rows`) go to ``out_A``, ``out_R``: the starting state first when
-    ``first`` is 1, then the state after each step of ``save_steps``.
+def block_step(fx, y, par, meth, h, y1, inc, aux, scr):
+    """One RKMK step (exponential coordinates) of every lane of a block.
 
     Each pass over the lanes is a loop of local arithmetic writing one or two arrays, so that
     it compiles to SIMD instructions; lanes beyond θ = 0.1 (rare: coarse steps) are redone in
     scalar passes with trigonometric coefficients. Every lane's arithmetic is the same in both
-    (strict IEEE, same expressions), so a body's result does not depend on its neighbours."""
-    # private copies of the shared parameters (b as one row): the views and calls below count
-    # references on their arrays, and counts on arrays shared between threads would bounce one
-    # cache line between the cores at every stage (measured: 20-30 % of a two-thread run)
-    Iinv, A, b, coeffs = Iinv.copy(), A.copy(), b.reshape((1, b.shape[0])).copy(), coeffs.copy()
-    N = pi.shape[1]
+    (strict IEEE, same expressions), so a body's result does not depend on its neighbours.
+    ``inc`` receives the increments U (3 rows), ``aux[0]`` the largest ``|w|²`` of the block."""
+    K, u, tt, ca, cb, ch, sh = scr[0], scr[1], scr[2], scr[3], scr[4], scr[5], scr[6]
+    Iinv, A, b, coeffs = scr[7], scr[8], scr[9], scr[10]
+    d = y.shape[0]
+    row = d // 7
+    L = row - 8
+    for i in range(d):
+        y1[i] = y[i]
+    P, qb = _block_views(y1, row)
     s = b.shape[1]
     degree = coeffs.shape[0] - 1
-    status = -1
-    l0 = blk * _BLOCK
-    L = min(_BLOCK, N - l0)
-    K = np.zeros((s, 3, _ROW))
-    u = np.zeros((3, _ROW))
-    tt = np.zeros((3, _ROW))
-    ca = np.zeros(_ROW)
-    cb = np.zeros(_ROW)
-    ch = np.zeros(_ROW)
-    sh = np.zeros(_ROW)
-    P = np.zeros((3, _ROW))
-    qb = np.zeros((4, _ROW))
-    for i in range(3):
-        for l in range(L):
-            P[i, l] = pi[i, l0 + l]
-    for i in range(4):
-        for l in range(L):
-            qb[i, l] = q[i, l0 + l]
-    if first:
-        _save_rows(0, l0, L, P, qb, frame, identity, out_A, out_R)
-    slot = 0
     bad = False
-    for k in range(k_from, k_to):
-        hk = h if k < nsteps - 1 else h_last
-        for st in range(s):
-            nonzero = _combine(u, K, A, st, hk, st, L)
-            if not nonzero:
-                for d in range(3):
-                    for l in range(L):
-                        K[st, d, l] = Iinv[d] * P[d, l]
-                continue
-            # one fused pass: Rodrigues' coefficients, Π_i = exp(−û)Π = Π − a u×Π + b u×(u×Π),
-            # ξ = I⁻¹Π_i and, for degree 2 (RKMK4), k = ξ + c₁(−u)×ξ + c₂(−u)×((−u)×ξ)
-            if degree == 2:
-                nlarge = _stage_pass(u, P, Iinv, coeffs[1], coeffs[2], 2, K, st, ca, cb, L)
-            else:
-                nlarge = _stage_pass(u, P, Iinv, 0.0, 0.0, 0, K, st, ca, cb, L)
-            if nlarge:  # rare: lanes beyond θ = 0.1 get trigonometric coefficients
-                c1, c2 = (coeffs[1], coeffs[2]) if degree == 2 else (0.0, 0.0)
+    for st in range(s):
+        nonzero = _combine(u, K, A, st, h, st, L)
+        if not nonzero:
+            for dd in range(3):
                 for l in range(L):
-                    bad |= _norm2(u, l) >= _RADIUS2
-                if bad:  # a stage left the dexp⁻¹ radius: the run stops here (as the generic path)
-                    break
-                for l in range(L):
-                    t2 = _norm2(u, l)
-                    if t2 >= 1e-2:
-                        th = np.sqrt(t2)
-                        _stage_lane(u, P, Iinv, np.sin(th) / th, (1.0 - np.cos(th)) / t2, K, st, l)
-                        if degree == 2:
-                            _dexpinv2_lane(u, c1, c2, K, st, l)
-            if degree != 2:
-                for d in range(3):
-                    for l in range(L):
-                        tt[d, l] = K[st, d, l]
-                for dd in range(1, degree + 1):
-                    cf = coeffs[dd]
-                    for l in range(L):
-                        # ad_{−u} t = (−u) × t = t × u
-                        n0, n1, n2 = _cross(tt[0, l], tt[1, l], tt[2, l], u[0, l], u[1, l], u[2, l])
-                        tt[0, l], tt[1, l], tt[2, l] = n0, n1, n2
-                        K[st, 0, l] = fma(cf, n0, K[st, 0, l])
-                        K[st, 1, l] = fma(cf, n1, K[st, 1, l])
-                        K[st, 2, l] = fma(cf, n2, K[st, 2, l])
-        if bad:
-            status = k
-            break
-        # U = h Σ b_j K_j; Π ← exp(−Û)Π; q ← q ⊗ exp(Û) (R ← R exp(Û))
-        _combine(u, K, b, 0, hk, s, L)
-        nlarge = 0
-        for l in range(L):
-            nlarge += _finish_coefficients(u, ca, cb, ch, sh, False, l)
-        if nlarge:  # rare: a step beyond θ = 0.1
-            for l in range(L):
-                _finish_coefficients(u, ca, cb, ch, sh, True, l)
-        if project:
-            for l in range(L):
-                _finish_lane(u, P, qb, ca, cb, ch, sh, True, l)
+                    K[st, dd, l] = Iinv[dd] * P[dd, l]
+            continue
+        # one fused pass: Rodrigues' coefficients, Π_i = exp(−û)Π = Π − a u×Π + b u×(u×Π),
+        # ξ = I⁻¹Π_i and, for degree 2 (RKMK4), k = ξ + c₁(−u)×ξ + c₂(−u)×((−u)×ξ)
+        if degree == 2:
+            nlarge = _stage_pass(u, P, Iinv, coeffs[1], coeffs[2], 2, K, st, ca, cb, L)
         else:
+            nlarge = _stage_pass(u, P, Iinv, 0.0, 0.0, 0, K, st, ca, cb, L)
+        if nlarge:  # rare: lanes beyond θ = 0.1 get trigonometric coefficients
+            c1, c2 = (coeffs[1], coeffs[2]) if degree == 2 else (0.0, 0.0)
             for l in range(L):
-                _finish_lane(u, P, qb, ca, cb, ch, sh, False, l)
-        if slot < save_steps.shape[0] and save_steps[slot] == k + 1:
-            _save_rows(first + slot, l0, L, P, qb, frame, identity, out_A, out_R)
-            slot += 1
-    for i in range(3):
+                bad |= _norm2(u, l) >= _RADIUS2
+            if bad:  # a stage left the dexp⁻¹ radius: the block stops here (as the generic path)
+                return -1
+            for l in range(L):
+                t2 = _norm2(u, l)
+                if t2 >= 1e-2:
+                    th = np.sqrt(t2)
+                    _stage_lane(u, P, Iinv, np.sin(th) / th, (1.0 - np.cos(th)) / t2, K, st, l)
+                    if degree == 2:
+                        _dexpinv2_lane(u, c1, c2, K, st, l)
+        if degree != 2:
+            for dd in range(3):
+                for l in range(L):
+                    tt[dd, l] = K[st, dd, l]
+            for deg in range(1, degree + 1):
+                cf = coeffs[deg]
+                for l in range(L):
+                    # ad_{−u} t = (−u) × t = t × u
+                    n0, n1, n2 = _cross(tt[0, l], tt[1, l], tt[2, l], u[0, l], u[1, l], u[2, l])
+                    tt[0, l], tt[1, l], tt[2, l] = n0, n1, n2
+                    K[st, 0, l] = fma(cf, n0, K[st, 0, l])
+                    K[st, 1, l] = fma(cf, n1, K[st, 1, l])
+                    K[st, 2, l] = fma(cf, n2, K[st, 2, l])
+    largest = 0.0
+    for l in range(L):
+        w2 = K[0, 0, l] * K[0, 0, l] + K[0, 1, l] * K[0, 1, l] + K[0, 2, l] * K[0, 2, l]
+        largest = max(largest, w2)
+    aux[0] = largest
+    # U = h Σ b_j K_j; Π ← exp(−Û)Π; q ← q ⊗ exp(Û) (R ← R exp(Û))
+    _combine(u, K, b, 0, h, s, L)
+    nlarge = 0
+    for l in range(L):
+        nlarge += _finish_coefficients(u, ca, cb, ch, sh, False, l)
+    if nlarge:  # rare: a step beyond θ = 0.1
         for l in range(L):
-            pi[i, l0 + l] = P[i, l]
-    for i in range(4):
-        for l in range(L):
-            q[i, l0 + l] = qb[i, l]
-    return status
-
-
-@njit(cache=True, parallel=True)
-def _lanes_parallel(
-    pi, q, Iinv, A, b, c, coeffs, h, h_last, k_from, k_to, nsteps, save_steps, project, frame, identity, first,
-    out_A, out_R,
-):  # fmt: skip
-    nblocks = (pi.shape[1] + _BLOCK - 1) // _BLOCK
-    status = np.empty(nblocks, dtype=np.int64)
-    for blk in prange(nblocks):
-        status[blk] = _lanes_block(
-            blk, pi, q, Iinv, A, b, c, coeffs, h, h_last, k_from, k_to, nsteps, save_steps, project, frame, identity,
-            first, out_A, out_R,
-        )  # fmt: skip
-    return status
+            _finish_coefficients(u, ca, cb, ch, sh, True, l)
+    for l in range(L):
+        _finish_lane(u, P, qb, ca, cb, ch, sh, False, l)
+    if inc.shape[0] >= 3 * row:
+        for dd in range(3):
+            for l in range(row):
+                inc[dd * row + l] = u[dd, l] if l < L else 0.0
+    return s
 
 
 @njit(cache=True)
-def _lanes_serial(
-    pi, q, Iinv, A, b, c, coeffs, h, h_last, k_from, k_to, nsteps, save_steps, project, frame, identity, first,
-    out_A, out_R,
-):  # fmt: skip
-    nblocks = (pi.shape[1] + _BLOCK - 1) // _BLOCK
-    status = np.empty(nblocks, dtype=np.int64)
-    for blk in range(nblocks):
-        status[blk] = _lanes_block(
-            blk, pi, q, Iinv, A, b, c, coeffs, h, h_last, k_from, k_to, nsteps, save_steps, project, frame, identity,
-            first, out_A, out_R,
-        )  # fmt: skip
-    return status
+def block_project(fx, y, par, out, scr):
+    """Every lane's quaternion onto the unit sphere: the exact projection of its rotation."""
+    d = y.shape[0]
+    row = d // 7
+    for i in range(d):
+        out[i] = y[i]
+    qb = _block_views(out, row)[1]
+    for l in range(row - 8):
+        r0, r1, r2, r3 = qb[0, l], qb[1, l], qb[2, l], qb[3, l]
+        n = 1.0 / np.sqrt(fma(r3, r3, fma(r2, r2, fma(r1, r1, r0 * r0))))
+        qb[0, l], qb[1, l], qb[2, l], qb[3, l] = r0 * n, r1 * n, r2 * n, r3 * n
 
 
-def run_lanes(
-    pi, q, Iinv, A, b, c, coeffs, h, h_last, k_from, k_to, nsteps, save_steps, project, frame, identity, first,
-    out_A, out_R, parallel,
-):  # fmt: skip
-    """RKMK (exp coordinates) on bodies in lanes. ``pi`` (3, N) and the quaternions ``q`` (4, N)
-    are updated in place; the user's states ``A`` and ``R`` (``frame``: the principal frame P,
-    ``identity`` when it is I) go to ``out_A`` and ``out_R`` (rows, N, 3, 3) — the starting state
-    as row 0 when ``first`` is 1, then the state after each listed global save step; ``out_R``
-    of shape (rows, 0, 3, 3) keeps no attitude. Blocks of lanes run in threads when
-    ``parallel``. Returns -1, or the first step at which a stage left the dexp⁻¹ radius."""
-    run = _lanes_parallel if parallel else _lanes_serial
-    status = run(
-        pi, q, Iinv, A, b, c, coeffs, h, h_last, k_from, k_to, nsteps, save_steps, project, frame, bool(identity),
-        int(first), out_A, out_R,
-    )  # fmt: skip
-    bad = status[status >= 0]
-    return int(bad.min()) if bad.size else -1
+@njit(cache=True)
+def block_radius2(fx, y, par, scr):
+    """The largest ``|w|²`` of the block's lanes."""
+    row = y.shape[0] // 7
+    P = y[: 3 * row].reshape((3, row))
+    largest = 0.0
+    for l in range(row - 8):
+        w0, w1, w2 = par[0] * P[0, l], par[1] * P[1, l], par[2] * P[2, l]
+        largest = max(largest, w0 * w0 + w1 * w1 + w2 * w2)
+    return largest
+
+
+#: the names of :mod:`lieint.fast.loop` this form binds (fixed-step RKMK in exponential coordinates)
+NAMESPACES = {
+    "rkmk": {
+        "prepare": block_prepare,
+        "scratch": block_scratch,
+        "step": block_step,
+        "project": block_project,
+        "radius2": block_radius2,
+    }
+}
+
+
+def block_lanes(N: int) -> int:
+    """Lanes per block for an ensemble of N bodies: :data:`LANES_BLOCK`, or N rounded up to a
+    multiple of 8 when that is fewer."""
+    return min(_BLOCK, -(-N // 8) * 8)
+
+
+@njit(cache=True)
+def _to_blocks(pi, q, L, Y):
+    """Blocks of L lanes ``Y`` (nblocks, 7 (L + 8)) from ``Π`` (N, 3) and quaternions (4, N)."""
+    row = L + 8
+    N = pi.shape[0]
+    for blk in range(Y.shape[0]):
+        for l in range(row):
+            m = blk * L + l
+            real = l < L and m < N
+            for i in range(3):
+                Y[blk, i * row + l] = pi[m, i] if real else 0.0
+            for i in range(4):
+                Y[blk, (3 + i) * row + l] = q[i, m] if real else (1.0 if i == 0 else 0.0)
+
+
+@njit(cache=True)
+def _from_blocks(Y, L, N, P, identity, orient, out_A, out_R):
+    """The user's A (and R) of rows of blocks ``Y`` (m, nblocks, d) into ``out_A``, ``out_R``
+    (m, N, 3, 3): ``A = −(P Π)^``, ``R = R(q) Pᵀ``."""
+    row = L + 8
+    for r in range(Y.shape[0]):
+        for m in range(N):
+            blk, l = m // L, m % L
+            y = Y[r, blk]
+            p0, p1, p2 = y[l], y[row + l], y[2 * row + l]
+            x, yy, z = p0, p1, p2
+            if not identity:
+                x = P[0, 0] * p0 + P[0, 1] * p1 + P[0, 2] * p2
+                yy = P[1, 0] * p0 + P[1, 1] * p1 + P[1, 2] * p2
+                z = P[2, 0] * p0 + P[2, 1] * p1 + P[2, 2] * p2
+            A = out_A[r, m]
+            A[0, 0], A[0, 1], A[0, 2] = 0.0, z, -yy
+            A[1, 0], A[1, 1], A[1, 2] = -z, 0.0, x
+            A[2, 0], A[2, 1], A[2, 2] = yy, -x, 0.0
+            if not orient:
+                continue
+            R = out_R[r, m]
+            rotation_into(y[3 * row + l], y[4 * row + l], y[5 * row + l], y[6 * row + l], R)
+            if not identity:
+                for i in range(3):
+                    r0, r1, r2 = R[i, 0], R[i, 1], R[i, 2]
+                    for j in range(3):
+                        R[i, j] = r0 * P[j, 0] + r1 * P[j, 1] + r2 * P[j, 2]
+
+
+def blocks_from_state(pi, q, N: int) -> np.ndarray:
+    """The blocks of an ensemble of N bodies (``Π`` (N, 3) in the principal frame, quaternions
+    (4, N) of ``R P``)."""
+    L = block_lanes(N)
+    Y = np.empty((-(-N // L), 7 * (L + 8)))
+    _to_blocks(np.ascontiguousarray(pi), np.ascontiguousarray(q), L, Y)
+    return Y
+
+
+def blocks_to_user(Y, N: int, P, identity: bool, orientation: bool):
+    """``(A, R)`` of rows of blocks (m, nblocks, d) as ``(m, N, 3, 3)`` arrays (R None without
+    orientation)."""
+    L = Y.shape[-1] // 7 - 8
+    rows = np.ascontiguousarray(Y).reshape(-1, *Y.shape[-2:])
+    out_A = np.empty((rows.shape[0], N, 3, 3))
+    out_R = np.empty((rows.shape[0], N if orientation else 0, 3, 3))
+    _from_blocks(rows, L, N, np.ascontiguousarray(P, dtype=float), bool(identity), bool(orientation), out_A, out_R)
+    return out_A, (out_R if orientation else None)
+
+
+def increments_to_user(U, N: int, P, identity: bool):
+    """The increments of rows of blocks (m, nblocks, 3 row) as the user's vectors (m, N, 3)."""
+    row = U.shape[-1] // 3
+    L = row - 8
+    u = U.reshape(U.shape[0], -1, 3, row)[..., :L]  # (m, blocks, 3, L)
+    u = np.moveaxis(u, 2, -1).reshape(U.shape[0], -1, 3)[:, :N]
+    return u if identity else u @ np.asarray(P).T

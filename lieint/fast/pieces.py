@@ -60,9 +60,16 @@ class CompiledPieces:
     @cached_property
     def functions(self) -> tuple:
         """The four pieces as first-class function values, resolved once (:class:`_Piece`)."""
-        signatures = (GENERATOR, ACTION, FIELD, FIELD)
-        pieces = (self.generator, self.action, self.vector_field, self.projection)
-        return tuple(_Piece(f, sig) for f, sig in zip(pieces, signatures, strict=True))
+        return tuple(self.piece(i) for i in range(4))
+
+    def piece(self, i: int):
+        """Piece i (generator, action, vector field, projection) as a first-class function value,
+        compiled for its signature on first use and kept."""
+        cache = self.__dict__.setdefault("_pieces", {})
+        if i not in cache:
+            function = (self.generator, self.action, self.vector_field, self.projection)[i]
+            cache[i] = _Piece(function, (GENERATOR, ACTION, FIELD, FIELD)[i])
+        return cache[i]
 
     @cached_property
     def bundle(self) -> PiecesBundle:
@@ -71,6 +78,22 @@ class CompiledPieces:
         each first-class function argument costs ~3.5 µs per call (numba unpickles its signature
         twice to look up its addresses)."""
         return _bundle(*self.functions)
+
+    def bundle_for(self, field: bool, projection: bool) -> PiecesBundle:
+        """:attr:`bundle` with only the pieces a run calls compiled: the vector field (classical
+        RK, an adaptive run's first trial step) when ``field``, the projection when
+        ``projection``; the others are stand-ins that write NaN (a call the run was not to make
+        shows, it does not pass). A cold first run of a system compiles a third less."""
+        if field and projection:
+            return self.bundle
+        key = (field, projection)
+        cache = self.__dict__.setdefault("_partial_bundles", {})
+        if key not in cache:
+            unused = _Piece(_unused_field, FIELD)
+            vector_field = self.piece(2) if field else unused
+            projector = self.piece(3) if projection else unused
+            cache[key] = _bundle(self.piece(0), self.piece(1), vector_field, projector)
+        return cache[key]
 
 
 class _Piece:
@@ -125,6 +148,13 @@ BUNDLE = _BundleType(
         ("projection", types.FunctionType(FIELD)),
     ]
 )
+
+
+@njit(FIELD, cache=True)
+def _unused_field(y, params, out, work):
+    """The stand-in of a piece a run does not call: NaN out (see :meth:`CompiledPieces.bundle_for`)."""
+    for i in range(out.shape[0]):
+        out[i] = np.nan
 
 
 @njit(BUNDLE(*BUNDLE.field_dict.values()), cache=True)

@@ -20,9 +20,9 @@ path remains the reference: ``tests/test_fast.py`` checks that they agree to rou
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
 
-__all__ = ["integrate_top3", "largest_rate", "minus_hat", "minus_vee"]
+__all__ = ["NAMESPACES", "minus_hat", "minus_vee"]
 
 # (2π)²: the dexp⁻¹ series of so(3) converges for |u| < 2π (the spectral radius of ad_u is |u|)
 _RADIUS2 = (2.0 * np.pi) ** 2
@@ -229,152 +229,178 @@ def _gram3(R, tmp):
 
 
 @njit(cache=True)
-def _run_body(
-    n,
-    pi0,
-    R0,
-    Iinv,
-    A,
-    b,
-    coeffs,
-    lie,
-    h,
-    h_last,
-    k_from,
-    k_to,
-    nsteps,
-    save_steps,
-    project,
-    out_pi,
-    out_R,
-    fin_pi,
-    fin_R,
-):
-    """Steps k_from < k ≤ k_to of body n on the global grid (the last global step has size
-    h_last); states after the steps listed in save_steps go to out_*, the state after k_to to
-    fin_*. Returns -1, or the step k at which a stage left the dexp⁻¹ radius (the run stops)."""
-    s = b.shape[0]
-    pi = pi0[n].copy()
-    R = R0[n].copy()
-    K = np.zeros((s, 3))
-    KR = np.zeros((s, 3, 3))
-    u = np.zeros(3)
-    Q = np.zeros((3, 3))
-    tpi = np.zeros(3)
-    tR = np.zeros((3, 3))
-    slot = 0
-    status = -1
-    for k in range(k_from, k_to):
-        hk = h if k < nsteps - 1 else h_last
-        if lie:
-            if not _lie_step(pi, R, Iinv, A, b, hk, coeffs, K, u, Q, tpi, tR):
-                status = k
-                break
-        else:
-            _classical_step(pi, R, Iinv, A, b, hk, K, KR, tpi, tR)
-        if project:
-            _newton_schulz(R, Q)
-        if slot < save_steps.shape[0] and save_steps[slot] == k + 1:
-            out_pi[slot, n] = pi
-            out_R[slot, n] = R
-            slot += 1
-    fin_pi[n] = pi
-    fin_R[n] = R
-    return status
-
-
-@njit(cache=True, parallel=True)
-def _run_parallel(
-    pi0, R0, Iinv, A, b, coeffs, lie, h, h_last, k_from, k_to, nsteps, save_steps, project, out_pi, out_R, fin_pi, fin_R
-):
-    """Bodies in parallel threads (``prange``); per-body status as :func:`_run_body`."""
-    nb = pi0.shape[0]
-    status = np.empty(nb, dtype=np.int64)
-    for n in prange(nb):
-        status[n] = _run_body(
-            n, pi0, R0, Iinv, A, b, coeffs, lie, h, h_last, k_from, k_to, nsteps, save_steps, project,
-            out_pi, out_R, fin_pi, fin_R,
-        )  # fmt: skip
-    return status
+def _embedded(pi0, R0, K, w, h, u, Q, out_pi, out_R):
+    """``ρ(exp(h Σ_j w_j k_j), (Π₀, R₀))`` into out_pi (3,), out_R (3, 3)."""
+    u[0] = 0.0
+    u[1] = 0.0
+    u[2] = 0.0
+    for j in range(w.shape[0]):
+        c = h * w[j]
+        if c != 0.0:
+            u[0] += c * K[j, 0]
+            u[1] += c * K[j, 1]
+            u[2] += c * K[j, 2]
+    _rodrigues(u, Q)
+    for r in range(3):
+        out_pi[r] = Q[0, r] * pi0[0] + Q[1, r] * pi0[1] + Q[2, r] * pi0[2]
+        for c2 in range(3):
+            out_R[r, c2] = R0[r, 0] * Q[0, c2] + R0[r, 1] * Q[1, c2] + R0[r, 2] * Q[2, c2]
 
 
 @njit(cache=True)
-def _run_serial(
-    pi0, R0, Iinv, A, b, coeffs, lie, h, h_last, k_from, k_to, nsteps, save_steps, project, out_pi, out_R, fin_pi, fin_R
-):
-    """Bodies one after the other in the calling thread: a single trajectory (or fewer bodies
-    than threads) pays no thread start-up or scheduling, which on a busy machine costs
-    milliseconds per call."""
-    nb = pi0.shape[0]
-    status = np.empty(nb, dtype=np.int64)
-    for n in range(nb):
-        status[n] = _run_body(
-            n, pi0, R0, Iinv, A, b, coeffs, lie, h, h_last, k_from, k_to, nsteps, save_steps, project,
-            out_pi, out_R, fin_pi, fin_R,
-        )  # fmt: skip
-    return status
+def _scaled(pi0, R0, pi1, R1, pih, Rh, P, orientation, rtol, atol, U0, U1, Uh):
+    """``Σ_i r_i²`` over the user-frame entries of A (and R) of one body (see the module text)."""
+    total = 0.0
+    for r in range(3):
+        a0 = P[r, 0] * pi0[0] + P[r, 1] * pi0[1] + P[r, 2] * pi0[2]
+        a1 = P[r, 0] * pi1[0] + P[r, 1] * pi1[1] + P[r, 2] * pi1[2]
+        ah = P[r, 0] * pih[0] + P[r, 1] * pih[1] + P[r, 2] * pih[2]
+        x = (a1 - ah) / (atol + rtol * max(abs(a0), abs(a1)))
+        total += 2.0 * x * x  # A = −(PΠ)^ holds each component twice, with both signs
+    if orientation:
+        for r in range(3):
+            for c2 in range(3):  # R_user = R Pᵀ
+                U0[r, c2] = R0[r, 0] * P[c2, 0] + R0[r, 1] * P[c2, 1] + R0[r, 2] * P[c2, 2]
+                U1[r, c2] = R1[r, 0] * P[c2, 0] + R1[r, 1] * P[c2, 1] + R1[r, 2] * P[c2, 2]
+                Uh[r, c2] = Rh[r, 0] * P[c2, 0] + Rh[r, 1] * P[c2, 1] + Rh[r, 2] * P[c2, 2]
+        for r in range(3):
+            for c2 in range(3):
+                x = (U1[r, c2] - Uh[r, c2]) / (atol + rtol * max(abs(U0[r, c2]), abs(U1[r, c2])))
+                total += x * x
+    return total
 
 
-def integrate_top3(
-    pi0,
-    R0,
-    inverse_moments,
-    tableau_A,
-    tableau_b,
-    coeffs,
-    lie: bool,
-    h,
-    h_last,
-    k_from,
-    k_to,
-    nsteps,
-    save_steps,
-    project: bool,
-    parallel: bool = False,
-    start_row: bool = False,
-):
-    """Run the compiled loop over steps ``k_from < k ≤ k_to`` (bodies in threads if ``parallel``):
-    ``Π`` (N, 3) and ``R`` (N, 3, 3) in the principal frame, the inverse principal moments, the
-    tableau's A and b as C-contiguous float64 arrays.
+# -- the 3D top as a form of the one compiled loop (lieint.fast.loop) -----------------------------
+# State of one body: y = (Π, R P) in the principal frame, 12 floats (R = I when the top carries no
+# attitude); parameters par = (I⁻¹ (3), P (9), orientation, identity frame).
 
-    Returns ``(Π, R)`` at the global save steps in that range, shapes ``(m, N, 3)`` and
-    ``(m, N, 3, 3)`` (with ``start_row`` the starting state first: ``m + 1`` rows, written
-    where the loop writes, so that a whole run's rows need no concatenation), the final
-    ``(Π, R)``, all in the principal frame, and the first step at which a stage left the dexp⁻¹
-    radius (-1: none).
-    """
-    save_steps = np.asarray(save_steps, dtype=np.int64)
-    m, N, s = save_steps.size, pi0.shape[0], int(bool(start_row))
-    pi0, R0 = np.ascontiguousarray(pi0), np.ascontiguousarray(R0)
-    out_pi, out_R = np.empty((m + s, N, 3)), np.empty((m + s, N, 3, 3))
-    if s:
-        out_pi[0], out_R[0] = pi0, R0
-    fin_pi, fin_R = np.empty((N, 3)), np.empty((N, 3, 3))
-    run = _run_parallel if parallel else _run_serial
-    status = run(
-        pi0,
-        R0,
-        inverse_moments,
-        tableau_A,
-        tableau_b,
-        coeffs,
-        bool(lie),
-        float(h),
-        float(h_last),
-        int(k_from),
-        int(k_to),
-        int(nsteps),
-        save_steps,
-        bool(project),
-        out_pi[s:],  # C-contiguous views: the compiled signature's layout
-        out_R[s:],
-        fin_pi,
-        fin_R,
-    )
-    if np.maximum.reduce(status, initial=-1) < 0:
-        return out_pi, out_R, fin_pi, fin_R, -1
-    return out_pi, out_R, fin_pi, fin_R, int(status[status >= 0].min())
 
+@njit(cache=True, inline="always")
+def _pi(y):
+    return y[0:3]
+
+
+@njit(cache=True, inline="always")
+def _att(y):
+    return y[3:12].reshape((3, 3))
+
+
+@njit(cache=True)
+def form_prepare(ctx):
+    """Nothing to prepare: the 3D top's stage code is in this module."""
+    return ctx
+
+
+@njit(cache=True)
+def form_scratch(fx, meth, par, d):
+    """``K`` (s, 3), ``u``, ``Q``, ``Π`` and R temporaries, ``KR`` (s, 3, 3) of classical RK, the
+    user-frame matrices of the error norm."""
+    s = meth.b.shape[0]
+    return (
+        np.zeros((s, 3)), np.zeros(3), np.zeros((3, 3)), np.zeros(3), np.zeros((3, 3)), np.zeros((s, 3, 3)),
+        np.zeros((3, 3)), np.zeros((3, 3)), np.zeros((3, 3)),
+    )  # fmt: skip
+
+
+@njit(cache=True)
+def form_lie_step(fx, y, par, meth, h, y1, inc, aux, scr):
+    """One RKMK step (exponential coordinates) of one body; ``inc`` = the step's increment
+    ``h Σ b_j k_j`` (the so(3) vector), ``aux[0] = |w|²`` of the first stage."""
+    K, u, Q, tpi, tR = scr[0], scr[1], scr[2], scr[3], scr[4]
+    for i in range(12):
+        y1[i] = y[i]
+    if not _lie_step(_pi(y1), _att(y1), par[0:3], meth.A, meth.b, h, meth.coeffs, K, u, Q, tpi, tR):
+        return -1
+    inc[0], inc[1], inc[2] = u[0], u[1], u[2]
+    aux[0] = K[0, 0] * K[0, 0] + K[0, 1] * K[0, 1] + K[0, 2] * K[0, 2]
+    return meth.b.shape[0]
+
+
+@njit(cache=True)
+def form_rk_step(fx, y, par, meth, h, y1, inc, aux, scr):
+    """One classical RK step on ``Π̇ = Π × w``, ``Ṙ = R ŵ``."""
+    K, tpi, tR, KR = scr[0], scr[3], scr[4], scr[5]
+    for i in range(12):
+        y1[i] = y[i]
+    _classical_step(_pi(y1), _att(y1), par[0:3], meth.A, meth.b, h, K, KR, tpi, tR)
+    return meth.b.shape[0]
+
+
+@njit(cache=True)
+def form_embedded(fx, y, par, meth, weights, h, yh, scr):
+    """``ρ(exp(h Σ_j w_j k_j), y)`` from the stages of the last step."""
+    K, u, Q = scr[0], scr[1], scr[2]
+    pih, Rh = yh[0:3], yh[3:12].reshape((3, 3))
+    _embedded(_pi(y), _att(y), K, weights, h, u, Q, pih, Rh)
+
+
+@njit(cache=True)
+def form_error_sum(fx, y0, y1, yh, par, rtol, atol, scr):
+    """``Σ r_i²`` over the user's A (and R) of one body (:func:`_scaled`)."""
+    P = par[3:12].reshape((3, 3))
+    return _scaled(
+        _pi(y0), _att(y0), _pi(y1), _att(y1), yh[0:3], yh[3:12].reshape((3, 3)), P, par[12] != 0.0, rtol, atol,
+        scr[6], scr[7], scr[8],
+    )  # fmt: skip
+
+
+@njit(cache=True)
+def form_project(fx, y, par, out, scr):
+    """R onto SO(3) by Newton–Schulz (:func:`_newton_schulz`); Π as it is."""
+    for i in range(12):
+        out[i] = y[i]
+    _newton_schulz(_att(out), scr[2])
+
+
+@njit(cache=True)
+def form_radius2(fx, y, par, scr):
+    """``|w|²``, ``w = I⁻¹Π``: the squared ad spectral radius of ``ξ = ŵ`` on so(3) (exact)."""
+    w0, w1, w2 = par[0] * y[0], par[1] * y[1], par[2] * y[2]
+    return w0 * w0 + w1 * w1 + w2 * w2
+
+
+@njit(cache=True)
+def form_user_field(fx, yu, par, fu, scr):
+    """The vector field at a state in the user's flat layout ``(A (9), R (9))`` (R only when the
+    top carries it), in that layout: ``Ȧ = [A, Ω] = −(Π × ω)^``, ``Ṙ = R ω̂`` with ``Π = −vee A``,
+    ``ω = P I⁻¹ Pᵀ Π``."""
+    P = par[3:12].reshape((3, 3))
+    p0 = -0.5 * (yu[7] - yu[5])
+    p1 = -0.5 * (yu[2] - yu[6])
+    p2 = -0.5 * (yu[3] - yu[1])
+    w = np.empty(3)
+    for c in range(3):  # principal frame: I⁻¹ Pᵀ Π
+        w[c] = par[c] * (P[0, c] * p0 + P[1, c] * p1 + P[2, c] * p2)
+    o0 = P[0, 0] * w[0] + P[0, 1] * w[1] + P[0, 2] * w[2]
+    o1 = P[1, 0] * w[0] + P[1, 1] * w[1] + P[1, 2] * w[2]
+    o2 = P[2, 0] * w[0] + P[2, 1] * w[1] + P[2, 2] * w[2]
+    d0, d1, d2 = _cross(p0, p1, p2, o0, o1, o2)
+    # −hat(d)
+    fu[0], fu[1], fu[2] = 0.0, d2, -d1
+    fu[3], fu[4], fu[5] = -d2, 0.0, d0
+    fu[6], fu[7], fu[8] = d1, -d0, 0.0
+    if par[12] != 0.0:
+        for r in range(3):
+            R0, R1, R2 = yu[9 + 3 * r], yu[10 + 3 * r], yu[11 + 3 * r]
+            fu[9 + 3 * r] = R1 * o2 - R2 * o1
+            fu[10 + 3 * r] = -R0 * o2 + R2 * o0
+            fu[11 + 3 * r] = R0 * o1 - R1 * o0
+
+
+#: the names of :mod:`lieint.fast.loop` this form binds, per method family
+NAMESPACES = {
+    family: {
+        "prepare": form_prepare,
+        "scratch": form_scratch,
+        "step": stepper,
+        "embedded": form_embedded,
+        "error_sum": form_error_sum,
+        "project": form_project,
+        "radius2": form_radius2,
+        "user_field": form_user_field,
+    }
+    for family, stepper in (("rkmk", form_lie_step), ("rk", form_rk_step))
+}
 
 @njit(cache=True)
 def _minus_hat_rows(w, out):
@@ -397,34 +423,6 @@ def _minus_vee_rows(X, out):
         out[r, 0] = -0.5 * (X[r, 2, 1] - X[r, 1, 2])
         out[r, 1] = -0.5 * (X[r, 0, 2] - X[r, 2, 0])
         out[r, 2] = -0.5 * (X[r, 1, 0] - X[r, 0, 1])
-
-
-@njit(cache=True)
-def _largest_rate(A, P, Iinv):
-    """``max |ω|`` over the rows of A (``(m, 3, 3)``, the user's frame), ``ω = I⁻¹ Pᵀ(−vee A)``
-    (the principal-frame Π of a proper P is ``Pᵀ(−vee A)``); NaN when a row is not finite."""
-    best = 0.0
-    for r in range(A.shape[0]):
-        v0 = -0.5 * (A[r, 2, 1] - A[r, 1, 2])
-        v1 = -0.5 * (A[r, 0, 2] - A[r, 2, 0])
-        v2 = -0.5 * (A[r, 1, 0] - A[r, 0, 1])
-        acc = 0.0
-        for c in range(3):
-            w = Iinv[c] * (P[0, c] * v0 + P[1, c] * v1 + P[2, c] * v2)
-            acc += w * w
-        if not np.isfinite(acc):
-            return np.nan
-        if acc > best:
-            best = acc
-    return np.sqrt(best)
-
-
-def largest_rate(A: np.ndarray, P: np.ndarray, moments: np.ndarray) -> float:
-    """The largest angular speed ``|ω|`` over the momenta ``A`` (``(..., 3, 3)``) of a top with
-    principal moments ``moments`` in the proper frame P — the ad spectral radius of ``ξ = ŵ``
-    on so(3) — in one compiled pass; NaN when a row is not finite."""
-    rows = np.ascontiguousarray(A, dtype=np.float64).reshape(-1, 3, 3)
-    return float(_largest_rate(rows, np.ascontiguousarray(P, dtype=np.float64), 1.0 / moments))
 
 
 def minus_vee(X: np.ndarray) -> np.ndarray:

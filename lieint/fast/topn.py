@@ -1,7 +1,7 @@
 """The compiled kernel for the Euler top of any dimension n ≥ 4 (numba, cached on disk).
 
 The generic path moves dicts of batched matrices through Python for every stage, and for the
-n-dimensional top (MATH.md §2) each stage is a handful of n×n products: for small n the step
+n-dimensional top (docs/theory.md §2) each stage is a handful of n×n products: for small n the step
 is Python overhead, not arithmetic. This module runs the whole fixed-step loop in machine code
 (the 3D top keeps its own kernel, :mod:`lieint.fast.top3`); one step, shared with the adaptive
 kernel, is :mod:`lieint.fast.topn_step`:
@@ -53,36 +53,18 @@ installation (cached on disk).
 
 from __future__ import annotations
 
-import math
-from concurrent.futures import ThreadPoolExecutor
 from functools import lru_cache
 
 import numpy as np
 from numba import njit
 
-from . import _dexpinv_coefficients, _proper_frame, range_error, use_threads
 from ._jit import NO_REFCOUNT
-from .principal import to_principal, to_user
+from .cayley import cayley_into
+from .products import mm_small_into
 from .skew import _project, expm_skew, so_ad_radius_exceeds
-from .topn_step import _classical_step, _lie_step, _store
+from .topn_step import _act_into, _classical_step, _combine, _exp_into, _lie_step
 
-__all__ = ["TopNKernel", "expm_skew", "inertia_factors", "integrate_topn", "so_ad_radius_exceeds"]
-
-
-@njit(cache=True, **NO_REFCOUNT)
-def _load(X, stack, m):
-    """``X = stack[m]``."""
-    for a in range(X.shape[0]):
-        for c in range(X.shape[1]):
-            X[a, c] = stack[m, a, c]
-
-
-@njit(cache=True, **NO_REFCOUNT)
-def _save(out, slot, m, X):
-    """``out[slot, m] = X``."""
-    for a in range(X.shape[0]):
-        for c in range(X.shape[1]):
-            out[slot, m, a, c] = X[a, c]
+__all__ = ["NAMESPACES", "expm_skew", "inertia_factors", "inertia_factors_of", "so_ad_radius_exceeds"]
 
 
 @njit(cache=True, **NO_REFCOUNT)
@@ -97,51 +79,6 @@ def _generator_norm2(A, M):
     return total
 
 
-@njit(cache=True, nogil=True)
-def _run_bodies(
-    lo, hi, A0, R0, orient, M, tab, b, coeffs, lie, cayley, h, h_last, k_from, k_to, nsteps, save_steps, project,
-    out_A, out_R, fin_A, fin_R, status, norm2,
-):  # fmt: skip
-    """Steps ``k_from < k ≤ k_to`` of the bodies ``lo ≤ m < hi`` on the global grid (the last
-    global step has size ``h_last``); states after the steps in ``save_steps`` go to
-    ``out_*``, the states after ``k_to`` to ``fin_*``; ``status[m]`` is -1, or the step at which
-    a stage of body m left the dexp⁻¹ radius (that body stops there); ``norm2[m]`` the largest
-    ``‖Ω̃‖_F²`` of body m over its starting state and its saved rows (the step check's bound).
-    Releases the GIL, so that threads can run disjoint ranges of bodies."""
-    s = b.shape[0]
-    n = A0.shape[1]
-    r = R0.shape[1]
-    K = np.zeros((s, n, n))
-    KR = np.zeros((s, r, r))
-    W = np.zeros((8, n, n))
-    E = np.zeros((5, n, n))
-    for m in range(lo, hi):
-        A = np.empty((n, n))
-        R = np.empty((r, r))
-        _load(A, A0, m)
-        _load(R, R0, m)
-        slot = 0
-        status[m] = -1
-        norm2[m] = _generator_norm2(A, M)
-        for k in range(k_from, k_to):
-            hk = h if k < nsteps - 1 else h_last
-            if lie:
-                if not _lie_step(A, R, orient, M, tab, b, hk, coeffs, cayley, K, W, E):
-                    status[m] = k
-                    break
-            else:
-                A, R = _classical_step(A, R, orient, M, tab, b, hk, K, KR)
-            if project and orient:
-                R = _project(R)
-            if slot < save_steps.shape[0] and save_steps[slot] == k + 1:
-                _save(out_A, slot, m, A)
-                _save(out_R, slot, m, R)
-                norm2[m] = max(norm2[m], _generator_norm2(A, M))
-                slot += 1
-        _store(fin_A, m, A)
-        _store(fin_R, m, R)
-
-
 def inertia_factors(b_principal) -> np.ndarray:
     """``M_ij = −1/(b_i + b_j)``: the inertia operator in the principal frame is the entrywise
     product ``Ω̃ = M ∘ Ã`` (the diagonal, zero in a bivector, is set to −1)."""
@@ -152,277 +89,218 @@ def inertia_factors(b_principal) -> np.ndarray:
 
 
 @lru_cache(maxsize=32)
-def _inertia_factors_of(data: bytes) -> np.ndarray:
+def inertia_factors_of(data: bytes) -> np.ndarray:
     """:func:`inertia_factors` of the eigenvalues in ``data``, worked out once per top (a
     single call's set-up is tens of microseconds); writable, as the compiled loops take it,
     and never written."""
     return inertia_factors(np.frombuffer(data))
 
 
-def integrate_topn(
-    A0,
-    R0,
-    b_principal,
-    tableau_A,
-    tableau_b,
-    coeffs,
-    lie: bool,
-    h,
-    h_last,
-    k_from,
-    k_to,
-    nsteps,
-    save_steps,
-    project: bool,
-    threads: int = 1,
-    cayley: bool = False,
-    inertia: np.ndarray | None = None,
-    start_row: bool = False,
-    norm2: np.ndarray | None = None,
-):
-    """Run the compiled loop over steps ``k_from < k ≤ k_to`` (bodies in ``threads`` threads).
-
-    Parameters
-    ----------
-    A0 : ndarray, shape (N, n, n)
-        Body momenta ``Ã = PᵀAP`` in the principal frame (exactly skew).
-    R0 : ndarray, shape (N, n, n) or (N, 0, 0)
-        Orientations ``R̃ = RP``; empty trailing shape: the top carries no orientation.
-    b_principal : ndarray, shape (n,)
-        Eigenvalues b of the mass tensor (``Ω̃_ij = −Ã_ij / (b_i + b_j)``).
-    tableau_A, tableau_b : ndarray
-        The explicit Butcher tableau.
-    coeffs : sequence of float
-        ``B_d / d!`` for ``d ≤`` the dexp⁻¹ degree (RKMK); ignored for classical RK.
-    lie : bool
-        RKMK (True) or classical RK on the embedded equations (False).
-    h, h_last : float
-        The grid step and the size of the grid's last step.
-    k_from, k_to, nsteps : int
-        The steps to take, on a grid of ``nsteps`` steps.
-    save_steps : array_like of int
-        Global step numbers after which the state is saved (ascending, in ``(k_from, k_to]``).
-    project : bool
-        Newton–Schulz projection of R̃ after each step.
-    threads : int
-        Python threads, each running the compiled loop (which releases the GIL) over a
-        contiguous range of bodies; 1 runs them all in the calling thread.
-    cayley : bool
-        RKMK in Cayley coordinates (exact dcay⁻¹; ``coeffs`` unused).
-    inertia : ndarray, optional
-        ``inertia_factors(b_principal)`` when the caller holds it already.
-    start_row : bool
-        Save the starting state as a first row (``m + 1`` rows), where the loop saves: a whole
-        run's rows then need no concatenation.
-    norm2 : ndarray, shape (N,), optional
-        Filled with each body's largest ``‖M ∘ Ã‖_F²`` over its starting state and saved rows
-        (the step check's bound, :meth:`TopNKernel.generator_radius`).
-
-    Returns
-    -------
-    out_A, out_R : ndarray
-        The saved states, shapes ``(m, N, n, n)`` (``out_R``: ``(m, N, 0, 0)`` without
-        orientation).
-    fin_A, fin_R : ndarray
-        The states after ``k_to``.
-    bad : int
-        The first step at which a stage left the dexp⁻¹ radius (-1: none); the run stops there.
-    """
-    save_steps = np.asarray(save_steps, dtype=np.int64)
-    A0 = np.ascontiguousarray(A0, dtype=float)
-    R0 = np.ascontiguousarray(R0, dtype=float)
-    N, n = A0.shape[0], A0.shape[1]
-    r = R0.shape[1]
-    m, s = save_steps.size, int(bool(start_row))
-    out_A, out_R = np.empty((m + s, N, n, n)), np.empty((m + s, N, r, r))
-    if s:
-        out_A[0], out_R[0] = A0, R0
-    fin_A, fin_R = np.empty((N, n, n)), np.empty((N, r, r))
-    M = inertia_factors(b_principal) if inertia is None else inertia
-    status = np.empty(N, dtype=np.int64)
-    norm2 = np.empty(N) if norm2 is None else norm2
-    args = (
-        A0,
-        R0,
-        r > 0,
-        M,
-        np.ascontiguousarray(tableau_A, dtype=float),
-        np.ascontiguousarray(tableau_b, dtype=float),
-        np.asarray(coeffs, dtype=float),
-        bool(lie),
-        bool(cayley),
-        float(h),
-        float(h_last),
-        int(k_from),
-        int(k_to),
-        int(nsteps),
-        save_steps,
-        bool(project),
-        out_A[s:],  # C-contiguous views
-        out_R[s:],
-        fin_A,
-        fin_R,
-        status,
-        norm2,
-    )
-    threads = min(int(threads), N)
-    if threads > 1:
-        # contiguous ranges of bodies, one per thread; the kernel releases the GIL
-        cuts = np.linspace(0, N, threads + 1).astype(np.int64)
-        with ThreadPoolExecutor(threads) as pool:
-            for job in [pool.submit(_run_bodies, cuts[i], cuts[i + 1], *args) for i in range(threads)]:
-                job.result()
+# inlined into its callers, not called: a product here may fall back on BLAS (which copies),
+# so it cannot drop reference counts, and a call would pay them (lieint.fast._jit)
+@njit(cache=True, inline="always")
+def _embedded(A0, R0, orient, M, K, w, h, cayley, W, E, out_A, out_R):
+    """``ρ(φ(h Σ_j w_j k_j), (Ã₀, R̃₀))`` into out_A, out_R, φ = exp or cay (``cayley``);
+    ``W``, ``E``: scratch."""
+    u, Q, C, tmp, acc = W[0], W[1], W[2], W[3], W[4]
+    if not _combine(u, K, w.reshape((1, w.shape[0])), 0, w.shape[0], h):
+        u[:, :] = 0.0
+    if cayley:
+        cayley_into(u, Q, E[0], E[1])
     else:
-        _run_bodies(0, N, *args)
-    bad = status[status >= 0]
-    return out_A, out_R, fin_A, fin_R, int(bad.min()) if bad.size else -1
+        _exp_into(u, Q, E)
+    _act_into(Q, Q.T, A0, M, out_A, acc, C, tmp)
+    if orient:
+        mm_small_into(R0, Q, out_R)
 
 
-class TopNKernel:
-    """The compiled n-dimensional top kernel (n ≥ 4) with its own state representation
-    ``(Ã, R̃) = (PᵀAP, RP)`` in the principal frame (P a proper eigenbasis of B), so that a run
-    split into segments gives the same bits as one that is not: the conversion to ``(A, R)``
-    happens only on output.
+# inlined into its callers, not called: a product here may fall back on BLAS (which copies),
+# so it cannot drop reference counts, and a call would pay them (lieint.fast._jit)
+@njit(cache=True, inline="always")
+def _user(X, P, right_only, identity, out, tmp):
+    """The user's frame of a principal-frame field: ``P X Pᵀ`` (A), or ``X Pᵀ`` (R, with
+    ``right_only``); a copy when P is the identity."""
+    if identity:
+        out[:, :] = X
+    elif right_only:
+        mm_small_into(X, P.T, out)
+    else:
+        mm_small_into(P, X, tmp)
+        mm_small_into(tmp, P.T, out)
 
-    Parameters
-    ----------
-    sys_decl : dict
-        ``{"kind": "topn", "b": eigenvalues of B, "P": eigenbasis, "orientation": bool}``.
-    meth_decl : dict
-        ``{"kind": "rkmk" | "rk", "A", "b", "c"[, "dexpinv_degree"]}``.
-    y : dict
-        The initial state (unused: the layout does not depend on it).
-    batch : tuple of int
-        The batch shape of the run.
-    """
 
-    def __init__(self, sys_decl: dict, meth_decl: dict, y, batch: tuple[int, ...]):
-        self.b = np.asarray(sys_decl["b"], dtype=float)
-        self.n = self.b.size
-        self.orientation = bool(sys_decl["orientation"])
-        # a proper frame keeps R̃ = RP a rotation; a diagonal B needs no change of frame (P = I):
-        # the conversions are skipped, not rounded (both worked out once per frame)
-        P, self.identity_frame = _proper_frame(sys_decl["P"])
-        self.P = np.array(P)  # writable: the compiled loops' signatures take mutable arrays
-        self.method = meth_decl
-        self.lie = meth_decl["kind"] == "rkmk"
-        self.cayley = self.lie and meth_decl.get("coordinates") == "cayley"
-        self.stages = int(np.asarray(meth_decl["b"]).size)
-        # writable, as the compiled signature has it
-        degree = meth_decl["dexpinv_degree"] if self.lie and not self.cayley else 0
-        self.coeffs = np.array(_dexpinv_coefficients(degree))
-        self.M = _inertia_factors_of(self.b.tobytes())  # Ω̃ = M ∘ Ã: the kernel's and the step check's
-        self.batch = batch
-        bodies = int(np.prod(batch)) if batch else 1
-        self.parallel, self.threads = use_threads(bodies)
-        # the largest ‖Ω̃‖_F over the states of this run (from start, kept by advance); none yet
-        self._radius_bound = math.inf
+@njit(cache=True, **NO_REFCOUNT)
+def _scaled_sum(Y0, Y1, Yh, rtol, atol):
+    """``Σ_i r_i²``, ``r_i = (Y₁ − Ŷ)_i / (atol + rtol·max(|Y₀,i|, |Y₁,i|))``."""
+    total = 0.0
+    for a in range(Y0.shape[0]):
+        for c in range(Y0.shape[1]):
+            x = (Y1[a, c] - Yh[a, c]) / (atol + rtol * max(abs(Y0[a, c]), abs(Y1[a, c])))
+            total += x * x
+    return total
 
-    def describe(self) -> str:
-        """Which kernel runs."""
-        threads = f"{self.threads} threads" if self.parallel else "serial"
-        kind = ("RKMK (Cayley)" if self.cayley else "RKMK") if self.lie else "classical RK"
-        return f"compiled {self.n}D-top kernel, {kind}, per body, {threads}"
 
-    def start(self, y: dict) -> dict:
-        n = self.n
-        A = y["A"].reshape(-1, n, n)
-        R = y["R"].reshape(-1, n, n) if self.orientation else None
-        if self.identity_frame:
-            A = 0.5 * (A - np.swapaxes(A, -1, -2))  # exactly skew (the identity on a skew A)
-        else:
-            A, R = to_principal(A, R, self.P)  # skew(PᵀAP), RP (compiled: microseconds saved)
-        self._radius_bound = 0.0
-        internal = {"A": np.ascontiguousarray(A, dtype=float)}
-        if self.orientation:
-            internal["R"] = np.ascontiguousarray(R, dtype=float)
-        return internal
+# inlined into its callers, not called: a product here may fall back on BLAS (which copies),
+# so it cannot drop reference counts, and a call would pay them (lieint.fast._jit)
+@njit(cache=True, inline="always")
+def _user_pair(A, R, orient, P, identity, UA, UR, tmp):
+    """The user's ``A = P Ã Pᵀ`` into UA and ``R = R̃ Pᵀ`` into UR (when ``orient``)."""
+    _user(A, P, False, identity, UA, tmp)
+    if orient:
+        _user(R, P, True, identity, UR, tmp)
 
-    def advance(self, internal: dict, k_from: int, k_to: int, plan, save_steps, project: bool, with_start=False):
-        tab = self.method
-        A = internal["A"]
-        # without orientation the kernel steps an empty R (one type signature for both cases)
-        R = internal["R"] if self.orientation else np.empty((A.shape[0], 0, 0))
-        norm2 = np.empty(A.shape[0])
-        out_A, out_R, fin_A, fin_R, bad = integrate_topn(
-            A,
-            R,
-            self.b,
-            tab["A"],
-            tab["b"],
-            self.coeffs,
-            self.lie,
-            plan.h,
-            plan.last_step,
-            k_from,
-            k_to,
-            plan.nsteps,
-            save_steps,
-            project,
-            self.threads,
-            self.cayley,
-            self.M,
-            with_start,
-            norm2,
-        )
-        # the step check's bound over every state this run has saved (or started a segment from);
-        # a non-finite state makes it infinite (the check then looks at the rows themselves)
-        largest = float(np.sqrt(np.maximum.reduce(norm2, initial=0.0)))
-        self._radius_bound = max(self._radius_bound, largest) if math.isfinite(largest) else math.inf
-        if bad >= 0:
-            raise range_error(bad, plan, f"so({self.n})")
-        new = {"A": fin_A, "R": fin_R} if self.orientation else {"A": fin_A}
-        return new, self._user(out_A, out_R)
 
-    def _user(self, A, R) -> dict:
-        lead, n = A.shape[:-3], self.n
-        if not self.identity_frame:
-            A, R = to_user(A, R if self.orientation else None, self.P)  # skew(PÃPᵀ), R̃Pᵀ
-        states = {"A": A.reshape(lead + self.batch + (n, n))}
-        if self.orientation:
-            states["R"] = R.reshape(lead + self.batch + (n, n))
-        return states
+# inlined into its callers, not called: a product here may fall back on BLAS (which copies),
+# so it cannot drop reference counts, and a call would pay them (lieint.fast._jit)
+@njit(cache=True, inline="always")
+def _error_sum(Ah, Rh, orient, P, identity, rtol, atol, U):
+    """The scaled squares of one body over the user's A (and R), against the embedded
+    ``(Ãh, R̃h)``; ``U`` holds the user's y₀ (U[0], U[1]) and y₁ (U[2], U[3]) and scratch."""
+    _user_pair(Ah, Rh, orient, P, identity, U[4], U[5], U[6])
+    total = _scaled_sum(U[0], U[2], U[4], rtol, atol)
+    if orient:
+        total += _scaled_sum(U[1], U[3], U[5], rtol, atol)
+    return total
 
-    def generator_radius(self, states: dict, limit: float = 0.0) -> float | None:
-        """The largest ad spectral radius of ``ξ(y) = Ω`` over the rows ``states`` (the user's
-        frame), ``θ₁ + θ₂`` of ``Ω̃ = M ∘ PᵀAP`` (conjugation by P keeps the rotation angles),
-        what ``lieint.integrate``'s step check needs, without the generic evaluation of ξ; None
-        when a row is not finite (the generic check then handles it).
 
-        When the Frobenius bound ``‖Ω̃‖_F ≥ θ₁ + θ₂`` that the compiled loop kept over every
-        state of this run (its start and its saved rows, :meth:`advance`) is below ``limit``, that
-        bound is returned (an upper bound: the check only asks whether the radius reaches its
-        limit, π/h), without looking at the rows again. Otherwise, as the generic check, it looks
-        at most at ``_WARN_SAMPLES`` rows, evenly spaced: when every row's bound is below
-        ``limit`` the largest is returned, else the angles (a singular value decomposition) are
-        computed only for the rows whose bound exceeds the largest radius found so far, largest
-        bound first."""
-        if self._radius_bound < limit:
-            return self._radius_bound
-        from ..groups.so import so_ad_spectral_radius
-        from ..ivp import _WARN_SAMPLES
+# -- the n-dimensional top as a form of the one compiled loop (lieint.fast.loop) ------------------
+# State of one body: y = (Ã, R̃) flattened (n² + r² floats, r = n with orientation, else 0);
+# parameters par = (n, r, identity frame, M (n²), P (n²)).
 
-        A = states["A"].reshape(-1, self.n, self.n)
-        if A.shape[0] > _WARN_SAMPLES:
-            A = A[np.unique(np.linspace(0, A.shape[0] - 1, _WARN_SAMPLES).astype(int))]
-        if not self.identity_frame:
-            A = self.P.T @ A @ self.P
-        omega = A * self.M
-        squares = omega * omega
-        bound = np.sqrt(np.add.reduce(squares.reshape(squares.shape[0], -1), axis=1))
-        largest = np.maximum.reduce(bound)  # NaN when a row is not finite
-        if not np.isfinite(largest):
-            return None
-        if largest < limit:
-            return float(largest)
-        order = np.argsort(bound)[::-1]
-        best, start = 0.0, 0
-        while start < order.size and bound[order[start]] > best:
-            rows = order[start : start + 8]
-            best = max(best, float(np.max(so_ad_spectral_radius(omega[rows]))))
-            start += 8
-        return best
 
-    def user_state(self, internal: dict) -> dict:
-        R = internal["R"][None] if self.orientation else None
-        return {k: v[0] for k, v in self._user(internal["A"][None], R).items()}
+@njit(cache=True, inline="always")
+def _dims(par):
+    return int(par[0]), int(par[1])
+
+
+@njit(cache=True, inline="always")
+def _M(par, n):
+    return par[3 : 3 + n * n].reshape((n, n))
+
+
+@njit(cache=True, inline="always")
+def _P(par, n):
+    return par[3 + n * n : 3 + 2 * n * n].reshape((n, n))
+
+
+@njit(cache=True, inline="always")
+def _parts(y, n, r):
+    """The views ``(Ã, R̃)`` of a flat state (R̃ of shape (0, 0) without orientation)."""
+    return y[: n * n].reshape((n, n)), y[n * n : n * n + r * r].reshape((r, r))
+
+
+@njit(cache=True)
+def form_prepare(ctx):
+    return ctx
+
+
+@njit(cache=True)
+def form_scratch(fx, meth, par, d):
+    """The stage slopes K (s, n, n) and KR (s, r, r) of classical RK, the step's scratch W (8, n, n)
+    and E (5, n, n), the error norm's U (7, n, n) and the embedded state's ``(Ãh, R̃h)``."""
+    n, r = _dims(par)
+    s = meth.b.shape[0]
+    return (np.zeros((s, n, n)), np.zeros((s, r, r)), np.zeros((8, n, n)), np.zeros((5, n, n)), np.zeros((7, n, n)))
+
+
+@njit(cache=True)
+def form_lie_step(fx, y, par, meth, h, y1, inc, aux, scr):
+    """One RKMK step (:func:`lieint.fast.topn_step._lie_step`); ``inc`` = the step's u,
+    ``aux[0] = ‖M ∘ Ã‖_F²`` (ξ of the first stage)."""
+    n, r = _dims(par)
+    K, W, E = scr[0], scr[2], scr[3]
+    M = _M(par, n)
+    for i in range(y.shape[0]):
+        y1[i] = y[i]
+    A, R = _parts(y1, n, r)
+    aux[0] = _generator_norm2(A, M)  # ξ(y) = M ∘ Ã, the first stage
+    if not _lie_step(A, R, r > 0, M, meth.A, meth.b, h, meth.coeffs, meth.cayley, K, W, E):
+        return -1
+    u = W[0]
+    j = 0
+    for a in range(n):
+        for c in range(n):
+            inc[j] = u[a, c]
+            j += 1
+    return meth.b.shape[0]
+
+
+@njit(cache=True)
+def form_rk_step(fx, y, par, meth, h, y1, inc, aux, scr):
+    """One classical RK step on ``Ã' = [Ã, Ω̃]``, ``R̃' = R̃Ω̃``."""
+    n, r = _dims(par)
+    A, R = _parts(y, n, r)
+    A1, R1 = _classical_step(A, R, r > 0, _M(par, n), meth.A, meth.b, h, scr[0], scr[1])
+    B1, S1 = _parts(y1, n, r)
+    B1[:, :] = A1
+    S1[:, :] = R1
+    return meth.b.shape[0]
+
+
+@njit(cache=True)
+def form_embedded(fx, y, par, meth, weights, h, yh, scr):
+    n, r = _dims(par)
+    A0, R0 = _parts(y, n, r)
+    Ah, Rh = _parts(yh, n, r)
+    _embedded(A0, R0, r > 0, _M(par, n), scr[0], weights, h, meth.cayley, scr[2], scr[3], Ah, Rh)
+
+
+@njit(cache=True)
+def form_error_sum(fx, y0, y1, yh, par, rtol, atol, scr):
+    """``Σ r_i²`` over the user's A (and R) of one body, against the embedded state."""
+    n, r = _dims(par)
+    P, identity, U = _P(par, n), par[2] != 0.0, scr[4]
+    A0, R0 = _parts(y0, n, r)
+    A1, R1 = _parts(y1, n, r)
+    Ah, Rh = _parts(yh, n, r)
+    _user_pair(A0, R0, r > 0, P, identity, U[0], U[1], U[6])
+    _user_pair(A1, R1, r > 0, P, identity, U[2], U[3], U[6])
+    return _error_sum(Ah, Rh, r > 0, P, identity, rtol, atol, U)
+
+
+@njit(cache=True)
+def form_project(fx, y, par, out, scr):
+    """R̃ onto SO(n) (:func:`lieint.fast.skew._project`); Ã as it is."""
+    n, r = _dims(par)
+    for i in range(y.shape[0]):
+        out[i] = y[i]
+    if r > 0:
+        R = _parts(out, n, r)[1]
+        R[:, :] = _project(R)
+
+
+@njit(cache=True)
+def form_radius2(fx, y, par, scr):
+    n, r = _dims(par)
+    return _generator_norm2(_parts(y, n, r)[0], _M(par, n))
+
+
+@njit(cache=True)
+def form_user_field(fx, yu, par, fu, scr):
+    """The vector field at a state in the user's layout ``(A, R)``, in that layout:
+    ``Ω = P (M ∘ PᵀAP) Pᵀ``, ``Ȧ = [A, Ω]``, ``Ṙ = RΩ``."""
+    n, r = _dims(par)
+    A, R = _parts(yu, n, r)
+    dA, dR = _parts(fu, n, r)
+    P, M = _P(par, n), _M(par, n)
+    Om = P @ ((P.T @ A @ P) * M) @ P.T
+    Om = 0.5 * (Om - Om.T)
+    dA[:, :] = A @ Om - Om @ A
+    if r > 0:
+        dR[:, :] = R @ Om
+
+
+#: the names of :mod:`lieint.fast.loop` this form binds, per method family
+NAMESPACES = {
+    family: {
+        "prepare": form_prepare,
+        "scratch": form_scratch,
+        "step": stepper,
+        "embedded": form_embedded,
+        "error_sum": form_error_sum,
+        "project": form_project,
+        "radius2": form_radius2,
+        "user_field": form_user_field,
+    }
+    for family, stepper in (("rkmk", form_lie_step), ("rk", form_rk_step))
+}

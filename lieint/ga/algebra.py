@@ -1,4 +1,4 @@
-"""Bivectors and rotors of Cl(n) through ``clifford``, batched (MATH.md §1).
+"""Bivectors and rotors of Cl(n) through ``clifford``, batched (docs/theory.md §1).
 
 Sign convention, checked once and for all in ``tests/test_ga.py``: the skew matrix of a
 bivector ω acts on vectors as the commutator product ``x ↦ ω × x = ½(ωx − xω)`` (the entry

@@ -72,7 +72,7 @@ def rotor_exp_of_skew(X: np.ndarray, scale: float = 1.0) -> np.ndarray:
     """Coefficients of ``e^{scale·B}`` for the bivectors B of skew matrices ``(..., n, n)``.
 
     ``scale = 0.5`` gives the rotor of the rotation ``exp(X)`` (the double cover's convention,
-    MATH.md §1).
+    docs/theory.md §1).
     """
     X = np.asarray(X, dtype=float)
     n = X.shape[-1]

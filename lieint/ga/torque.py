@@ -1,4 +1,4 @@
-"""Torques and momenta built with the wedge product of clifford vectors (seed §2, §5)."""
+"""Torques and momenta built with the wedge product of clifford vectors (docs/theory.md §1)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The contract a matrix Lie group fulfils for the integrators (MATH.md §6).
+"""The contract a matrix Lie group fulfils for the integrators (docs/theory.md §6).
 
 Algebra elements and group elements are both stored as matrices with leading batch
 dimensions: ``so(n)`` as skew ``(..., n, n)``, ``se(n)`` as homogeneous ``(..., n+1, n+1)``.

@@ -1,4 +1,4 @@
-"""Bivectors of R^n stored as skew matrices (MATH.md §1).
+"""Bivectors of R^n stored as skew matrices (docs/theory.md §1).
 
 Conventions
 -----------

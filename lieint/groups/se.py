@@ -1,4 +1,4 @@
-"""The special Euclidean group SE(n) in homogeneous coordinates (MATH.md §3–§5).
+"""The special Euclidean group SE(n) in homogeneous coordinates (docs/theory.md §3–§5).
 
 A group element is ``[[Q, v], [0, 1]]`` (shape ``(..., n+1, n+1)``), an algebra element
 ``[[Ω, V], [0, 0]]`` with Ω skew. The bracket is the matrix commutator,

@@ -1,4 +1,4 @@
-"""The rotation group SO(n) and its algebra so(n) of bivectors (MATH.md §1, §6).
+"""The rotation group SO(n) and its algebra so(n) of bivectors (docs/theory.md §1, §6).
 
 Closed forms where they exist -- n = 2 (rotation by an angle), n = 3 (Rodrigues, and the
 so(3) closed form of dexp⁻¹) -- and general n through ``scipy.linalg.expm``/``logm`` and

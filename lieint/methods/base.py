@@ -108,7 +108,7 @@ class Method(ABC):
         return None
 
     def compiled(self):
-        """What a compiled kernel needs to run this method (see :mod:`lieint.fast`), or None."""
+        """The method's form for the compiled engine (:mod:`lieint.fast.forms`), or None."""
         return None
 
     def steps_as(self, cls: type, names: tuple[str, ...] = ("step",)) -> bool:

@@ -1,4 +1,4 @@
-"""Classical explicit Runge–Kutta on the embedded equations: the baseline (MATH.md §6).
+"""Classical explicit Runge–Kutta on the embedded equations: the baseline (docs/theory.md §6).
 
 The state's arrays are stepped as points of the ambient vector space with the system's
 vector field ``ẏ = ρ_*(ξ(t, y)) y``; nothing keeps R on SO(n) or the spectrum of A fixed
@@ -10,6 +10,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from functools import partial
 
+from ..fast.forms import ClassicalForm
 from . import tableaux
 from .base import Method, MethodSpec, StepResult
 from .registry import register
@@ -50,10 +51,11 @@ class ClassicalRK(Method):
         return StepResult(_axpy(y, b, ks, h), None, self.tableau.stages, None, dense=(ks, h))
 
     def compiled(self):
-        """Classical RK on the state arrays has compiled kernels (unless a subclass changes the step)."""
+        """Classical RK on the state arrays runs in the compiled engine
+        (:class:`lieint.fast.forms.ClassicalForm`; unless a subclass changes the step)."""
         if not self.steps_as(ClassicalRK):
             return None
-        return {"kind": "rk", "A": self.tableau.A, "b": self.tableau.b, "c": self.tableau.c}
+        return ClassicalForm(self.tableau.A, self.tableau.b, self.tableau.c)
 
 
 def _axpy(y: dict, coeffs, ks: list[dict], h: float) -> dict:

@@ -12,7 +12,7 @@ integrable system has an error that grows only linearly). A classical Runge–Ku
 3D top escapes the t² term by a coincidence of that equation (its error is, to leading order,
 a scaling of A, which keeps the orbit's shape ``H/|A|²``); a Lie-group pair cannot copy it,
 because it keeps |A| exactly. Keeping H as well restores linear growth — and with it global
-errors proportional to ``rtol`` (the guide's "Adaptive steps and rtol" table).
+errors proportional to ``rtol`` (docs/measurements/adaptive.md).
 
 The second ingredient concerns the size of what the pair integrates. The Euler top's generator
 Ω is defined only up to the centraliser of A (``[A, Ω − λA] = [A, Ω]``); the part

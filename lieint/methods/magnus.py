@@ -1,4 +1,4 @@
-"""Magnus methods for generators that depend on t only: ``ġ = g ξ(t)`` (MATH.md §6, right action).
+"""Magnus methods for generators that depend on t only: ``ġ = g ξ(t)`` (docs/theory.md §6, right action).
 
 For a time-only generator the solution is ``g(t + h) = g(t) exp(Ω(h))`` with Ω the Magnus
 series. The textbook formulas are written for the left equation ``Ẏ = A(t) Y``; the right

@@ -1,4 +1,4 @@
-"""The implicit (Lie–Poisson) midpoint rule on the rigid-body equations (MATH.md §11).
+"""The implicit (Lie–Poisson) midpoint rule on the rigid-body equations (docs/theory.md §11).
 
 One step from ``y₀`` solves for the midpoint ``y_m``::
 

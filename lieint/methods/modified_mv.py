@@ -14,7 +14,7 @@ the invariants ``|Π|`` and H, which one MV step with the modified (constant) mo
 it keeps ``|Π|`` and ``H̃ = S·H + D·|Π|²/2``, hence H — the modified moments are the same at
 every step, and the method keeps energy, Casimir, space momentum and symplecticity like MV.
 
-In the project's conventions (MATH.md §2, §11) the step is the ``moser_veselov`` step with the
+In the project's conventions (docs/theory.md §2, §11) the step is the ``moser_veselov`` step with the
 mass tensor ``B̃ = P diag(b̃) Pᵀ``, ``b̃_i = (Ĩ_j + Ĩ_k − Ĩ_i)/2``, in the principal frame P of
 the body.
 """

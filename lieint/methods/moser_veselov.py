@@ -1,4 +1,4 @@
-"""The discrete Moser–Veselov top in any dimension n (Moser & Veselov 1991; MATH.md §11).
+"""The discrete Moser–Veselov top in any dimension n (Moser & Veselov 1991; docs/theory.md §11).
 
 The discrete Lagrangian ``L(R_k, R_{k+1}) = −(1/h) tr(R_k B R_{k+1}ᵀ)`` (the kinetic energy
 ``½ tr(Ṙ B Ṙᵀ)`` with ``Ṙ ≈ (R_{k+1} − R_k)/h``) gives, for the body increment

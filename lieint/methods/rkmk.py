@@ -1,4 +1,4 @@
-"""Runge–Kutta–Munthe-Kaas methods (Lie–Euler is the one-stage case), MATH.md §6.
+"""Runge–Kutta–Munthe-Kaas methods (Lie–Euler is the one-stage case), docs/theory.md §6.
 
 The systems of lieint are moved by *right* actions ρ, so the group path obeys
 ``ġ = g ξ``; with ``g = exp(u)`` the stage equation is ``u̇ = dexp⁻¹_{−u}(ξ)`` (the odd
@@ -30,6 +30,7 @@ from functools import partial
 import numpy as np
 
 from ..dense import Increment
+from ..fast.forms import RKMKForm
 from . import tableaux
 from .base import Method, MethodSpec, StepResult
 from .registry import AUTO, register
@@ -144,23 +145,20 @@ class RKMK(Method):
         return {name: y1[name] - y_hat[name] for name in y1}
 
     def compiled(self):
-        """RKMK in exponential coordinates with a truncated dexp⁻¹, or in Cayley coordinates
-        (the generic kernel, :mod:`lieint.fast.generic`), has compiled kernels.
-
-        An embedded pair also declares its embedded weights ``b_hat`` (and DOP853's
-        ``b_hat_low``) and the controller's ``error_order`` q, for the compiled adaptive loop
-        (:mod:`lieint.fast.adaptive`).
-        """
+        """RKMK in exponential coordinates with a truncated dexp⁻¹, or in Cayley coordinates,
+        runs in the compiled engine (:class:`lieint.fast.forms.RKMKForm`); an embedded pair also
+        declares its embedded weights ``b_hat`` (and DOP853's ``b_hat_low``) and the
+        controller's error order q."""
         if self.coordinates == "exp" and self.dexpinv_degree is None:
             return None
         if not self.steps_as(RKMK, ("step", "stage_increments", "_difference")):
             return None
         tab = self.butcher
-        decl = {"kind": "rkmk", "A": tab.A, "b": tab.b, "c": tab.c, "dexpinv_degree": self.dexpinv_degree}
-        decl["coordinates"] = self.coordinates  # Cayley: the generic kernel only (lieint.fast.generic)
         if isinstance(self.tableau, EmbeddedPair):
-            decl.update(b_hat=self.tableau.b_hat, b_hat_low=self.tableau.b_hat_low, error_order=self.error_order)
-        return decl
+            pair = self.tableau
+            return RKMKForm(tab.A, tab.b, tab.c, self.coordinates, self.dexpinv_degree, pair.b_hat, pair.b_hat_low,
+                            self.error_order)  # fmt: skip
+        return RKMKForm(tab.A, tab.b, tab.c, self.coordinates, self.dexpinv_degree)
 
 
 def coordinate_map(group, coordinates: str, u):

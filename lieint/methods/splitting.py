@@ -1,4 +1,4 @@
-"""Splitting methods with exactly integrable pieces for the free and the heavy top (MATH.md §11).
+"""Splitting methods with exactly integrable pieces for the free and the heavy top (docs/theory.md §11).
 
 **Free top, any n.** In the eigenbasis ``B = P diag(b) Pᵀ`` (``Ã = PᵀAP``) the kinetic energy
 is a sum over the coordinate planes::

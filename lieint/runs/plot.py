@@ -2,13 +2,18 @@
 
 1. Each saved invariant's drift against time on log axes (relative to its first value;
    defects such as ``orthogonality`` as they are); for an ensemble the median over members
-   with the 10–90 % band.
-2. The motion: the contact path on the plane for a ball, else the body's first axis ``R e₁``
-   in space (the Dzhanibekov flips show as jumps of its components).
+   with the 10–90 % band. Values below ``DRIFT_FLOOR`` (exact zeros included) are drawn at the
+   floor with a ▽, and the legend says so.
+2. The motion: the contact path on the plane for a ball, else every component of the body's
+   first axis ``R e₁`` in space (the Dzhanibekov flips show as jumps of its components; above
+   ``MAX_COMPONENTS`` dimensions the first ones, named in the title).
 3. For an ensemble, the spread: how far each member's orientation (angle of ``R_i R₀ᵀ``) or
    contact point is from the first member's, median and 10–90 % band.
 
-Long files are read with a stride (at most ~4000 rows), so plotting stays light.
+Long files are read with a stride down to at most ``READ_ROWS`` rows, and every time series is
+then thinned to ``BINS`` bins drawn as their min/max envelope (:func:`lieint._plotting.envelope`):
+an oscillation faster than a pixel shows as a band of its true amplitude, not as an aliased
+line, and the title says how many rows each bin holds.
 """
 
 from __future__ import annotations
@@ -18,9 +23,16 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["PlotError", "plot_run"]
+__all__ = ["BINS", "DRIFT_FLOOR", "MAX_COMPONENTS", "READ_ROWS", "PlotError", "plot_run", "run_figure"]
 
-_MAX_POINTS = 4000
+#: rows read from the file at most (a stride beyond; 40,001 rows are read whole)
+READ_ROWS = 200_000
+#: bins of the min/max envelope each time series is drawn with
+BINS = 600
+#: drifts below this are drawn at it (log axes)
+DRIFT_FLOOR = 1e-17
+#: components of R e₁ drawn at most
+MAX_COMPONENTS = 8
 
 
 class PlotError(ValueError):
@@ -38,7 +50,7 @@ def _read(path: Path):
     if "t" not in header.datasets or not any(n.startswith("states/") for n in header.datasets):
         raise PlotError(f"{str(path)!r} is not a lieint run (no /t and /states)")
     try:
-        series = read_series(path, _MAX_POINTS, header=header)
+        series = read_series(path, READ_ROWS, header=header)
     except IsolatedError as exc:
         raise PlotError(
             f"cannot read the rows of {str(path)!r}: {exc} (`lieint info {path}` says where it is damaged)"
@@ -60,22 +72,51 @@ def _members(values: np.ndarray, tail: int) -> np.ndarray:
     return values.reshape((m, -1) + values.shape[values.ndim - tail :])
 
 
-def _band(ax, t, series, label):
-    """Median and 10–90 % band of ``series`` (m, members)."""
+def _line(ax, t, y, label, color, log_floor=None):
+    """Draw ``y(t)``: as a line, or thinned to its min/max envelope when it has many rows (bins
+    equal in log t where ``log_floor`` is given: those axes are log–log). Returns
+    ``(colour, thinned, clamped)``."""
+    from .._plotting import envelope
+    from .._plotting import log_floor as floor_of
+
+    clamped = False
+    if log_floor is not None:
+        y, mask = floor_of(y, log_floor)
+        clamped = bool(mask.any())
+    x, lo, hi, thinned = envelope(t, y, BINS, log=log_floor is not None)
+    if thinned:
+        ax.fill_between(x, lo, hi, color=color, alpha=0.6, lw=0.5, label=label)
+    else:
+        color = ax.plot(x, y, lw=1.0, color=color, label=label)[0].get_color()
+    if clamped:
+        xs, ys = (x, lo) if thinned else (x, y)
+        at = np.isclose(ys, log_floor)
+        ax.plot(xs[at], ys[at], "v", ms=3, color=color, mfc="none", ls="none")
+    return color, thinned, clamped
+
+
+def _band(ax, t, series, label, color, log_floor=None):
+    """Median and 10–90 % band of ``series`` (m, members); one member: its line."""
     if series.shape[1] == 1:
-        ax.plot(t, series[:, 0], label=label)
-        return
+        return _line(ax, t, series[:, 0], label, color, log_floor=log_floor)
+    from .._plotting import envelope
+
     lo, med, hi = np.nanpercentile(series, [10, 50, 90], axis=1)
-    line = ax.plot(t, med, label=f"{label} (median)")[0]
-    ax.fill_between(t, lo, hi, color=line.get_color(), alpha=0.25)
+    band_clamped = False
+    if log_floor is not None:
+        band_clamped = bool(np.any(lo < log_floor))  # the band's edge drawn at the floor: said too
+        lo, hi = np.maximum(lo, log_floor), np.maximum(hi, log_floor)
+    color, thinned, clamped = _line(ax, t, med, f"{label} (median)", color, log_floor=log_floor)
+    clamped = clamped or band_clamped
+    x, band_lo, _, _ = envelope(t, lo, BINS, log=log_floor is not None)
+    _, _, band_hi, _ = envelope(t, hi, BINS, log=log_floor is not None)
+    ax.fill_between(x, band_lo, band_hi, color=color, alpha=0.2, lw=0)
+    return color, thinned, clamped
 
 
 def plot_run(path, out=None) -> Path:
     """Draw the figure of a streamed run; returns the figure's path (PNG or SVG by suffix)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from .._plotting import pyplot
 
     path = Path(path)
     if not os.path.lexists(path):
@@ -83,6 +124,25 @@ def plot_run(path, out=None) -> Path:
     out = Path(out) if out else path.with_suffix(".png")
     if out.suffix.lower() not in (".png", ".svg"):
         raise PlotError(f"the figure must be .png or .svg; got {out.name!r}")
+    fig = run_figure(path)
+    plt = pyplot()
+    try:
+        fig.savefig(out, dpi=110)
+    except OSError as exc:
+        raise PlotError(f"cannot write the figure {str(out)!r}: {exc}") from None
+    finally:
+        plt.close(fig)
+    return out
+
+
+def run_figure(path):
+    """The figure of a streamed run (a matplotlib ``Figure``, left open); see the module docstring."""
+    from .._plotting import PALETTE, pyplot
+
+    plt = pyplot()
+    path = Path(path)
+    if not os.path.lexists(path):
+        raise PlotError(f"no run file {str(path)!r}")
     t, states, inv, outputs, attrs = _read(path)
     if t.size < 2:
         raise PlotError(
@@ -102,16 +162,22 @@ def plot_run(path, out=None) -> Path:
     members = _members(states[first], tail("states", first, states[first])).shape[1]
     ensemble = members > 1
     ncols = 3 if ensemble else 2
-    fig, axes = plt.subplots(1, ncols, figsize=(5.2 * ncols, 4.2))
+    fig = plt.figure(figsize=(5.6 * ncols, 4.8), layout="constrained")
+    grid = fig.add_gridspec(1, ncols)
+    axes = [fig.add_subplot(grid[0])]
     title = f"{attrs.get('scene_name', path.stem)} — {attrs.get('method', '')}, h = {attrs.get('h', '')}"
     if attrs.get("status") != "complete":
         title += f" [{attrs.get('status')}]"
-    fig.suptitle(title)
+    rows_per_bin = t.size / BINS
+    if t.size > 2 * BINS:
+        title += f"\n{t.size:,} saved rows drawn as the min/max envelope of {BINS} bins (~{rows_per_bin:.0f} rows each)"
+    fig.suptitle(title, fontsize=10)
 
     ax = axes[0]
     tt = t - t[0]
     keep = tt > 0
-    for name, values in inv.items():
+    clamped_any = False
+    for i, (name, values) in enumerate(inv.items()):
         v = _members(values, values.ndim - 1 - batch_ndim)
         axes_extra = tuple(range(2, v.ndim))
         if name in defects:
@@ -122,7 +188,10 @@ def plot_run(path, out=None) -> Path:
             diff = v - ref
             d = np.sqrt(np.sum(diff * diff, axis=axes_extra)) if axes_extra else np.abs(diff)
             d = d / np.where(scale > 0, scale, 1.0)
-        _band(ax, tt[keep], np.maximum(d[keep], 1e-17), name)
+        clamped_any |= _band(ax, tt[keep], d[keep], name, PALETTE[i % len(PALETTE)], log_floor=DRIFT_FLOOR)[2]
+    if clamped_any:
+        ax.plot([], [], "v", ms=3, color="0.3", mfc="none", ls="none",
+                label=f"below {DRIFT_FLOOR:g} (exact zeros too), drawn at {DRIFT_FLOOR:g}")  # fmt: skip
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_xlabel("t − t₀")
@@ -131,7 +200,6 @@ def plot_run(path, out=None) -> Path:
     if inv:
         ax.legend(fontsize=8)
 
-    ax = axes[1]
     # the motion: a path of points where the run saved one (contact path, centre), else the
     # orientation, else the first state field
     points = [(g, k) for (g, k), m in meta.items() if m.get("kind") == "point" and g in ("outputs", "states")]
@@ -140,45 +208,53 @@ def plot_run(path, out=None) -> Path:
     if path_xy is None:
         path_xy = outputs.get("contact_path", states.get("center"))
     if path_xy is not None:
+        ax = fig.add_subplot(grid[1])
         p = _members(path_xy, 1)
         for i in range(min(p.shape[1], 5)):
             ax.plot(p[:, i, 0], p[:, i, 1], lw=1)
         ax.set_xlabel("x")
         ax.set_ylabel("y")
         ax.set_aspect("equal", adjustable="datalim")
-        ax.set_title((points[0][1] if points else "centre").replace("_", " "))
+        ax.set_title((points[0][1] if points else "centre").replace("_", " ") + " (first two coordinates)")
     elif "R" in states:
         R = _members(states["R"], 2)
-        for c in range(min(3, R.shape[-1])):
-            ax.plot(t, R[:, 0, c, 0], label=f"(R e₁)_{c + 1}")
+        n = R.shape[-1]
+        shown = min(n, MAX_COMPONENTS)
+        # one strip per component (overlaid envelopes of fast oscillations would hide each other)
+        strips = grid[1].subgridspec(shown, 1, hspace=0.0)
+        top = None
+        for c in range(shown):
+            ax = fig.add_subplot(strips[c], sharex=top)
+            top = top or ax
+            _line(ax, t, R[:, 0, c, 0], None, PALETTE[c])
+            ax.set_ylim(-1.08, 1.08)
+            ax.set_yticks([-1, 0, 1])
+            ax.set_ylabel(f"(R e₁)_{c + 1}", fontsize=8)
+            ax.tick_params(labelsize=7, labelbottom=c == shown - 1)
+        what = "every component" if shown == n else f"components 1–{shown} of {n}"
+        top.set_title(f"body axis e₁ in space, {what}" + (" (member 0)" if ensemble else ""), fontsize=9)
         ax.set_xlabel("t")
-        ax.set_title("orientation: body axis e₁ in space" + (" (member 0)" if ensemble else ""))
-        ax.legend(fontsize=8)
     else:
+        ax = fig.add_subplot(grid[1])
         A = _members(states[first], tail("states", first, states[first]))
-        ax.plot(t, A[:, 0].reshape(len(t), -1))
+        flat = A[:, 0].reshape(len(t), -1)
+        for c in range(min(flat.shape[1], MAX_COMPONENTS)):
+            _line(ax, t, flat[:, c], None, PALETTE[c])
         ax.set_xlabel("t")
-        ax.set_title(f"{first} (no orientation saved)")
+        ax.set_title(f"{first} (no orientation saved; first {min(flat.shape[1], MAX_COMPONENTS)} entries)", fontsize=9)
 
     if ensemble:
-        ax = axes[2]
+        ax = fig.add_subplot(grid[2])
         if "R" in states:
             R = _members(states["R"], 2)
             rel = np.einsum("tmij,tkj->tmik", R, R[:, 0])  # R_i R_0ᵀ
             cos = np.clip((np.trace(rel, axis1=-2, axis2=-1) - (R.shape[-1] - 2)) / 2, -1, 1)
-            _band(ax, t, np.arccos(cos), "angle to member 0")
+            _band(ax, t, np.arccos(cos), "angle to member 0", PALETTE[0])
             ax.set_ylabel("rad")
         elif path_xy is not None:
             p = _members(path_xy, 1)
-            _band(ax, t, np.linalg.norm(p - p[:, :1], axis=-1), "distance to member 0")
+            _band(ax, t, np.linalg.norm(p - p[:, :1], axis=-1), "distance to member 0", PALETTE[0])
         ax.set_xlabel("t")
         ax.set_title(f"ensemble spread ({members} members)")
         ax.legend(fontsize=8)
-    fig.tight_layout()
-    try:
-        fig.savefig(out, dpi=110)
-    except OSError as exc:
-        raise PlotError(f"cannot write the figure {str(out)!r}: {exc}") from None
-    finally:
-        plt.close(fig)
-    return out
+    return fig

@@ -15,7 +15,8 @@ A study (``lieint compare`` on the command line) runs, on one scene,
 * the machine and thread settings (:mod:`.machine`),
 
 and writes the tables (:mod:`.table`: CSV/JSON with the metadata, an equal-cost table of the
-error each method reaches within a CPU budget) and the figures (:mod:`.figures`).
+error each method reaches within a CPU budget), the notes that explain what a reader sees
+(:mod:`.notes`) and the figures (:mod:`.figures`).
 
 Examples
 --------
@@ -29,7 +30,7 @@ Examples
 
 from __future__ import annotations
 
-from .figures import plot_long_run, plot_work_precision
+from .figures import plot_long_run, plot_work_precision, plot_work_precision_families
 from .machine import machine_info, set_threads
 from .measure import StudyRow, Timing, timed
 from .plan import PlanEntry, Variant, study_plan
@@ -54,6 +55,7 @@ __all__ = [
     "machine_info",
     "plot_long_run",
     "plot_work_precision",
+    "plot_work_precision_families",
     "prepare",
     "reference_for",
     "run_study",

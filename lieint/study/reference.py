@@ -15,7 +15,7 @@ the fields stacked into one vector. The reference is
     ``Ω − GᵀĠ = φ̇ GᵀE₃G`` (``E₃ = Z′(0)``), so ``φ̇ = ⟨Ω − GᵀĠ, GᵀE₃G⟩ / ⟨GᵀE₃G, GᵀE₃G⟩`` with
     ``Ȧ = [A, Ω]`` known exactly; φ is its integral by 16-point Gauss–Legendre quadrature on
     intervals of 0.05 (exact to round-off for this analytic integrand);
-  - the uniform ball released from rest on an incline (MATH.md §4): the centre accelerates at
+  - the uniform ball released from rest on an incline (docs/theory.md §4): the centre accelerates at
     ``a = g_t M r² / (M r² + 2λ)`` (``(n+2)/(n+4) g sin θ``), the ball turns in the plane of ``â``
     and the normal ν by ``φ(t) = |a| t² / (2r)``: ``R(t) = exp(φK) R₀`` with ``K = âνᵀ − νâᵀ``,
     ``Ω = Rᵀ φ̇ K R``, ``Γ = Rᵀν``, ``G = Rᵀg``;
@@ -224,7 +224,7 @@ def _exact_incline(scene, system, y0) -> Reference | None:
     lam, M, r, nu = system.B_C[0, 0], system.mass, system.radius, system.normal
     g = np.asarray(scene.gravity, dtype=float)
     g_t = g - (g @ nu) * nu
-    accel = g_t * M * r * r / (M * r * r + 2 * lam)  # MATH.md §4, from rest
+    accel = g_t * M * r * r / (M * r * r + 2 * lam)  # docs/theory.md §4, from rest
     a = float(np.linalg.norm(accel))
     if a == 0.0:
         return None

@@ -5,6 +5,11 @@ each series (method, variant, back end) and each budget B it shows the smallest 
 points *measured* at a median CPU time ≤ B — no interpolation, no extrapolation ("—" when no
 point of the series is that cheap). An error the reference cannot resolve is shown with ``*``.
 
+Printed tables fit a 120-column terminal by default (:data:`NARROW_COLUMNS`: the series, the
+setting, the back end, steps, median CPU time, the error and err/rtol, the invariants' drifts
+and the notes of :mod:`.notes`); ``wide=True`` (``lieint compare --wide``) prints every column,
+and Markdown and CSV are always wide.
+
 Files: ``work_precision.csv`` (the metadata as ``# key: value`` comment lines, then one line per
 point; ``pandas.read_csv(path, comment="#")`` reads it) and ``work_precision.json`` (metadata,
 reference, rows and the equal-cost table).
@@ -19,7 +24,15 @@ import math
 from dataclasses import asdict
 from pathlib import Path
 
-__all__ = ["BUDGETS_MS", "equal_cost", "format_equal_cost", "format_rows", "write_table"]
+__all__ = [
+    "BUDGETS_MS",
+    "NARROW_COLUMNS",
+    "WIDE_COLUMNS",
+    "equal_cost",
+    "format_equal_cost",
+    "format_rows",
+    "write_table",
+]
 
 #: CPU budgets of the equal-cost table, in milliseconds
 BUDGETS_MS = (1.0, 3.0, 10.0, 30.0, 100.0, 300.0, 1000.0, 3000.0, 10000.0, 30000.0)
@@ -57,18 +70,29 @@ def _err(value, resolved) -> str:
     return f"{value:.1e}" + ("" if resolved else "*")
 
 
-def format_equal_cost(study, fmt: str = "table") -> str:
-    """The equal-cost table as aligned text, Markdown or CSV."""
+def _short_series(label: str) -> str:
+    """A series label for the narrow table: scipy's variants abbreviated, the back end (a column
+    of the rows table) left out but for a fallback."""
+    name, _, backend = label.partition(" [")
+    name = name.replace("(projected saves)", "(proj.)")
+    return name + (" (fallback!)" if "fallback" in backend else "")
+
+
+def format_equal_cost(study, fmt: str = "table", wide: bool | None = None) -> str:
+    """The equal-cost table as aligned text, Markdown or CSV (``wide``: full series labels;
+    default: wide except for aligned text)."""
+    wide = fmt != "table" if wide is None else wide
     ec = equal_cost(study)
-    head = ["method [back end]"] + [f"≤ {b:g} ms" for b in ec["budgets_ms"]]
+    head = ["method [back end]" if wide else "method"] + [f"≤ {b:g} ms" for b in ec["budgets_ms"]]
     body = [
-        [label] + [_err(v, ok) for v, ok in zip(values, ec["resolved"][label], strict=True)]
+        [label if wide else _short_series(label)]
+        + [_err(v, ok) for v, ok in zip(values, ec["resolved"][label], strict=True)]
         for label, values in ec["series"].items()
     ]
     return _render(head, body, fmt)
 
 
-_COLUMNS = (
+WIDE_COLUMNS = (
     ("method", "method", "{}"),
     ("variant", "variant", "{}"),
     ("setting", "step/tol", "{}"),
@@ -84,12 +108,45 @@ _COLUMNS = (
     ("casimir_drift", "Casimir drift", "{:.1e}"),
     ("orthogonality", "‖RᵀR−I‖", "{:.1e}"),
 )
+_COLUMNS = WIDE_COLUMNS  # the name earlier code used
+
+#: the columns of the printed table (fits 120 columns for every registered method)
+NARROW_COLUMNS = (
+    ("series", "method [variant]", "{}"),
+    ("setting", "step/tol", "{}"),
+    ("backend", "back end", "{}"),
+    ("steps", "steps", "{:d}"),
+    ("cpu_median", "CPU [ms]", "ms"),
+    ("error", "error", "err"),
+    ("err_per_rtol", "err/rtol", "ratio"),
+    ("energy_drift", "energy", "{:.1e}"),
+    ("casimir_drift", "Casimirs", "{:.1e}"),
+    ("orthogonality", "‖RᵀR−I‖", "{:.1e}"),
+    ("note", "note", "{}"),
+)
 
 
-def _cell(row, key, spec) -> str:
-    value = getattr(row, key)
+def _narrow_value(row, key, notes):
+    if key == "series":
+        label = row.method if row.family != "scipy" else f"{row.method} ({'proj.' if row.projection else 'plain'})"
+        return label
+    if key == "err_per_rtol":
+        ok = row.success and row.rtol and math.isfinite(row.error)
+        return row.error / row.rtol if ok else float("nan")
+    if key == "note":
+        number = notes.get(row.series)
+        return f"[{number}]" if number else ""
+    return getattr(row, key)
+
+
+def _cell(row, key, spec, notes=None) -> str:
+    value = _narrow_value(row, key, notes or {}) if key in ("series", "err_per_rtol", "note") else getattr(row, key)
     if key == "backend" and row.fallback:
-        return f"{value} (fallback!)"
+        return f"{value} (fallback!)" if notes is None else f"{value}!"
+    if spec == "ratio":
+        if not math.isfinite(value):
+            return "—"
+        return f"{value:.1e}" + ("" if row.resolved else "*")
     if spec == "ms":
         return f"{1e3 * value:.3g}" if math.isfinite(value) else "—"
     if spec == "err":
@@ -99,12 +156,25 @@ def _cell(row, key, spec) -> str:
     return spec.format(value)
 
 
-def format_rows(study, fmt: str = "table") -> str:
-    """The rows as aligned text ("table"), Markdown, CSV or JSON (the JSON of :func:`as_dict`)."""
+def format_rows(study, fmt: str = "table", wide: bool | None = None) -> str:
+    """The rows as aligned text ("table"), Markdown, CSV or JSON (the JSON of :func:`as_dict`).
+
+    ``wide``: every column (:data:`WIDE_COLUMNS`) or the narrow set (:data:`NARROW_COLUMNS`,
+    with err/rtol and the notes of :func:`lieint.study.notes.rtol_notes`, ``!`` after a fallback's
+    back end); default: narrow for aligned text, wide for Markdown and CSV.
+    """
     if fmt == "json":
         return json.dumps(as_dict(study), indent=2, allow_nan=False)
-    head = [title for _, title, _ in _COLUMNS]
-    body = [[_cell(r, key, spec) for key, _, spec in _COLUMNS] for r in study.rows]
+    wide = fmt != "table" if wide is None else wide
+    if wide:
+        head = [title for _, title, _ in WIDE_COLUMNS]
+        body = [[_cell(r, key, spec) for key, _, spec in WIDE_COLUMNS] for r in study.rows]
+        return _render(head, body, fmt)
+    from .notes import rtol_notes, series_note_numbers
+
+    notes = series_note_numbers(rtol_notes(study))
+    head = [title for _, title, _ in NARROW_COLUMNS]
+    body = [[_cell(r, key, spec, notes) for key, _, spec in NARROW_COLUMNS] for r in study.rows]
     return _render(head, body, fmt)
 
 
@@ -121,8 +191,14 @@ def _render(head, body, fmt: str) -> str:
     if fmt != "table":
         raise ValueError(f"`fmt` must be 'table', 'markdown', 'csv' or 'json'; got {fmt!r}.")
     widths = [max(len(head[i]), *(len(c[i]) for c in body)) if body else len(head[i]) for i in range(len(head))]
-    line = "  ".join(h.rjust(w) for h, w in zip(head, widths, strict=True))
-    rows = ["  ".join(c.rjust(w) for c, w in zip(r, widths, strict=True)) for r in body]
+
+    def just(cells):  # names left, numbers right
+        return "  ".join(
+            c.ljust(w) if i == 0 else c.rjust(w) for i, (c, w) in enumerate(zip(cells, widths, strict=True))
+        )
+
+    line = just(head).rstrip()
+    rows = [just(r).rstrip() for r in body]
     return "\n".join([line, "-" * len(line), *rows])
 
 

@@ -1,4 +1,4 @@
-"""Long phases of the exact free-top solution, reduced without losing digits (MATH.md §2, §11).
+"""Long phases of the exact free-top solution, reduced without losing digits (docs/theory.md §2, §11).
 
 Over a long time the elliptic phase ``u = u₀ + λt`` and the precession angle ψ reach
 ``10²…10³``, and a double carries them only to ``|u|·ε``, ``|ψ|·ε`` (≈ 2e-13 at 10³): the

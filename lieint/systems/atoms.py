@@ -1,4 +1,4 @@
-"""The rigid body as atoms: N point masses held rigid by central reactions (seed §7; MATH.md §8).
+"""The rigid body as atoms: N point masses held rigid by central reactions (docs/theory.md §8).
 
 Atom i (mass ``mᵢ``, position ``qᵢ``) feels the reaction ``Rᵢ = Σₖ σᵢₖ (qₖ − qᵢ)`` with
 ``σᵢₖ = σₖᵢ``, on the pairs ``S = {(i, j): i < j, i among the first n atoms}``
@@ -10,7 +10,7 @@ Atom i (mass ``mᵢ``, position ``qᵢ``) feels the reaction ``Rᵢ = Σₖ σ�
 the second derivative of ``|qᵢ − qⱼ|² = const``; then ``mᵢ q̈ᵢ = Rᵢ``. Every reaction is a sum
 of forces along the lines joining atoms, equal and opposite in pairs, so ``Σ Rᵢ = 0`` and
 ``Σ qᵢ ∧ Rᵢ = 0``: the linear and angular momenta are constant, and the atoms move as the Euler
-top (MATH.md §2) with ``B = Σ mᵢ XᵢXᵢᵀ`` about the centre of mass — an independent truth for
+top (docs/theory.md §2) with ``B = Σ mᵢ XᵢXᵢᵀ`` about the centre of mass — an independent truth for
 :class:`~lieint.EulerTop`. The state is the positions ``"q"`` and velocities ``"v"``, shape
 ``(N, n)`` (batched over leading axes); the group is ``R^{N×n} × R^{N×n}`` (translations).
 """

@@ -1,4 +1,4 @@
-"""The contract a mechanical system fulfils for the integrators (MATH.md §6).
+"""The contract a mechanical system fulfils for the integrators (docs/theory.md §6).
 
 A system is a state (a dict of named arrays with leading batch dimensions), a matrix Lie
 group acting on it on the *right*, ``y ↦ ρ(g, y)``, and a generator ``ξ(t, y)`` in the Lie

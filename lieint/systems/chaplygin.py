@@ -1,7 +1,7 @@
 """The Chaplygin ball: centre of mass at the geometric centre, gravity along the normal.
 
 With ``X_G = 0`` and g ∥ ν, the momentum about the contact point ``a = −(b_K ω + ω b_K)`` is
-constant in space (MATH.md §4), so the body momentum ``A_K = Rᵀ a R`` is isospectral::
+constant in space (docs/theory.md §4), so the body momentum ``A_K = Rᵀ a R`` is isospectral::
 
     Ȧ_K = [A_K, Ω],   Γ̇ = −ΩΓ,   A_K = −(B_K Ω + Ω B_K),   B_K(Γ) = B_C + M r² ΓΓᵀ,
 
@@ -19,6 +19,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from .._validation import check_skew, describe
+from ..fast.forms import BUILTIN_PIECES, PiecesForm
 from ..groups.bivectors import inner, skew_part
 from ..groups.se import SE
 from ..groups.so import SO
@@ -162,31 +163,23 @@ class ChaplyginBall(RollingPose, LieGroupSystem):
         """
         return -0.25 * inner(self.angular_velocity(y["A"], y["Gamma"]), y["A"])
 
-    def compiled(self) -> dict | None:
-        """The generic compiled kernel's declaration (:mod:`lieint.fast.bodies`) for n ≥ 3.
+    def compiled(self) -> PiecesForm | None:
+        """The compiled engine's form (:class:`lieint.fast.forms.PiecesForm`) for n ≥ 3.
 
-        Pieces ``"chaplygin_ball"``; parameters n, the offsets of R and of the centre,
-        ``M r²``, r, ``B_C`` and ν.
+        The Chaplygin ball's pieces in :mod:`lieint.fast.balls`; parameters n, the offsets of R
+        and of the centre, ``M r²``, r, ``B_C`` and ν.
 
         Returns
         -------
-        dict or None
-            The declaration, or None (n = 2, or a subclass with other dynamics).
+        PiecesForm or None
+            The form, or None (n = 2, or a subclass with other dynamics).
         """
         if self.n < 3 or not self.dynamics_as(ChaplyginBall, _DYNAMICS):
             return None
         offset = self.field_offsets()
         head = [self.n, offset.get("R", -1), offset.get("center", -1), self._Mr2, self.radius]
         params = np.concatenate([head, self.B_C.ravel(), self.normal])
-        return {
-            "kind": "lie",
-            "pieces": "chaplygin_ball",
-            "params": params,
-            "n": self.n,
-            "translation": self.track_center,
-            "abelian": 0,
-            "fields": self.fields,
-        }
+        return PiecesForm(BUILTIN_PIECES.chaplygin, params, self.n, self.track_center, 0, self.fields)
 
     # -- the LieGroupSystem contract ---------------------------------------------------
     def generator(self, t: float | np.ndarray, y: State) -> np.ndarray:

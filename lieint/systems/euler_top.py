@@ -1,4 +1,4 @@
-"""The n-dimensional Euler top: a rigid body with a fixed point, no forces (MATH.md §2)."""
+"""The n-dimensional Euler top: a rigid body with a fixed point, no forces (docs/theory.md §2)."""
 
 from __future__ import annotations
 
@@ -17,6 +17,7 @@ from .._validation import (
     check_square_trailing,
     describe,
 )
+from ..fast.forms import BUILTIN_PIECES, PiecesForm, Top3Form, TopNForm
 from ..groups.bivectors import hat, skew_part, vee
 from ..groups.so import SO, project_to_so
 from .base import Invariant, LieGroupSystem, Output, State
@@ -334,12 +335,12 @@ class EulerTop(LieGroupSystem):
             out["orientation"] = orientation_output(n)
         return out
 
-    def compiled(self) -> dict | None:
-        """What the compiled kernels (:mod:`lieint.fast`) need: for n = 3 the principal moments
-        and frame (``"top3"``), for n ≥ 4 the eigenvalues b and eigenbasis P of B (``"topn"``,
-        :mod:`lieint.fast.topn` and :mod:`lieint.fast.topn_adaptive`) with, under ``"lie"``, the
-        generic kernel's declaration (:mod:`lieint.fast.generic`: Cayley coordinates); None for
-        n = 2 (so(2) is abelian: nothing to compile).
+    def compiled(self) -> Top3Form | TopNForm | None:
+        """The compiled engine's form (:mod:`lieint.fast.forms`): for n = 3 the principal moments
+        and frame (:class:`~lieint.fast.forms.Top3Form`), for n ≥ 4 the eigenvalues b and
+        eigenbasis P of B (:class:`~lieint.fast.forms.TopNForm`), each with the top's compiled
+        pieces (``generic``: the 3D top's Cayley coordinates run there); None for n = 2 (so(2) is
+        abelian: nothing to compile).
 
         The declaration stands for the Euler top's equations: a subclass that overrides the
         generator, the action or the projection integrates other dynamics and declares None
@@ -365,17 +366,14 @@ class EulerTop(LieGroupSystem):
         own["_compiled_declaration"] = (key, decl)
         return decl
 
-    def _declaration(self) -> dict:
-        """:meth:`compiled`'s declaration of this top (n ≥ 3): the kernels treat it as read-only."""
-        # the generic kernel's form too (lieint.fast.generic): Cayley coordinates
+    def _declaration(self):
+        """:meth:`compiled`'s form of this top (n ≥ 3): the engine treats it as read-only."""
         head = [self.n, self.field_offsets().get("R", -1), float(self.inertia.diagonal)]
         params = np.concatenate([head, self.inertia.kernel_params])
-        lie = {"kind": "lie", "pieces": "euler_top", "params": params, "n": self.n}
-        lie.update(translation=False, abelian=0, fields=self.fields)
+        generic = PiecesForm(BUILTIN_PIECES.euler_top, params, self.n, False, 0, self.fields)
         if self.n == 3:
-            decl = {"kind": "top3", "moments": self.principal_moments, "P": self.P, "orientation": self.orientation}
-            return decl | {"lie": lie}
-        return {"kind": "topn", "b": self.b, "P": self.P, "orientation": self.orientation, "lie": lie}
+            return Top3Form(self.principal_moments, self.P, self.orientation, generic)
+        return TopNForm(self.b, self.P, self.orientation, generic)
 
     @property
     def manakov_labels(self) -> list[tuple[int, int]]:

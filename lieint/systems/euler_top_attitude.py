@@ -114,7 +114,7 @@ def euler_top_rotation(moments, w0, t) -> np.ndarray:
     G = float(np.linalg.norm(Pi0))
     d1, _, d3 = energy_momentum_gaps((I1, I2, I3), wp0)  # G² − 2E I₁, 2E I₃ − G², exactly rounded
     # u = u₀ + λt = 2jK + r and ψ mod 2π from constants carried to ~32 digits: in doubles the
-    # long phases λt, (G/I₁)t and j·2K·(…) would each carry an error ~ ε·|λt| (MATH.md §11)
+    # long phases λt, (G/I₁)t and j·2K·(…) would each carry an error ~ ε·|λt| (docs/theory.md §11)
     phase, j, r, sn, cn, dn = elliptic_functions_of_phase(e, moments, w0, t, attitude=d3 != 0.0)
     Pi = np.stack([I1 * a1 * cn, I2 * a2 * sn, I3 * a3 * dn], axis=-1)
     rest = np.zeros_like(t)

@@ -1,4 +1,4 @@
-"""Exact body angular velocity of the 3D Euler top in Jacobi elliptic functions (MATH.md §2).
+"""Exact body angular velocity of the 3D Euler top in Jacobi elliptic functions (docs/theory.md §2).
 
 With principal moments ordered ``I₁ < I₂ < I₃``, ``2E = Σ I_i w_i²``, ``G² = Σ (I_i w_i)²`` and
 ``G² > 2E I₂``::

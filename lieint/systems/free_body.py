@@ -1,4 +1,4 @@
-"""A free rigid body in space: pose on SE(n), rotation as the Euler top (MATH.md §5)."""
+"""A free rigid body in space: pose on SE(n), rotation as the Euler top (docs/theory.md §5)."""
 
 from __future__ import annotations
 
@@ -9,6 +9,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from .._validation import check_finite_positive, check_rotation, check_vector, describe
+from ..fast.forms import BUILTIN_PIECES, PiecesForm
 from ..groups.so import SO
 from ..groups.vector import ProductGroup, VectorSpace
 from .base import Invariant, LieGroupSystem, Output, State
@@ -112,16 +113,16 @@ class FreeBody(LieGroupSystem):
         out = dict(y) | self.top.project(y)
         return out
 
-    def compiled(self) -> dict | None:
-        """The generic compiled kernel's declaration (:mod:`lieint.fast.bodies`) for n ≥ 3.
+    def compiled(self) -> PiecesForm | None:
+        """The compiled engine's form (:class:`lieint.fast.forms.PiecesForm`) for n ≥ 3.
 
-        Pieces ``"free_body"``; parameters n, the offsets of R and of the centre, whether B
-        is diagonal, the eigenbasis P of B, ``−1/(b_i + b_j)`` and g.
+        The free body's pieces in :mod:`lieint.fast.bodies`; parameters n, the offsets of R and
+        of the centre, whether B is diagonal, the eigenbasis P of B, ``−1/(b_i + b_j)`` and g.
 
         Returns
         -------
-        dict or None
-            The declaration, or None (n = 2, or a subclass with other dynamics).
+        PiecesForm or None
+            The form, or None (n = 2, or a subclass with other dynamics).
         """
         if self.n < 3 or not self.dynamics_as(FreeBody, _DYNAMICS) or not self.top.dynamics_as(EulerTop, _TOP):
             return None
@@ -130,15 +131,7 @@ class FreeBody(LieGroupSystem):
         g = np.zeros(n) if self.gravity is None else self.gravity
         head = [n, offset.get("R", -1), float(inertia.diagonal)]
         params = np.concatenate([head, inertia.kernel_params, [offset["center"]], g])
-        return {
-            "kind": "lie",
-            "pieces": "free_body",
-            "params": params,
-            "n": n,
-            "translation": False,
-            "abelian": 2 * n,
-            "fields": self.fields,
-        }
+        return PiecesForm(BUILTIN_PIECES.free_body, params, n, False, 2 * n, self.fields)
 
     def energy(self, y: State) -> np.ndarray:
         """Total energy ``T_rot + ½M|v|² − M⟨g, q_G⟩``.

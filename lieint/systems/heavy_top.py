@@ -1,4 +1,4 @@
-"""The heavy top: a rigid body with a fixed point under constant gravity (MATH.md §3)."""
+"""The heavy top: a rigid body with a fixed point under constant gravity (docs/theory.md §3)."""
 
 from __future__ import annotations
 
@@ -9,6 +9,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from .._validation import check_finite_positive, check_rotation, check_vector, describe
+from ..fast.forms import BUILTIN_PIECES, PiecesForm
 from ..groups.bivectors import skew_part, vee, wedge
 from ..groups.se import SE, se_join, se_split
 from ..groups.so import project_to_so
@@ -215,31 +216,23 @@ class HeavyTop(LieGroupSystem):
             out["R"] = project_to_so(y["R"])
         return out
 
-    def compiled(self) -> dict | None:
-        """The generic compiled kernel's declaration (:mod:`lieint.fast.bodies`) for n ≥ 3.
+    def compiled(self) -> PiecesForm | None:
+        """The compiled engine's form (:class:`lieint.fast.forms.PiecesForm`) for n ≥ 3.
 
-        Pieces ``"heavy_top"``; parameters n, the offset of R, whether B is diagonal, the
-        eigenbasis P of B, ``−1/(b_i + b_j)``, ``M X_G`` and ``|g|``.
+        The heavy top's pieces in :mod:`lieint.fast.bodies`; parameters n, the offset of R,
+        whether B is diagonal, the eigenbasis P of B, ``−1/(b_i + b_j)``, ``M X_G`` and ``|g|``.
 
         Returns
         -------
-        dict or None
-            The declaration, or None (n = 2, or a subclass with other dynamics).
+        PiecesForm or None
+            The form, or None (n = 2, or a subclass with other dynamics).
         """
         if self.n < 3 or not self.dynamics_as(HeavyTop, _DYNAMICS) or not self.top.dynamics_as(EulerTop, _TOP):
             return None
         inertia, n = self.inertia, self.n
         head = [n, self.field_offsets().get("R", -1), float(inertia.diagonal)]
         params = np.concatenate([head, inertia.kernel_params, self._MXG, [np.linalg.norm(self.gravity)]])
-        return {
-            "kind": "lie",
-            "pieces": "heavy_top",
-            "params": params,
-            "n": n,
-            "translation": True,
-            "abelian": 0,
-            "fields": self.fields,
-        }
+        return PiecesForm(BUILTIN_PIECES.heavy_top, params, n, True, 0, self.fields)
 
     # -- physics -----------------------------------------------------------------------
     def energy(self, A: np.ndarray, Gamma: np.ndarray) -> np.ndarray:

@@ -1,4 +1,4 @@
-"""Mass tensors and the inertia operator (MATH.md §2, §4).
+"""Mass tensors and the inertia operator (docs/theory.md §2, §4).
 
 The inertia operator solves the Lyapunov equation ``B X + X B = C`` in the eigenbasis of
 the symmetric B: ``X̃_ij = C̃_ij / (b_i + b_j)``. The Euler top precomputes the basis of its

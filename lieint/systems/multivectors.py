@@ -1,4 +1,4 @@
-"""Trivectors of Rⁿ as components, and their indices (bivectors are skew matrices, MATH.md §1).
+"""Trivectors of Rⁿ as components, and their indices (bivectors are skew matrices, docs/theory.md §1).
 
 A trivector ``u ∧ v ∧ w`` is stored by its coefficients on ``e_i ∧ e_j ∧ e_k`` for
 ``i < j < k`` (lexicographic order): the 3 × 3 minors of the matrix with rows u, v, w. For

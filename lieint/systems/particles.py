@@ -1,5 +1,5 @@
 """One particle in Rⁿ: central force, force of constant direction, constrained to a surface
-(seed §5 Ex. 1–2, §6; MATH.md §10).
+(docs/theory.md §10).
 
 The state is the position ``"q"`` and velocity ``"v"`` (batched over leading axes), moved by
 the translations ``Rⁿ × Rⁿ`` with the generator ``(q̇, q̈) = (v, a(t, q, v))``: on this
@@ -11,7 +11,7 @@ they declare in :attr:`structure`:
 * ``"surface_constrained"``: ``m q̈ = f(t, q) + λ ∇h(q)`` on ``h(q) = 1``
   (:class:`SurfaceParticle`).
 
-Bivector invariants (seed §6): a central force toward C keeps ``(q − C) ∧ q̇``; a force of
+Bivector invariants (docs/theory.md §10): a central force toward C keeps ``(q − C) ∧ q̇``; a force of
 constant direction e keeps ``e ∧ q̇``; on a surface of revolution about ``(C, e)`` with a force
 along e, ``(q − C) ∧ q̇ ∧ e`` (Clairaut; Newton, Principia I.55). Bivectors are skew matrices
 (``u ∧ v = u vᵀ − v uᵀ``), trivectors their components (:mod:`lieint.systems.multivectors`).
@@ -208,7 +208,7 @@ class CentralForceParticle(Particle):
     Notes
     -----
     Invariants: ``energy`` ``½m|q̇|² + V(r)`` and ``angular_momentum``, the bivector
-    ``m (q − C) ∧ q̇`` (seed §6, any n).
+    ``m (q − C) ∧ q̇`` (docs/theory.md §10, any n).
 
     Examples
     --------
@@ -314,7 +314,7 @@ class ConstantForceParticle(Particle):
 
     Notes
     -----
-    Invariants: ``energy`` ``½m|q̇|² − ⟨f, q⟩`` and ``force_bivector`` ``e ∧ q̇`` (seed §6).
+    Invariants: ``energy`` ``½m|q̇|² − ⟨f, q⟩`` and ``force_bivector`` ``e ∧ q̇`` (docs/theory.md §10).
 
     Examples
     --------
@@ -387,7 +387,7 @@ def constant_force_particle(mass: float, force) -> ConstantForceParticle:
 
 
 class SurfaceParticle(Particle):
-    """A particle on the surface ``h(q) = 1`` under a constant force f (MATH.md §10).
+    """A particle on the surface ``h(q) = 1`` under a constant force f (docs/theory.md §10).
 
     ``m q̈ = f + λ ∇h(q)``, with the multiplier λ from ``⟨∇h, q̈⟩ + q̇ᵀ ∇²h q̇ = 0``::
 

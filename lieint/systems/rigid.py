@@ -1,4 +1,4 @@
-"""Parts every rigid-body system shares (MATH.md §1–§2).
+"""Parts every rigid-body system shares (docs/theory.md §1–§2).
 
 * :class:`InertiaOperator` — the constant body mass tensor B with the maps between angular
   velocity and momentum, ``A = −(BΩ + ΩB)`` and ``Ω_ij = −Ã_ij/(b_i + b_j)`` in the eigenbasis,

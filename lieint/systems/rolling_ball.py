@@ -1,4 +1,4 @@
-"""A ball rolling without sliding on a fixed plane, any n ≥ 2 (MATH.md §4).
+"""A ball rolling without sliding on a fixed plane, any n ≥ 2 (docs/theory.md §4).
 
 Body frame (what is integrated), with ``Γ = Rᵀν``, ``G = Rᵀg``, ``κ = rΓ``::
 
@@ -31,6 +31,7 @@ from .._validation import (
     check_vector,
     describe,
 )
+from ..fast.forms import BUILTIN_PIECES, PiecesForm
 from ..groups.bivectors import hat, inner, skew_part, wedge
 from ..groups.se import SE, se_join, se_split
 from ..groups.so import SO, project_to_so
@@ -369,10 +370,10 @@ class RollingBall(RollingPose, LieGroupSystem):
             U = U + self.mass * self._g_normal * self.radius
         return T - U
 
-    def compiled(self) -> dict | None:
-        """The generic compiled kernel's declaration (:mod:`lieint.fast.bodies`) for n ≥ 3.
+    def compiled(self) -> PiecesForm | None:
+        """The compiled engine's form (:class:`lieint.fast.forms.PiecesForm`) for n ≥ 3.
 
-        Pieces ``"rolling_ball"``; parameters n, the offsets of R, the centre and G, M, r,
+        The rolling ball's pieces in :mod:`lieint.fast.balls`; parameters n, the offsets of R, the centre and G, M, r,
         the gravity mode (0 none, 1 along ν with ``G = ⟨g, ν⟩Γ``, 2 tilted: G a field),
         ``⟨g, ν⟩``, ``|g|``, ``B_C``, ``X_G`` and ν; the vector factor carries ``δΩ`` (n²).
 
@@ -389,15 +390,7 @@ class RollingBall(RollingPose, LieGroupSystem):
         head = [self.n, offset.get("R", -1), offset.get("center", -1), offset.get("G", -1)]
         head += [self.mass, self.radius, mode, self._g_normal, gnorm]
         params = np.concatenate([head, self.B_C.ravel(), self.center_of_mass, self.normal])
-        return {
-            "kind": "lie",
-            "pieces": "rolling_ball",
-            "params": params,
-            "n": self.n,
-            "translation": self.track_center,
-            "abelian": self.n * self.n,
-            "fields": self.fields,
-        }
+        return PiecesForm(BUILTIN_PIECES.rolling_ball, params, self.n, self.track_center, self.n * self.n, self.fields)
 
     # -- the LieGroupSystem contract ---------------------------------------------------
     def generator(self, t: float | np.ndarray, y: State) -> np.ndarray | tuple[np.ndarray, ...]:

@@ -1,4 +1,4 @@
-"""Surfaces ``h(q) = 1`` in Rⁿ given as data, for a particle constrained to one (MATH.md §10).
+"""Surfaces ``h(q) = 1`` in Rⁿ given as data, for a particle constrained to one (docs/theory.md §10).
 
 Each surface is a function ``h`` with its gradient ``∇h`` and its Hessian quadratic form
 ``q̇ᵀ ∇²h q̇`` (what the constraint force needs), batched over leading axes:

@@ -1,0 +1,166 @@
+"""What systems and methods declare to the compiled engine (plain Python: no numba at import).
+
+A system's ``compiled()`` returns one of the *system forms* below — an object that says which
+family of compiled stage functions steps it and with which numbers — and a method's
+``compiled()`` one of the *method forms*. The engine (:mod:`lieint.fast.engine`) matches the
+two; nothing here imports numba, so building a system or a method stays cheap and
+``import lieint`` light.
+
+System forms:
+
+* :class:`Top3Form` — the 3D Euler top in its principal frame (``(Π, R P)``; the fastest
+  stage code of the package, and SIMD lanes for ensembles);
+* :class:`TopNForm` — the Euler top in n ≥ 4 dimensions in its principal frame;
+* :class:`PiecesForm` — any system on ``SO(n)`` or ``SE(n)`` times ``Rᵐ`` that supplies compiled
+  *pieces* (generator, action, vector field, projection: :mod:`lieint.fast.pieces`), the
+  built-in heavy top, free body and balls among them (:data:`BUILTIN_PIECES`), and any system
+  outside the package that declares its own.
+
+Method forms: :class:`RKMKForm` (explicit Runge–Kutta–Munthe-Kaas in exponential or Cayley
+coordinates, fixed-step or an embedded pair) and :class:`ClassicalForm` (classical explicit RK
+on the embedding space).
+"""
+
+from __future__ import annotations
+
+import importlib
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+__all__ = [
+    "BUILTIN_PIECES",
+    "ClassicalForm",
+    "LazyPieces",
+    "PiecesForm",
+    "RKMKForm",
+    "Top3Form",
+    "TopNForm",
+]
+
+
+# -- method forms ------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True, eq=False)
+class RKMKForm:
+    """An explicit RKMK method: tableau ``(A, b, c)``, coordinates ("exp" with the dexp⁻¹ series
+    truncated at ``degree``, or "cayley" with the exact dcay⁻¹) and, for an embedded pair, the
+    embedded weights ``b_hat`` (DOP853's third-order ``b_low`` too) and the controller's error
+    order q."""
+
+    A: np.ndarray
+    b: np.ndarray
+    c: np.ndarray
+    coordinates: str
+    degree: int | None
+    b_hat: np.ndarray | None = None
+    b_low: np.ndarray | None = None
+    error_order: int | None = None
+
+    family = "rkmk"
+
+    @property
+    def stages(self) -> int:
+        return int(np.asarray(self.b).size)
+
+    @property
+    def pair(self) -> bool:
+        return self.b_hat is not None
+
+
+@dataclass(frozen=True, eq=False)
+class ClassicalForm:
+    """Classical explicit Runge–Kutta on the embedding space: tableau ``(A, b, c)``."""
+
+    A: np.ndarray
+    b: np.ndarray
+    c: np.ndarray
+
+    family = "rk"
+    coordinates = None
+    pair = False
+
+    @property
+    def stages(self) -> int:
+        return int(np.asarray(self.b).size)
+
+
+# -- system forms ------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class LazyPieces:
+    """Compiled pieces defined in a module of the compiled layer, named so that declaring them
+    imports no numba (:attr:`resolve` imports the module on first use)."""
+
+    module: str
+    name: str
+
+    def resolve(self):
+        """The :class:`lieint.fast.pieces.CompiledPieces`."""
+        return getattr(importlib.import_module(self.module), self.name)
+
+
+class _BuiltinPieces:
+    """The built-in systems' compiled pieces, by attribute (``BUILTIN_PIECES.heavy_top``)."""
+
+    euler_top = LazyPieces("lieint.fast.bodies", "EULER_TOP")
+    heavy_top = LazyPieces("lieint.fast.bodies", "HEAVY_TOP")
+    free_body = LazyPieces("lieint.fast.bodies", "FREE_BODY")
+    chaplygin = LazyPieces("lieint.fast.balls", "CHAPLYGIN")
+    rolling_ball = LazyPieces("lieint.fast.balls", "ROLLING_BALL")
+
+
+#: the compiled pieces of the built-in systems on SO(n)/SE(n) × Rᵐ
+BUILTIN_PIECES = _BuiltinPieces()
+
+
+@dataclass(frozen=True, eq=False)
+class PiecesForm:
+    """A system on ``SO(n)`` (``translation=False``) or ``SE(n)`` times ``Rᵐ`` (``abelian = m``)
+    stepped through compiled pieces (a :class:`lieint.fast.pieces.CompiledPieces`, or a
+    :class:`LazyPieces` naming one), with its parameters as one float vector and its state
+    flattened field after field (``fields``: name → trailing shape, in the state's order).
+
+    ``group`` names the group in messages (default ``"so(n)"``/``"se(n)"``)."""
+
+    pieces: Any
+    params: np.ndarray
+    n: int
+    translation: bool
+    abelian: int
+    fields: dict
+    group: str = ""
+
+    def __post_init__(self):
+        if not self.group:
+            object.__setattr__(self, "group", f"{'se' if self.translation else 'so'}({self.n})")
+
+
+@dataclass(frozen=True, eq=False)
+class Top3Form:
+    """The 3D Euler top: principal moments, principal frame P (columns), whether the state
+    carries the attitude R; ``generic`` is the same top as a :class:`PiecesForm` (its Cayley
+    coordinates run there)."""
+
+    moments: np.ndarray
+    P: np.ndarray
+    orientation: bool
+    generic: PiecesForm | None = field(default=None, repr=False)
+
+
+@dataclass(frozen=True, eq=False)
+class TopNForm:
+    """The Euler top in n ≥ 4 dimensions: eigenvalues b and eigenbasis P of the mass tensor
+    ``B = P diag(b) Pᵀ``, whether the state carries R; ``generic`` as :class:`Top3Form`'s."""
+
+    b: np.ndarray
+    P: np.ndarray
+    orientation: bool
+    generic: PiecesForm | None = field(default=None, repr=False)
+
+    @property
+    def n(self) -> int:
+        return int(np.asarray(self.b).size)
