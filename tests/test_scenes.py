@@ -180,7 +180,7 @@ def test_bad_scene_files_name_the_key_and_line(tmp_path, edit, match):
 
 
 def test_physical_errors_surface_as_scene_errors():
-    with pytest.raises(SceneError, match=r"`center_of_mass` must lie inside the ball"):
+    with pytest.raises(SceneError, match=r"\[body\] center_of_mass \(line 9\): must lie inside the ball"):
         build_system(ball_scene('["energy"]', extra_body="center_of_mass = [0.0, 0.0, -1.5]"))
     with pytest.raises(SceneError, match=r"\[forces\] gravity \(line 15\): expected an array of shape \(3,\)"):
         ball_scene('["energy"]', gravity="[0.0, -9.81]")

@@ -18,6 +18,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ..text import printable
+
 __all__ = ["PlotError", "plot_run"]
 
 _MAX_POINTS = 4000
@@ -27,19 +29,29 @@ class PlotError(ValueError):
     """A file that cannot be plotted (missing, corrupt, or not a lieint run)."""
 
 
-def _read(path: Path):
+def _read(path: Path, timeout: float):
     """The strided series and attributes, read safely (:mod:`lieint.runs.reading`: a truncated or
-    damaged file is reported within seconds, never waited for)."""
+    damaged file is reported within seconds, never waited for), all within ``timeout`` s."""
+    import time
+
     from .reading import IsolatedError, read_header, read_series
 
-    header = read_header(path)
+    deadline = time.monotonic() + timeout
+    header = read_header(path, timeout=timeout)
+    if header.timed_out:
+        raise PlotError(f"could not read {str(path)!r} within the deadline of {timeout:g} s; pass a longer --timeout")
     if not header.ok:
         raise PlotError(f"cannot open {str(path)!r} as an HDF5 run file: {header.problem}")
     if "t" not in header.datasets or not any(n.startswith("states/") for n in header.datasets):
         raise PlotError(f"{str(path)!r} is not a lieint run (no /t and /states)")
     try:
-        series = read_series(path, _MAX_POINTS, header=header)
+        series = read_series(path, _MAX_POINTS, timeout=max(0.0, deadline - time.monotonic()), header=header)
     except IsolatedError as exc:
+        if exc.timed_out:
+            raise PlotError(
+                f"could not read the rows of {str(path)!r} within the deadline of {timeout:g} s (a busy machine or a "
+                "large file); pass a longer --timeout"
+            ) from None
         raise PlotError(
             f"cannot read the rows of {str(path)!r}: {exc} (`lieint info {path}` says where it is damaged)"
         ) from None
@@ -70,8 +82,11 @@ def _band(ax, t, series, label):
     ax.fill_between(t, lo, hi, color=line.get_color(), alpha=0.25)
 
 
-def plot_run(path, out=None) -> Path:
-    """Draw the figure of a streamed run; returns the figure's path (PNG or SVG by suffix)."""
+def plot_run(path, out=None, timeout: float = 20.0) -> Path:
+    """Draw the figure of a streamed run; returns the figure's path (PNG or SVG by suffix).
+
+    The file is read within ``timeout`` seconds (all stages together); a file that cannot be
+    read in that time gives :class:`PlotError` saying so (never a wait without end)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -83,7 +98,7 @@ def plot_run(path, out=None) -> Path:
     out = Path(out) if out else path.with_suffix(".png")
     if out.suffix.lower() not in (".png", ".svg"):
         raise PlotError(f"the figure must be .png or .svg; got {out.name!r}")
-    t, states, inv, outputs, attrs = _read(path)
+    t, states, inv, outputs, attrs = _read(path, timeout)
     if t.size < 2:
         raise PlotError(
             f"{str(path)!r} holds {t.size} saved row(s); a plot needs at least two (run longer, or lower save_every)"
@@ -106,7 +121,7 @@ def plot_run(path, out=None) -> Path:
     title = f"{attrs.get('scene_name', path.stem)} — {attrs.get('method', '')}, h = {attrs.get('h', '')}"
     if attrs.get("status") != "complete":
         title += f" [{attrs.get('status')}]"
-    fig.suptitle(title)
+    fig.suptitle(printable(title))  # the file's text, escaped: a name may hold control characters
 
     ax = axes[0]
     tt = t - t[0]

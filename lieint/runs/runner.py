@@ -109,7 +109,7 @@ def run(
         limits = _check_limits(max_drift, streamed.invariant_names)
         if not resume:
             _check_room(streamed)
-        with _file_size_signal_ignored():
+        with file_size_signal_ignored():
             return _Session(
                 streamed, stream, progress, checkpoint_every, checkpoint_seconds, monitor_every, stop_after, limits
             ).run(resume)
@@ -324,7 +324,7 @@ def _check_room(streamed: StreamedRun) -> None:
         )
 
 
-class _file_size_signal_ignored:
+class file_size_signal_ignored:
     """Ignore SIGXFSZ while writing, so that passing ``ulimit -f`` makes write() fail with EFBIG
     (reported clearly) instead of killing the process (main thread only)."""
 

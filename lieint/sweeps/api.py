@@ -33,6 +33,7 @@ def sweep(
     project: bool = False,
     save_every: int = 1,
     outputs: Sequence[str] = (),
+    connect_timeout: float = 20.0,
 ):
     """Integrate a parameter and initial-condition sweep on dask and store it in Zarr.
 
@@ -76,6 +77,9 @@ def sweep(
         fields) and an initial state or list of states (each may be batched), all run by every
         system; then ``t_span`` and ``h`` are required and ``method``, ``coordinates``,
         ``project``, ``save_every`` and ``outputs`` (outputs or invariants to store) apply.
+    connect_timeout : float, default 20
+        Seconds allowed to reach ``scheduler`` (an address), complete dask's handshake and check
+        the versions of the scheduler and its workers — all before anything is created.
 
     Returns
     -------
@@ -87,7 +91,13 @@ def sweep(
     SweepError
         A key the scene does not have, a value that makes the scene invalid, an adaptive method
         (sweeps run fixed-step methods), an existing store without ``resume``/``overwrite``, a
-        store of another sweep, or a chunk that failed on every retry.
+        store of another sweep or not a lieint sweep store (``overwrite`` replaces nothing
+        else), a store another process is writing (its pid, host and start time), a scheduler
+        that cannot be reached or runs other versions, or a chunk that failed on every retry;
+        :class:`~lieint.sweeps.store.NoSpaceError` (a SweepError) when the disk is full.
+    lieint.limits.LimitError
+        A sweep beyond a size limit (values, points, members, chunks, a chunk's memory,
+        workers): the message names the flag and the environment variable that raises it.
 
     Examples
     --------
@@ -131,4 +141,5 @@ def sweep(
         overwrite=overwrite,
         progress=progress,
         backend=backend,
+        connect_timeout=connect_timeout,
     )
