@@ -100,7 +100,7 @@ def inspect_sweep(path, timeout: float = 4.0) -> SweepInfo:
         fix = (
             "its layout is damaged: run the sweep again with --overwrite"
             if check.layout_damaged
-            else "the same `lieint sweep … --resume` recomputes these chunks"
+            else "the same lieint sweep … --resume recomputes these chunks"
         )
         head = f"damaged: {printable(check.describe())}; {fix}"
         resumable = not check.layout_damaged
@@ -118,7 +118,7 @@ def inspect_sweep(path, timeout: float = 4.0) -> SweepInfo:
         why = printable(str(attrs.get("message") or ""))
         word = {"failed": "failed", "no-space": "stopped (no space)"}.get(status, "interrupted")
         head = (
-            f"{word}: {committed} of {nchunks} chunks committed; resumable: the same `lieint sweep … --resume` "
+            f"{word}: {committed} of {nchunks} chunks committed; resumable: the same lieint sweep … --resume "
             "computes the others" + (f" (it ended with: {why})" if why else "")
         )
         resumable = True

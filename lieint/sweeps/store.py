@@ -144,6 +144,8 @@ class SweepStore:
     def __init__(self, path, plan: SweepPlan, *, resume: bool = False, overwrite: bool = False):
         self.path, self.plan = Path(path), plan
         self.damaged: dict[int, list[str]] = {}
+        self._arrays: dict = {}
+        self._times: np.ndarray | None = None  # the time axis, once the member arrays exist
         action = self.check(self.path, plan, resume=resume, overwrite=overwrite)
         if action == "resume":
             self._resume()
@@ -321,11 +323,14 @@ class SweepStore:
 
     def _ensure_result_arrays(self, result: ChunkResult) -> None:
         """Create the time axis and the member arrays from the first chunk's shapes."""
+        if self._times is not None:
+            if not np.array_equal(self._times, result.t):
+                raise StoreError(f"chunk {result.index} saved at times other than the store's")
+            return
         attrs = dict(self.root.attrs)
         if "time/zarr.json" in (attrs.get("files_sha256") or {}):
-            t = self.root["time"][...]
-            if not np.array_equal(t, result.t):
-                raise StoreError(f"chunk {result.index} saved at times other than the store's")
+            self._times = self.root["time"][...]
+            self._ensure_result_arrays(result)
             return
         N, M = self.plan.nmembers, self.plan.chunk
         m = result.t.size
@@ -355,6 +360,7 @@ class SweepStore:
         files = dict(attrs.get("files_sha256") or {})
         files.update(_digests(self.path, names, with_chunks={"time"}))
         self.root.attrs["files_sha256"] = files
+        self._times = np.asarray(result.t)
 
     # -- chunks ----------------------------------------------------------------------------
     def committed(self) -> np.ndarray:
@@ -369,6 +375,12 @@ class SweepStore:
         except OSError as exc:
             raise _os_error(exc, f"cannot commit chunk {result.index} to {str(self.path)!r}") from None
 
+    def _array_of(self, name: str):
+        """The array ``name`` (opened once: each opening reads its metadata from the disk)."""
+        if name not in self._arrays:
+            self._arrays[name] = self.root[name]
+        return self._arrays[name]
+
     def _commit(self, result: ChunkResult, session: str) -> None:
         if (result.start, result.stop) != self.plan.chunk_range(result.index):
             raise StoreError(f"chunk {result.index} covers members {result.start}..{result.stop}, not the plan's")
@@ -377,19 +389,19 @@ class SweepStore:
         written = []
         for prefix, values in (("state_", result.states), ("", result.series), ("drift_", result.drifts)):
             for name, v in values.items():
-                self.root[prefix + name][sl] = v
+                self._array_of(prefix + name)[sl] = v
                 written.append(prefix + name)
         c = result.index
         meta = dict(result.meta, start=result.start, stop=result.stop, session=session)
-        self.root["chunk_stats"][c] = np.array([float(meta[name]) for name in STATS])
-        self.root["chunk_info"][c] = np.array([str(meta.get(name, "")) for name in INFO], dtype=str)
+        self._array_of("chunk_stats")[c] = np.array([float(meta[name]) for name in STATS])
+        self._array_of("chunk_info")[c] = np.array([str(meta.get(name, "")) for name in INFO], dtype=str)
         record = {}
         for name in [*written, "chunk_stats", "chunk_info"]:
-            arr = self.root[name]
+            arr = self._array_of(name)
             relative = f"{name}/" + arr.metadata.encode_chunk_key((c,) + (0,) * (arr.ndim - 1))
             record[relative] = list(digest_file(self.path / relative))
-        self.root["chunk_sha256"][c] = json.dumps(record, sort_keys=True)
-        self.root["chunk_committed"][c] = 1
+        self._array_of("chunk_sha256")[c] = json.dumps(record, sort_keys=True)
+        self._array_of("chunk_committed")[c] = 1
 
     def finish(self, status: str, message: str = "") -> None:
         """Record the status (and why it failed); a complete store gets consolidated metadata."""
