@@ -186,3 +186,120 @@ def test_a_chunk_that_fails_stops_the_sweep_and_keeps_the_committed_ones(client,
     ds = xr.open_zarr(out, consolidated=False)
     assert ds.attrs["status"] == "failed" and "DexpinvRangeError" in ds.attrs["message"]
     assert ds["chunk_committed"].values.tolist() in ([1, 0], [0, 0])  # chunk 0 is kept if it finished first
+
+
+# -- schedulers that cannot be used: refused before anything is created ------------------------------
+
+
+def _server(mode: str):
+    """A loopback TCP server that accepts and then never answers ("silent") or answers bytes
+    that are not dask's protocol ("garbage"); returns its port (a daemon thread serves it)."""
+    import socket
+
+    listener = socket.socket()
+    listener.bind(("127.0.0.1", 0))
+    listener.listen(16)
+    held = []
+
+    def serve():
+        while True:
+            conn, _ = listener.accept()
+            held.append(conn)  # never closed, never answered
+            if mode == "garbage":  # a length prefix of 2⁶⁴ − 1 frames: distributed would allocate exabytes
+                conn.sendall(b"\xff" * 4096)
+            elif mode == "http":  # read as a frame length of 3 EiB, which distributed tries to allocate
+                conn.sendall(b"HTTP/1.1 200 OK\r\n\r\n")
+
+    threading.Thread(target=serve, daemon=True).start()
+    return listener.getsockname()[1]
+
+
+@pytest.mark.parametrize(
+    ("address", "expected"),
+    [
+        ("silent", "did not complete dask's handshake within 20 s"),  # the default deadline
+        ("garbage", "it does not speak dask's protocol (ValueError"),
+        ("http", "it does not speak dask's protocol (MemoryError: Unable to allocate 3.07 EiB"),
+        ("file:///etc/passwd", "whose scheme 'file' is not one of dask's"),
+        ("tcp://127.0.0.1", "tcp://HOST:PORT"),
+    ],
+)
+def test_a_scheduler_that_cannot_be_used_is_refused_in_one_line_and_nothing_is_created(tmp_path, address, expected):
+    if address in ("silent", "garbage", "http"):
+        address = f"tcp://127.0.0.1:{_server(address)}"
+    out = tmp_path / "s.zarr"
+    tic = time.monotonic()
+    done = subprocess.run(
+        [sys.executable, "-m", "lieint", "sweep", "dzhanibekov", "--vary", "body.principal_moments[0]=1:1.2:3",
+         "--scheduler", address, "--out", str(out), "--quiet"],
+        capture_output=True, text=True, timeout=120, cwd=tmp_path,
+    )  # fmt: skip
+    seconds = time.monotonic() - tic
+    assert seconds <= 30, seconds
+    assert done.returncode == 2, (done.returncode, done.stderr)
+    assert expected in done.stderr, done.stderr
+    assert done.stderr.count("\n") == 1 and "Traceback" not in done.stderr, done.stderr
+    assert list(tmp_path.iterdir()) == []  # no store, no lock, no temporary
+
+
+def test_a_scheduler_without_workers_is_refused(tmp_path):
+    with distributed.LocalCluster(n_workers=0, processes=False, protocol="tcp", dashboard_address=None) as empty:
+        with pytest.raises(lieint.sweeps.SweepError, match=r"has no workers; start some \(dask worker tcp://"):
+            sweep(HEAVY.replace("T_END", "0.01"), VARY, out=tmp_path / "s.zarr", scheduler=empty.scheduler_address)
+    assert not (tmp_path / "s.zarr").exists()
+
+
+# -- the client killed at random instants: nothing lost, nothing left running ---------------------------
+
+
+def _session(sid: int) -> list[int]:
+    """Live processes of the session ``sid`` (the killed client's workers would be there)."""
+    alive = []
+    for entry in os.listdir("/proc"):
+        if not entry.isdigit():
+            continue
+        try:
+            with open(f"/proc/{entry}/stat") as fh:
+                fields = fh.read().rsplit(")", 1)[1].split()
+        except OSError:
+            continue
+        if fields[0] != "Z" and int(fields[3]) == sid:  # state, ppid, pgrp, session
+            alive.append(int(entry))
+    return alive
+
+
+@pytest.mark.slow
+def test_ten_kills_of_the_client_then_resume_give_the_uninterrupted_store_and_leave_no_worker(tmp_path):
+    """``lieint sweep --workers 2`` (a LocalCluster of two worker processes) SIGKILLed at 10
+    random instants, each time resumed: the final store equals an uninterrupted one bit for bit,
+    no worker process outlives its client by 10 s, and the normal end prints nothing on stderr."""
+    scene = tmp_path / "heavy.toml"
+    scene.write_text(HEAVY.replace("T_END", "1.0"), encoding="utf-8")
+    out = tmp_path / "s.zarr"
+    cmd = [sys.executable, "-m", "lieint", "sweep", str(scene), "--vary", "forces.gravity.incline=0:0.7:8",
+           "--chunk", "1", "--workers", "2", "--out", str(out), "--quiet"]  # fmt: skip
+    rng = np.random.default_rng(2026)
+    lingering = []
+    for attempt in range(10):
+        args = cmd + (["--resume"] if out.exists() else [])
+        proc = subprocess.Popen(args, start_new_session=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        time.sleep(float(rng.uniform(0.5, 8.0)))
+        if proc.poll() is not None:
+            continue  # it finished first: the next attempt resumes a complete store
+        os.kill(proc.pid, signal.SIGKILL)  # the client only: its workers must end by themselves
+        proc.wait(timeout=30)
+        deadline = time.monotonic() + 10
+        while _session(proc.pid) and time.monotonic() < deadline:
+            time.sleep(0.1)
+        left = _session(proc.pid)
+        lingering.append(left)
+        for pid in left:  # leave the machine clean whatever the outcome
+            os.kill(pid, signal.SIGKILL)
+        assert not left, f"attempt {attempt}: worker processes {left} outlived their client by 10 s"
+    done = subprocess.run(cmd + ["--resume"], capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr
+    assert done.stderr == "", done.stderr  # no warnings from distributed on a normal end
+    whole = tmp_path / "whole.zarr"
+    sweep(scene, ["forces.gravity.incline=0:0.7:8"], out=whole, chunk=1, scheduler="synchronous")
+    _same(lieint.sweeps.open_sweep(out), lieint.sweeps.open_sweep(whole))
+    assert len(lingering) >= 5, "too few kills landed mid-sweep to prove anything"

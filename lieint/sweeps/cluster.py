@@ -88,6 +88,9 @@ try:
 except BaseException as exc:
     answer = {"error": type(exc).__name__ + ": " + " ".join(str(exc).split())[:300]}
 sys.stdout.write("\n" + json.dumps(answer) + "\n")
+sys.stdout.flush()
+import os
+os._exit(0)  # without distributed's exit handlers, which can wait on a connection that hangs
 """
 
 
@@ -108,11 +111,14 @@ def probe_scheduler(address: str, timeout: float = CONNECT_SECONDS) -> dict:
             env=env,
             stdin=subprocess.DEVNULL,
         )
-    except subprocess.TimeoutExpired:
-        raise SweepError(
-            f"the dask scheduler at {address} did not complete dask's handshake within {timeout:g} s (is a dask "
-            "scheduler listening there?); nothing was created"
-        ) from None
+    except subprocess.TimeoutExpired as exc:
+        said = exc.stdout.decode(errors="replace") if isinstance(exc.stdout, bytes) else (exc.stdout or "")
+        if not any(line.startswith("{") for line in said.splitlines()):
+            raise SweepError(
+                f"the dask scheduler at {address} did not complete dask's handshake within {timeout:g} s (is a dask "
+                "scheduler listening there?); nothing was created"
+            ) from None
+        done = subprocess.CompletedProcess(exc.cmd, -9, said, "")
     lines = [line for line in done.stdout.splitlines() if line.startswith("{")]
     try:
         answer = json.loads(lines[-1])
