@@ -315,9 +315,8 @@ def run_scene(scene: Scene) -> SceneRun:
 def fastest_member(system, y0: dict, t: float, h: float) -> tuple[int, float] | None:
     """``(index, radius)`` of the member of a batched state whose first step ``h ξ(t, y)``
     has the largest ad spectral radius (the one that refuses a batch its step), or None for a
-    single state."""
-    batch = system.batch_shape(y0)
-    if not batch or int(np.prod(batch)) < 2:
+    state without a batch axis."""
+    if not system.batch_shape(y0):
         return None
     with np.errstate(all="ignore"):
         xi = system.group.lincomb([h], [system.generator(t, y0)])
