@@ -303,3 +303,23 @@ def test_ten_kills_of_the_client_then_resume_give_the_uninterrupted_store_and_le
     sweep(scene, ["forces.gravity.incline=0:0.7:8"], out=whole, chunk=1, scheduler="synchronous")
     _same(lieint.sweeps.open_sweep(out), lieint.sweeps.open_sweep(whole))
     assert len(lingering) >= 5, "too few kills landed mid-sweep to prove anything"
+
+
+def test_a_scheduler_of_other_versions_or_with_workers_without_lieint_is_refused():
+    """What the probe answered, checked against this process (the probe itself is exercised by
+    every test above that names a scheduler address)."""
+    from lieint.sweeps.cluster import check_versions
+
+    here = distributed.versions.get_versions()["packages"]
+    ok = {w: lieint.__version__ for w in ("tcp://127.0.0.1:1", "tcp://127.0.0.1:2")}
+    assert check_versions("tcp://h:1", {"scheduler": dict(here), "workers": ok}) == 2
+    cases = [
+        ({**here, "distributed": "2020.1.0"}, ok, r"runs distributed 2020.1.0, this process " + here["distributed"]),
+        ({**here, "python": "3.8.1.final.0"}, ok, r"runs Python 3.8.1.final.0, this process"),
+        (here, {"tcp://127.0.0.1:1": "0.0.1"}, r"tcp://127.0.0.1:1 runs lieint 0.0.1; every worker needs lieint"),
+        (here, {"tcp://127.0.0.1:1": "!ModuleNotFoundError: No module named 'lieint'"},
+         r"cannot import lieint \(ModuleNotFoundError: No module named 'lieint'\)"),
+    ]  # fmt: skip
+    for scheduler, workers, match in cases:
+        with pytest.raises(lieint.sweeps.SweepError, match=match):
+            check_versions("tcp://h:1", {"scheduler": scheduler, "workers": workers})

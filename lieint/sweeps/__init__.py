@@ -17,11 +17,14 @@ dask, distributed and zarr are imported only when a sweep runs (``pip install "l
 from __future__ import annotations
 
 from .api import sweep
+from .integrity import DamagedStoreError, StoreError
 from .keys import SceneKey, SweepKeyError, parse_key
 from .plan import SweepError, SweepPlan, parse_vary, plan_from_scene, plan_from_systems
 
 __all__ = [
+    "DamagedStoreError",
     "SceneKey",
+    "StoreError",
     "SweepError",
     "SweepKeyError",
     "SweepPlan",
