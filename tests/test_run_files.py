@@ -73,8 +73,11 @@ def cli(args, cwd, **kw):
     )
 
 
+_STARTED: list[subprocess.Popen] = []
+
+
 def start(args, cwd):
-    return subprocess.Popen(
+    proc = subprocess.Popen(
         [sys.executable, "-m", "lieint", *args],
         cwd=cwd,
         env=dict(os.environ, PYTHONUNBUFFERED="1"),
@@ -82,6 +85,20 @@ def start(args, cwd):
         stderr=subprocess.PIPE,
         text=True,
     )
+    _STARTED.append(proc)
+    return proc
+
+
+@pytest.fixture(autouse=True)
+def _no_writer_outlives_its_test():
+    """A test that fails while its writer runs (a timeout on a loaded machine) ends that writer:
+    left running, it would load the machine for the tests after it."""
+    yield
+    while _STARTED:
+        proc = _STARTED.pop()
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
 
 
 def wait_for_rows(out, proc, rows=200, timeout=60.0):

@@ -236,12 +236,15 @@ def test_damage_to_the_records_and_the_layout(tmp_path, reference):
     sweep(path, VARY, out=out, chunk=1, scheduler="synchronous")
     _chunk_file(out, "chunk_committed", 2).write_bytes(b"\x00garbage")  # a flag that cannot be read
     _chunk_file(out, "chunk_sha256", 5).unlink()  # a record gone: chunk 5 no longer proves itself
+    _chunk_file(out, "chunk_committed", 0).unlink()  # a flag gone: it reads 0, in a complete store
     info = inspect_sweep(out)
     assert info.state == "damaged" and info.exit_code == 1, info.text()
+    assert "chunk 0: its commit flag is missing (the store was complete)" in info.text()
     assert "chunk 2: its commit flag cannot be read" in info.text()
     assert "chunk 5: its checksum record is missing or unreadable" in info.text()
+    assert np.all(np.isnan(open_sweep(out, damaged="mask")["state_A"].values[[0, 2, 5]]))
     report = sweep(path, VARY, out=out, chunk=1, scheduler="synchronous", resume=True)
-    assert sorted(report.damaged) == [2, 5] and report.computed == 2
+    assert sorted(report.damaged) == [2, 5] and report.computed == 3  # chunk 0 reads as never committed
     assert_same(data(out), reference)
     # the layout: an array's metadata changed
     meta = out / "state_A" / "zarr.json"

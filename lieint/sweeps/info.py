@@ -87,6 +87,13 @@ def inspect_sweep(path, timeout: float = 4.0) -> SweepInfo:
     status = str(attrs.get("status", "?"))
     holder = lock_holder(path) if status == "running" else None
     committed = len(check.committed)
+    if status == "complete" and check.flags_read and committed < nchunks:
+        # every flag of a complete store was written: a flag that reads 0 has lost its file
+        for c in sorted(set(range(nchunks)) - set(check.committed) - set(check.damaged))[:100]:
+            check.damaged[c] = ["its commit flag is missing (the store was complete)"]
+    if not check.flags_read and not check.damaged:
+        line = f"  state      could not check within the deadline of {timeout:g} s (pass a longer --timeout)"
+        return SweepInfo(path, "unchecked", False, [lines[0], line, *lines[1:]])
     if check.finished:
         lines.append(f"  checksums  {check.checked} committed chunks verified (SHA-256 of every file)")
     else:

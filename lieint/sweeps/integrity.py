@@ -194,6 +194,9 @@ class Verification:
         Committed chunks verified.
     finished : bool
         False when the deadline came first (the chunks after ``checked`` were not looked at).
+    flags_read : bool
+        Whether the commit flags were read (not when the layout is damaged or the deadline
+        came while the layout was being checked).
     """
 
     committed: list[int] = field(default_factory=list)
@@ -201,6 +204,7 @@ class Verification:
     unreadable_flags: list[int] = field(default_factory=list)
     checked: int = 0
     finished: bool = True
+    flags_read: bool = False
 
     @property
     def layout_damaged(self) -> bool:
@@ -287,6 +291,9 @@ def verify_store(path, root, attrs: dict, nchunks: int, deadline: float | None =
     result = Verification()
     layout = attrs.get("files_sha256") or {}
     for relative, expected in sorted(layout.items()):
+        if deadline is not None and time.monotonic() > deadline:
+            result.finished = False
+            return result
         problem = check_file(path, relative, expected)
         if problem:
             result.damaged.setdefault(-1, []).append(f"{relative}: {problem}")
@@ -297,6 +304,7 @@ def verify_store(path, root, attrs: dict, nchunks: int, deadline: float | None =
     except Exception as exc:  # an array the layout does not record (a store of an older lieint)
         result.damaged[-1] = [f"chunk_committed: cannot be read ({type(exc).__name__}: {exc})"]
         return result
+    result.flags_read = True
     for c in result.unreadable_flags:
         result.damaged.setdefault(c, []).append("its commit flag cannot be read")
     digests = _read_digests(root, result.committed)
