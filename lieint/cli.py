@@ -111,22 +111,30 @@ def _build_parser() -> argparse.ArgumentParser:
     )
     plot.add_argument("run", metavar="RUN.h5", help="the HDF5 file written by lieint run --out")
     plot.add_argument("--out", metavar="FIG", help="output figure, .png or .svg (default: RUN.png beside the file)")
+    plot.add_argument(
+        "--timeout",
+        type=_positive_float,
+        default=20.0,
+        metavar="S",
+        help="seconds allowed for reading the file, all stages together (default: 20)",
+    )
     info = sub.add_parser(
         "info",
-        help="say what state a run file is in (complete, interrupted and resumable, running, damaged)",
-        description="Report the state of a run file written by lieint run --out: complete; running (the "
-        "process holding it); interrupted at step k of N, resumable or not and why; or damaged, with where "
-        "(superblock, a dataset's rows failing their Fletcher-32 checksum, attributes, checkpoint). Every "
-        "read is bounded in time: never hangs. Exit status 0 complete, 3 incomplete but intact, 1 damaged "
-        "or unreadable.",
+        help="say what state a run file or sweep store is in (complete, interrupted and resumable, running, damaged)",
+        description="Report the state of a run file written by lieint run --out, or of a sweep store written by "
+        "lieint sweep --out: complete; running (the process holding it); interrupted, resumable or not and why; or "
+        "damaged, with where (a run: superblock, a dataset's rows failing their Fletcher-32 checksum, attributes, "
+        "checkpoint; a sweep: the chunks whose files fail their SHA-256). The whole command ends within --timeout "
+        "seconds: what it could not read in that time is reported as not checked, never as damaged. Exit status 0 "
+        "complete, 3 incomplete but intact, 1 damaged or unreadable, 5 could not check within the deadline.",
     )
-    info.add_argument("run", metavar="RUN.h5", help="the HDF5 file written by lieint run --out")
+    info.add_argument("run", metavar="RUN.h5|SWEEP.zarr", help="a run file (lieint run --out) or a sweep store")
     info.add_argument(
         "--timeout",
         type=_positive_float,
         default=4.0,
         metavar="S",
-        help="seconds allowed for reading and verifying the file (default: 4)",
+        help="seconds allowed for reading and verifying it, all stages together (default: 4)",
     )
     scenes = sub.add_parser(
         "scenes",
@@ -197,8 +205,20 @@ def _add_sweep_parser(sub) -> None:
     )
     where.add_argument("--workers", type=_positive_int, metavar="K", help="worker processes of the local cluster")
     sw.add_argument("--chunk", type=_positive_int, metavar="M", help="members per chunk (default: ~32 chunks)")
-    sw.add_argument("--resume", action="store_true", help="continue an interrupted store; committed chunks are skipped")
-    sw.add_argument("--overwrite", action="store_true", help="replace an existing store")
+    sw.add_argument(
+        "--resume",
+        action="store_true",
+        help="continue an interrupted store: committed chunks are verified (SHA-256) and skipped, damaged ones "
+        "recomputed",
+    )
+    sw.add_argument("--overwrite", action="store_true", help="replace an existing lieint sweep store (nothing else)")
+    sw.add_argument(
+        "--connect-timeout",
+        type=_positive_float,
+        default=20.0,
+        metavar="S",
+        help="seconds allowed to reach --scheduler and check its versions (default: 20)",
+    )
     sw.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
@@ -263,13 +283,34 @@ def _dispatch(args, parser) -> int:
     if args.command == "sweep":
         return _sweep(args)
     if args.command == "info":
-        from .runs.info import inspect_run
-
-        report = inspect_run(args.run, timeout=args.timeout)
-        print(report.text())
-        return report.exit_code
+        return _info(args)
     parser.print_help()
     return 0
+
+
+def _info(args) -> int:
+    from .runs.info import inspect_run
+    from .sweeps.info import inspect_sweep, is_sweep_store
+
+    inspect = inspect_sweep if is_sweep_store(args.run) else inspect_run
+    report = inspect(args.run, timeout=args.timeout)
+    print(printable_lines(report.text()))
+    return report.exit_code
+
+
+def printable_lines(text: str) -> str:
+    """Each line of ``text`` with its control characters escaped (:func:`lieint.text.printable`)."""
+    from .text import printable
+
+    return "\n".join(printable(line) for line in text.split("\n"))
+
+
+def _error(command: str, exc) -> None:
+    """One line on standard error: the command and the message, escaped (a scene's text may
+    hold terminal control codes)."""
+    from .text import printable
+
+    print(f"lieint {command}: {printable(exc)}", file=sys.stderr)
 
 
 def _compare(args, parser) -> int:
@@ -288,8 +329,10 @@ def _scenes(args) -> int:
             print(f"lieint scenes: {exc}", file=sys.stderr)
             return 2
         return 0
+    from .text import printable
+
     for name, scene in embedded_scenes().items():
-        print(f"{name:16s} {scene.name}: {scene.description}")
+        print(f"{name:16s} {printable(scene.name)}: {printable(scene.description)}")
     return 0
 
 
@@ -321,15 +364,15 @@ def _run_streamed(args) -> int:
             stop_after=args.stop_after,
         )
     except (SceneError, StoreError, ValueError) as exc:
-        print(f"lieint run: {exc}", file=sys.stderr)
+        _error("run", exc)
         return 2
-    print(f"{report.message} -> {report.path}")
+    print(printable_lines(f"{report.message} -> {report.path}"))
     if report.status == "failed":
-        print(f"lieint run: the run failed: {report.message}", file=sys.stderr)
+        _error("run", f"the run failed: {report.message}")
     for name, value in report.drifts.items():
         print(f"  {name:16s} max drift {value:.3e}")
     if report.status == "no-space":
-        print(f"lieint run: {report.message}", file=sys.stderr)
+        _error("run", report.message)
         from .runs.store import hdf5_broken
 
         if hdf5_broken():  # HDF5's exit handler would retry the failed writes: leave without it
@@ -345,9 +388,9 @@ def _plot(args) -> int:
     from .runs.plot import PlotError, plot_run
 
     try:
-        path = plot_run(args.run, args.out)
+        path = plot_run(args.run, args.out, timeout=args.timeout)
     except PlotError as exc:
-        print(f"lieint plot: {exc}", file=sys.stderr)
+        _error("plot", exc)
         return 2
     print(f"wrote {path}")
     return 0
@@ -359,6 +402,8 @@ def _run(args) -> int:
     import numpy as np
 
     from .scenes import SceneError, embedded_scenes, load_scene, run_scene
+    from .scenes.engine import nonfinite_members
+    from .text import printable
 
     try:
         if Path(args.scene).exists() or args.scene.endswith(".toml"):
@@ -372,15 +417,19 @@ def _run(args) -> int:
             scene = known[args.scene]
         result = run_scene(scene)
     except (SceneError, ValueError) as exc:  # bad input and refused limits: the message says why
-        print(f"lieint run: {exc}", file=sys.stderr)
+        _error("run", exc)
         return 2
     sol, system = result.solution, result.system
-    print(f"{scene.name} — {system!r}")
+    stopped = ""
+    if not sol.success:
+        bad = nonfinite_members(sol)
+        which = f" (members {bad[:10]}{' …' if len(bad) > 10 else ''} of the ensemble, 0-based)" if bad else ""
+        stopped = f" — STOPPED: {sol.message}{which}"
+    print(f"{printable(scene.name)} — {system!r}")
     print(
         f"integrated: {', '.join(system.fields)} with {sol.method}, h = {scene.step:g}, "
         f"{sol.nsteps} steps ({sol.stats.nrejected} rejected), {sol.nfev} evaluations, "
-        f"CPU {sol.stats.cpu_time:.3f} s, {sol.stats.backend}"
-        f"{'' if sol.success else ' — STOPPED: ' + sol.message}"
+        f"CPU {sol.stats.cpu_time:.3f} s, {sol.stats.backend}{printable(stopped)}"
     )
     for ev, times in zip(scene.events, sol.t_events or [], strict=False):
         shown = np.array2string(times[:10], precision=10, separator=", ")
@@ -405,8 +454,10 @@ def _run(args) -> int:
 
 
 def _sweep(args) -> int:
+    from .limits import LimitError
     from .scenes import SceneError
     from .sweeps import SweepError, sweep
+    from .sweeps.store import NoSpaceError
 
     try:
         report = sweep(
@@ -422,14 +473,26 @@ def _sweep(args) -> int:
             resume=args.resume,
             overwrite=args.overwrite,
             progress=False if args.quiet else "auto",
+            connect_timeout=args.connect_timeout,
         )
-    except (SceneError, SweepError) as exc:
-        print(f"lieint sweep: {exc}", file=sys.stderr)
+    except NoSpaceError as exc:
+        _error("sweep", exc)
+        return 4
+    except KeyboardInterrupt:
+        _error("sweep", "interrupted; the committed chunks are kept: continue with --resume")
+        return 130
+    except (SceneError, SweepError, LimitError) as exc:
+        _error("sweep", exc)
         return 2
+    if report.damaged:
+        shown = ", ".join(str(c) for c in sorted(report.damaged)[:10]) + (" …" if len(report.damaged) > 10 else "")
+        _error("sweep", f"recomputed {len(report.damaged)} committed chunks that failed their checksums ({shown})")
     print(
-        f"{report.nmembers} members in {report.nchunks} chunks ({report.computed} computed, {report.skipped} "
-        f"already committed) on {report.scheduler}, {', '.join(report.backends) or '-'}, "
-        f"{report.wall_time:.1f} s -> {report.path}"
+        printable_lines(
+            f"{report.nmembers} members in {report.nchunks} chunks ({report.computed} computed, {report.skipped} "
+            f"already committed) on {report.scheduler}, {', '.join(report.backends) or '-'}, "
+            f"{report.wall_time:.1f} s -> {report.path}"
+        )
     )
     return 0
 
@@ -457,7 +520,9 @@ def _analyze(args) -> int:
             scene = known[args.scene]
         result = analyze_scene(scene, integrals=args.integrals)
     except (SceneError, ValueError) as exc:
-        print(f"lieint analyze: {exc}", file=sys.stderr)
+        _error("analyze", exc)
         return 2
-    print(json.dumps(analysis_json(result), indent=2, ensure_ascii=False) if args.json else format_analysis(result))
+    # JSON escapes control characters itself; the lecture's form is printed escaped
+    text = json.dumps(analysis_json(result), indent=2, ensure_ascii=False) if args.json else format_analysis(result)
+    print(text if args.json else printable_lines(text))
     return 0

@@ -6,15 +6,19 @@ a huge shape. Such requests are refused at once with a message that names the ar
 value asked for, the limit and the environment variable that raises it — instead of a
 ``MemoryError`` traceback minutes later, or a machine brought to a halt.
 
-=========================  ===============================  =====================
-limit                      what it bounds                   default
-=========================  ===============================  =====================
-``LIEINT_MAX_STEPS``       steps of a fixed-step run        10¹⁰
-``LIEINT_MAX_ENSEMBLE``    members of an ensemble           10⁶
-``LIEINT_MAX_DIMENSION``   dimension n of a body            256
-``LIEINT_MAX_SCENE_BYTES`` size of a scene file             1 MiB
-``LIEINT_MAX_MEMORY``      arrays a run holds in memory     4 GiB
-=========================  ===============================  =====================
+============================  =========================================  ============
+limit                         what it bounds                             default
+============================  =========================================  ============
+``LIEINT_MAX_STEPS``          steps of a fixed-step run                  10¹⁰
+``LIEINT_MAX_ENSEMBLE``       members of an ensemble                     10⁶
+``LIEINT_MAX_DIMENSION``      dimension n of a body                      256
+``LIEINT_MAX_SCENE_BYTES``    size of a scene file                       1 MiB
+``LIEINT_MAX_MEMORY``         arrays a run (or a sweep's chunk) holds    4 GiB
+``LIEINT_MAX_SWEEP_POINTS``   parameter points of a sweep                10⁶
+``LIEINT_MAX_SWEEP_MEMBERS``  members of a sweep (points × ensemble)     10⁷
+``LIEINT_MAX_SWEEP_CHUNKS``   chunks of a sweep (files in its store)     10⁵
+``LIEINT_MAX_WORKERS``        worker processes of a local cluster        4 × CPUs
+============================  =========================================  ============
 
 The rows an adaptive run saves are not known in advance; its loops count them against
 ``LIEINT_MAX_MEMORY`` as they save them (:class:`RowBudget`).
@@ -36,6 +40,11 @@ DEFAULTS: dict[str, int] = {
     "LIEINT_MAX_DIMENSION": 256,
     "LIEINT_MAX_SCENE_BYTES": 1 << 20,
     "LIEINT_MAX_MEMORY": 4 << 30,
+    "LIEINT_MAX_SWEEP_POINTS": 10**6,
+    "LIEINT_MAX_SWEEP_MEMBERS": 10**7,
+    "LIEINT_MAX_SWEEP_CHUNKS": 10**5,
+    # each worker is a process of its own (~150 MB): more than a few per core only thrashes
+    "LIEINT_MAX_WORKERS": 4 * (os.cpu_count() or 1),
 }
 
 MAX_NESTING = 8

@@ -132,6 +132,27 @@ def refusals(tmp_path_factory):
             ),
         ],
     }
+    # sweeps: every size is checked before anything is allocated or any process started
+    top10 = scene(tmp, "top10", t_end="10.0", extra="")
+    top1000 = scene(tmp, "top1000", t_end="1000.0", extra="")
+    out = ["--out", str(tmp / "s.zarr"), "--quiet"]
+    m0 = "body.principal_moments[0]"
+    cases.update(
+        {
+            "sweep_values": ["sweep", top10, "--vary", f"{m0}=1:1.8:1000000000", *out, "--scheduler", "synchronous"],
+            "sweep_points": ["sweep", top10, "--vary", f"{m0}=1:1.8:100000",
+                             "--vary", "initial.angular_velocity[2]=0:0.1:100000", *out, "--scheduler", "synchronous"],
+            "sweep_chunk": ["sweep", top10, "--vary", f"{m0}=1:1.8:100000", "--chunk", "1000000000000", *out,
+                            "--scheduler", "synchronous"],
+            "sweep_members": ["sweep", top10, "--vary", f"{m0}=1:1.8:1000", "--ensemble", "1000000", "--spread",
+                              "0.01", *out, "--scheduler", "synchronous"],
+            "sweep_chunks": ["sweep", top10, "--vary", f"{m0}=1:1.8:200000", "--chunk", "1", *out,
+                             "--scheduler", "synchronous"],
+            "sweep_workers": ["sweep", top10, "--vary", f"{m0}=1:1.8:10", "--workers", "1000000", *out],
+            "sweep_room": ["sweep", top1000, "--vary", f"{m0}=1:1.8:100", "--ensemble", "10000", "--spread", "0.01",
+                           "--chunk", "10", *out, "--scheduler", "synchronous"],
+        }
+    )  # fmt: skip
     # stdin is a pipe that never ends: reading it would hang, refusing it does not
     child = subprocess.Popen(
         [sys.executable, "-c", CHILD, json.dumps(cases)],
@@ -166,6 +187,18 @@ EXPECTED = {
     "stdin_scene": "not a regular file",
     "ensemble_memory": "the memory of 1000000 initial omega (bytes) is 4608000000, more than the limit 4294967296",
     "rows_in_memory": "more than the limit 4294967296 (to allow it, set the environment variable LIEINT_MAX_MEMORY",
+    "sweep_values": "--vary body.principal_moments[0]: the number of values NUM is 1000000000, more than the limit "
+    "1000000 (to allow it, set the environment variable LIEINT_MAX_SWEEP_POINTS",
+    "sweep_points": "the number of parameter points (the product of the values of body.principal_moments[0] (100000) "
+    "× initial.angular_velocity[2] (100000)) is 10000000000, more than the limit 1000000",
+    "sweep_chunk": "the memory of one chunk (100000 members × 1001 save times × 80 bytes, twice) (bytes) is "
+    "16016000000, more than the limit 4294967296 (to allow it, set the environment variable LIEINT_MAX_MEMORY",
+    "sweep_members": "the number of members (parameter points 1000 × --ensemble 1000000) is 1000000000, more than the "
+    "limit 10000000 (to allow it, set the environment variable LIEINT_MAX_SWEEP_MEMBERS",
+    "sweep_chunks": "the number of chunks (200000 members in chunks of --chunk 1) is 200000, more than the limit "
+    "100000 (to allow it, set the environment variable LIEINT_MAX_SWEEP_CHUNKS",
+    "sweep_workers": "--workers: the number of worker processes is 1000000, more than the limit",
+    "sweep_room": "the sweep's store needs up to 8 TB (1000000 members × 100001 save times × 80 bytes) but only",
 }
 
 
@@ -179,6 +212,9 @@ def test_each_bomb_is_refused_quickly_with_a_clear_message(refusals, case):
         assert result["message"].startswith("LimitError")  # a ValueError naming the argument
     else:
         assert result["code"] == 2, result
+    if case.startswith("sweep_"):
+        assert result["message"].count("\n") == 1, result["message"]  # one line
+        assert "--" in result["message"] or "LIEINT_SKIP_ROOM_CHECK" in result["message"]  # the flag to change
 
 
 def test_the_bombs_never_took_much_memory(refusals):

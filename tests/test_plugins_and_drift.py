@@ -140,6 +140,40 @@ def test_a_broken_plugin_is_named_not_a_traceback(plugin_path, tmp_path):
     assert "Traceback" not in done.stderr
 
 
+@pytest.mark.parametrize("raising", ["SystemExit(7)", "KeyError('x')", "GeneratorExit()"])
+def test_a_plugin_raising_on_import_is_reported_whatever_it_raises(plugin_path, tmp_path, raising):
+    """A plugin calling sys.exit (or raising anything) while loading: lieint says which plugin and
+    what it raised, with its own exit status, instead of ending silently with the plugin's."""
+    (plugin_path / "lieint_demo_plugin.py").write_text(f"raise {raising}\n")
+    (tmp_path / "rotor.toml").write_text(SCENE)
+    done = run_cli(["run", "rotor.toml"], plugin_path, tmp_path)
+    assert done.returncode == 2, (done.returncode, done.stderr)
+    assert "the installed system 'spinning_rotor' (lieint_demo_plugin:SpinningRotor) failed to load" in done.stderr
+    assert raising.split("(")[0] in done.stderr and "Traceback" not in done.stderr, done.stderr
+
+
+def test_a_plugin_raising_systemexit_when_built_is_reported(plugin_path, tmp_path):
+    module = PLUGIN_MODULE.replace("        self.n = 3\n", "        raise SystemExit(3)\n", 1)
+    (plugin_path / "lieint_demo_plugin.py").write_text(module)
+    (tmp_path / "rotor.toml").write_text(SCENE)
+    done = run_cli(["run", "rotor.toml"], plugin_path, tmp_path)
+    assert done.returncode == 2, (done.returncode, done.stderr)
+    assert "the installed system 'spinning_rotor' failed to build: SystemExit: 3" in done.stderr, done.stderr
+
+
+def test_a_plugin_shadowed_by_a_built_in_name_is_warned_about(plugin_path, tmp_path):
+    dist = plugin_path / "lieint_demo_plugin-0.1.dist-info"
+    (dist / "entry_points.txt").write_text(ENTRY_POINTS + "heavy_top = lieint_demo_plugin:SpinningRotor\n")
+    (tmp_path / "rotor.toml").write_text(SCENE)
+    done = run_cli(["run", "rotor.toml"], plugin_path, tmp_path)
+    assert done.returncode == 0, done.stderr
+    assert "PluginWarning: the installed system 'heavy_top' (lieint_demo_plugin:SpinningRotor, from the package " in (
+        done.stderr
+    )
+    assert "lieint-demo-plugin) is ignored: it has the name of a built-in system, which is used instead" in done.stderr
+    assert "rename its entry point" in done.stderr
+
+
 def test_an_unknown_system_lists_the_known_ones(tmp_path):
     (tmp_path / "x.toml").write_text(SCENE.replace("spinning_rotor", "no_such_body"))
     with pytest.raises(ValueError, match=r"no system named 'no_such_body'; known systems are \[.*'euler_top'"):

@@ -73,8 +73,11 @@ def cli(args, cwd, **kw):
     )
 
 
+_STARTED: list[subprocess.Popen] = []
+
+
 def start(args, cwd):
-    return subprocess.Popen(
+    proc = subprocess.Popen(
         [sys.executable, "-m", "lieint", *args],
         cwd=cwd,
         env=dict(os.environ, PYTHONUNBUFFERED="1"),
@@ -82,6 +85,20 @@ def start(args, cwd):
         stderr=subprocess.PIPE,
         text=True,
     )
+    _STARTED.append(proc)
+    return proc
+
+
+@pytest.fixture(autouse=True)
+def _no_writer_outlives_its_test():
+    """A test that fails while its writer runs (a timeout on a loaded machine) ends that writer:
+    left running, it would load the machine for the tests after it."""
+    yield
+    while _STARTED:
+        proc = _STARTED.pop()
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
 
 
 def wait_for_rows(out, proc, rows=200, timeout=60.0):
@@ -531,3 +548,29 @@ def test_a_reader_holding_the_file_does_not_stop_the_writer_from_reopening_it(tm
     finally:
         reader.kill()
         reader.wait()
+
+
+# -- one deadline for the whole command; out of time is not damaged ---------------------------------------
+
+
+def test_info_out_of_time_says_so_with_its_own_exit_status_never_damaged(tmp_path, finished):
+    for timeout in (0.001, 0.05, 0.3):
+        info, seconds = _timed(inspect_run, finished, timeout)
+        assert seconds < timeout + 2.0, (timeout, seconds)  # one deadline, not one per stage
+        if info.state == "complete":
+            continue  # a fast machine read it all in time: nothing to say
+        assert info.state == "unchecked" and info.exit_code == 5, info.text()
+        assert "could not check within the deadline" in info.text() and "damaged" not in info.text(), info.text()
+    done = cli(["info", str(finished), "--timeout", "0.001"], tmp_path)
+    assert done.returncode == 5 and "could not check within the deadline" in done.stdout, done.stdout
+    assert inspect_run(finished, timeout=60).exit_code == 0
+
+
+def test_a_file_hdf5_cannot_read_is_damaged_once(tmp_path, finished):
+    data = bytearray(finished.read_bytes())
+    data[1200:6000] = bytes(4800)  # object headers and B-trees zeroed: HDF5 refuses it
+    path = tmp_path / "zeroed.h5"
+    path.write_bytes(bytes(data))
+    info = inspect_run(path)
+    assert info.state == "damaged" and info.exit_code == 1, info.text()
+    assert "damaged: damaged" not in info.text() and info.text().count("damaged") >= 1, info.text()

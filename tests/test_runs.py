@@ -305,3 +305,42 @@ def test_ensemble_scene_runs_as_one_batch_and_is_saved_per_member(tmp_path):
     )
     lieint.run(path, out, overwrite=True, progress=False)
     assert read_all(out)[0]["states/A"].shape == (73, 3, 4, 4)
+
+
+def test_the_planned_segment_never_exceeds_the_longest_segment_run():
+    """A plan left to grow past what a segment may hold overflowed a float after ~500 short
+    segments; the plan follows the measured rate and stays within [1, cap]."""
+    from lieint.runs.runner import next_segment_plan
+
+    plan = 1000
+    for _ in range(10_000):  # segments cut to 200 steps by --checkpoint-every, each done in 0.1 ms
+        plan = next_segment_plan(plan, 200, 1e-4, cap=50_000)
+        assert 1 <= plan <= 50_000
+    assert plan == 50_000
+    for _ in range(50):  # then each segment takes 10 s: the plan shrinks to the rate (0.25 s)
+        plan = next_segment_plan(plan, min(plan, 50_000), 10.0 * min(plan, 50_000) / 50_000, cap=50_000)
+    assert plan == 1250
+    assert next_segment_plan(1, 1, 100.0, cap=10) == 1
+
+
+@pytest.mark.parametrize(
+    "every",
+    [
+        pytest.param({"monitor_every": 1}, id="monitor-every-1"),
+        pytest.param({"checkpoint_every": 1}, id="checkpoint-every-1", marks=pytest.mark.slow),  # ~13 s: 600 fsyncs
+    ],
+)
+def test_a_run_cut_into_600_one_step_segments_completes(tmp_path, every):
+    """Every segment one step long (a checkpoint or a monitor line after each): on the code that
+    grew the plan ×4 per segment without bound this died at step ~510 with OverflowError."""
+    from lieint.scenes import embedded_scene, load_scene, run_scene
+
+    scene = embedded_scene("dzhanibekov").text.replace("t_end = 60.0", "t_end = 6.0")
+    path = tmp_path / "dz.toml"
+    path.write_text(scene, encoding="utf-8")
+    with open(os.devnull, "w") as quiet:
+        report = lieint.runs.run(path, tmp_path / "r.h5", progress=False, stream=quiet, **every)
+    assert (report.status, report.steps_done, report.rows) == ("complete", 600, 61)
+    reference = run_scene(load_scene(path)).solution
+    with h5py.File(tmp_path / "r.h5", "r") as f:
+        assert np.array_equal(f["states/A"][()], reference.states["A"])  # the same bits as one call

@@ -180,7 +180,7 @@ def test_bad_scene_files_name_the_key_and_line(tmp_path, edit, match):
 
 
 def test_physical_errors_surface_as_scene_errors():
-    with pytest.raises(SceneError, match=r"`center_of_mass` must lie inside the ball"):
+    with pytest.raises(SceneError, match=r"\[body\] center_of_mass \(line 9\): must lie inside the ball"):
         build_system(ball_scene('["energy"]', extra_body="center_of_mass = [0.0, 0.0, -1.5]"))
     with pytest.raises(SceneError, match=r"\[forces\] gravity \(line 15\): expected an array of shape \(3,\)"):
         ball_scene('["energy"]', gravity="[0.0, -9.81]")
@@ -215,3 +215,85 @@ def test_cli_run_and_scenes(tmp_path, capsys):
     assert set(data.files) == {"t", "energy", "orientation"} and data["orientation"].shape == (101, 3, 3)
     assert main(["run", str(tmp_path / "missing.toml")]) == 2
     assert "cannot read scene file" in capsys.readouterr().err
+
+
+# -- a scene's text never reaches the terminal raw; every error names the key and line ------------------
+
+ESCAPES = "\\u001b[2J\\u001b]0;pwned\\u0007\\nforged line"  # clear screen, window title, a forged line
+
+
+def test_a_scene_name_with_escape_codes_prints_escaped(tmp_path):
+    """``lieint run``, ``lieint info`` and ``lieint plot`` of a scene whose name and description
+    hold terminal control codes: no control character reaches stdout or stderr."""
+    import subprocess
+    import sys
+
+    text = TOP.format(outputs='["energy", "orientation"]').replace('name = "top"', f'name = "top{ESCAPES}"')
+    text = text.replace("[body]", f'description = "d{ESCAPES}"\n\n[body]')
+    path = write(tmp_path, text)
+    assert parse_scene(text).name == "top\\x1b[2J\\x1b]0;pwned\\x07\\nforged line"
+    outputs = []
+    for args in (["run", str(path)], ["run", str(path), "--out", "r.h5", "--quiet"], ["info", "r.h5"],
+                 ["plot", "r.h5"]):  # fmt: skip
+        done = subprocess.run([sys.executable, "-m", "lieint", *args], cwd=tmp_path, capture_output=True, text=True,
+                              timeout=120)  # fmt: skip
+        assert done.returncode == 0, (args, done.stderr)
+        outputs.append(done.stdout + done.stderr)
+    for printed in outputs:
+        assert not any(ord(c) < 32 and c not in "\n" for c in printed), repr(printed)
+        assert "\x1b" not in printed and "\nforged line" not in printed
+    assert "top\\x1b[2J\\x1b]0;pwned\\x07\\nforged line" in outputs[0]  # escaped, still readable
+    assert "top\\x1b[2J" in outputs[2]  # info shows the name the run recorded, escaped
+
+
+def test_a_run_file_written_with_a_raw_name_is_printed_escaped(tmp_path):
+    """A file from elsewhere (another tool, an older lieint) with a raw control code in its
+    attributes: info escapes what it reads."""
+    import h5py
+
+    from lieint.runs.info import inspect_run
+
+    path = write(tmp_path, TOP.format(outputs='["energy"]'))
+    lieint.run(path, tmp_path / "r.h5", progress=False)
+    with h5py.File(tmp_path / "r.h5", "r+") as f:
+        f.attrs["scene_name"] = "x\x1b[2Jy"
+    text = inspect_run(tmp_path / "r.h5").text()
+    assert "x\\x1b[2Jy" in text and "\x1b" not in text
+
+
+@pytest.mark.parametrize(
+    ("body", "initial", "match"),
+    [
+        # the four messages that named the system's arguments (`B`, `Omega`, `A`, `y0['A']`)
+        ("mass_tensor = [[1.0, 0.5], [0.0, 2.0]]", "omega = [[0.0, 1.0], [-1.0, 0.0]]",
+         r"\[body\] mass_tensor \(line 6\): must be symmetric \(a mass tensor"),
+        ("mass_tensor = [[1.0, 0.0], [0.0, 2.0]]", "omega = [[0.0, 1.0], [1.0, 0.0]]",
+         r"\[initial\] omega \(line 12\): must be skew-symmetric"),
+        ("mass_tensor = [[1.0, 0.0], [0.0, 2.0]]", "momentum = [[0.0, 1.0], [1.0, 0.0]]",
+         r"\[initial\] momentum \(line 12\): must be skew-symmetric"),
+        ("principal_moments = [1.0, 2.0, 3.0]", "angular_velocity = [1e308, 1e308, 1e308]",
+         r"\[initial\] angular_velocity \(line 12\): gives an initial A beyond the floating-point range; got inf"),
+        # and their neighbours
+        ("mass_tensor = [[0.0, 0.0], [0.0, 0.0]]", "omega = [[0.0, 1.0], [-1.0, 0.0]]",
+         r"\[body\] mass_tensor \(line 6\): must be a nonzero mass tensor"),
+        ("principal_moments = [1.0, 2.0, 3.0]", "angular_velocity = [1, 1, 1]\norientation = [[1,0,0],[0,1,0],[0,0,2]]",
+         r"\[initial\] orientation \(line 13\): must be a rotation in SO\(3\)"),
+    ],
+)  # fmt: skip
+def test_a_system_refusing_a_scene_value_names_the_scene_key_and_line(tmp_path, body, initial, match):
+    text = TOP.format(outputs='["energy"]').replace("principal_moments = [1.0, 2.0, 3.0]", body)
+    text = text.replace("angular_velocity = [0.1, 1.0, 0.2]", initial)
+    path = write(tmp_path, text)
+    with pytest.raises(SceneError, match=match) as caught:
+        build_system(load_scene(path))
+    assert "`" not in str(caught.value).split(":", 2)[2][:12]  # no internal name up front
+
+
+def test_a_member_that_refuses_the_batch_its_step_is_named(tmp_path):
+    w = np.array([[0.1, 1.0, 0.1]] * 5)
+    w[3] = [1e150, 1.0, 1.0]
+    np.save(tmp_path / "members.npy", w)
+    path = write(tmp_path, TOP.format(outputs='["energy"]') + '[ensemble]\nfile = "members.npy"\n')
+    with pytest.raises(ValueError, match=r"member 3 of the ensemble \(0-based, \[initial\] angular_velocity = "
+                                         r"\[1e\+150, 1, 1\]\): its first step has ‖h ξ‖ = 1e\+148"):  # fmt: skip
+        run_scene(load_scene(path))

@@ -356,3 +356,14 @@ def test_an_ensemble_from_a_file_travels_with_the_plan(tmp_path, monkeypatch):
     top = lieint.EulerTop.from_principal_moments([1.2, 2.0, 3.0], orientation=False)
     sol = lieint.integrate(top, top.initial_state(angular_velocity=w), (0.0, 2.0), h=0.02, save_every=10)
     assert np.array_equal(ds["state_A"].values[3:], np.swapaxes(sol.states["A"], 0, 1))
+
+
+@pytest.mark.parametrize("backend", ["numpy", "auto"])
+def test_the_member_that_refuses_a_chunk_its_step_is_named(tmp_path, backend):
+    """Two points in one chunk (stacked into one batch on the generic path, one call each when
+    compiled); h |w| = 50 > 2π at the second: the error names that member and its value."""
+    vary = {"initial.angular_velocity[2]": [10.0, 5000.0]}
+    with pytest.raises(lieint.groups.base.DexpinvRangeError) as caught:
+        sweep(HEAVY, vary, out=tmp_path / "s.zarr", chunk=2, scheduler="synchronous", backend=backend)
+    assert "member 1 (point 1, initial.angular_velocity[2] = 5000, ensemble member 0)" in str(caught.value)
+    assert "its first step has ‖h ξ‖ = 50" in str(caught.value)

@@ -186,3 +186,172 @@ def test_a_chunk_that_fails_stops_the_sweep_and_keeps_the_committed_ones(client,
     ds = xr.open_zarr(out, consolidated=False)
     assert ds.attrs["status"] == "failed" and "DexpinvRangeError" in ds.attrs["message"]
     assert ds["chunk_committed"].values.tolist() in ([1, 0], [0, 0])  # chunk 0 is kept if it finished first
+
+
+# -- schedulers that cannot be used: refused before anything is created ------------------------------
+
+
+def _server(mode: str):
+    """A loopback TCP server that accepts and then never answers ("silent") or answers bytes
+    that are not dask's protocol ("garbage"); returns its port (a daemon thread serves it)."""
+    import socket
+
+    listener = socket.socket()
+    listener.bind(("127.0.0.1", 0))
+    listener.listen(16)
+    held = []
+
+    def serve():
+        while True:
+            conn, _ = listener.accept()
+            held.append(conn)  # never closed, never answered
+            if mode == "garbage":  # a length prefix of 2⁶⁴ − 1 frames: distributed would allocate exabytes
+                conn.sendall(b"\xff" * 4096)
+            elif mode == "http":  # read as a frame length of 3 EiB, which distributed tries to allocate
+                conn.sendall(b"HTTP/1.1 200 OK\r\n\r\n")
+
+    threading.Thread(target=serve, daemon=True).start()
+    return listener.getsockname()[1]
+
+
+@pytest.mark.parametrize(
+    ("address", "expected"),
+    [
+        ("silent", "did not complete dask's handshake within 20 s"),  # the default deadline
+        ("garbage", "it does not speak dask's protocol (ValueError"),
+        ("http", "it does not speak dask's protocol (MemoryError: Unable to allocate 3.07 EiB"),
+        ("file:///etc/passwd", "whose scheme 'file' is not one of dask's"),
+        ("tcp://127.0.0.1", "tcp://HOST:PORT"),
+    ],
+)
+def test_a_scheduler_that_cannot_be_used_is_refused_in_one_line_and_nothing_is_created(tmp_path, address, expected):
+    if address in ("silent", "garbage", "http"):
+        address = f"tcp://127.0.0.1:{_server(address)}"
+    out = tmp_path / "s.zarr"
+    tic = time.monotonic()
+    done = subprocess.run(
+        [sys.executable, "-m", "lieint", "sweep", "dzhanibekov", "--vary", "body.principal_moments[0]=1:1.2:3",
+         "--scheduler", address, "--out", str(out), "--quiet"],
+        capture_output=True, text=True, timeout=120, cwd=tmp_path,
+    )  # fmt: skip
+    seconds = time.monotonic() - tic
+    assert seconds <= 30, seconds
+    assert done.returncode == 2, (done.returncode, done.stderr)
+    assert expected in done.stderr, done.stderr
+    assert done.stderr.count("\n") == 1 and "Traceback" not in done.stderr, done.stderr
+    assert list(tmp_path.iterdir()) == []  # no store, no lock, no temporary
+
+
+def test_a_scheduler_without_workers_is_refused(tmp_path):
+    with distributed.LocalCluster(n_workers=0, processes=False, protocol="tcp", dashboard_address=None) as empty:
+        with pytest.raises(lieint.sweeps.SweepError, match=r"has no workers; start some \(dask worker tcp://"):
+            sweep(HEAVY.replace("T_END", "0.01"), VARY, out=tmp_path / "s.zarr", scheduler=empty.scheduler_address)
+    assert not (tmp_path / "s.zarr").exists()
+
+
+# -- the client killed at random instants: nothing lost, nothing left running ---------------------------
+
+
+def _session(sid: int) -> list[int]:
+    """Live processes of the session ``sid`` (the killed client's workers would be there)."""
+    alive = []
+    for entry in os.listdir("/proc"):
+        if not entry.isdigit():
+            continue
+        try:
+            with open(f"/proc/{entry}/stat") as fh:
+                fields = fh.read().rsplit(")", 1)[1].split()
+        except OSError:
+            continue
+        if fields[0] != "Z" and int(fields[3]) == sid:  # state, ppid, pgrp, session
+            alive.append(int(entry))
+    return alive
+
+
+# a 4D top stepped by a commutator-free method: the generic path (no compiled kernel), so that its
+# chunks take long enough (about a second each) for kills to land between commits
+GENERIC_4D = """
+[scene]
+name = "4D top, generic path"
+[body]
+mass_tensor = [[0.5, 0, 0, 0], [0, 1.0, 0, 0], [0, 0, 1.7, 0], [0, 0, 0, 2.3]]
+[support]
+type = "fixed_point"
+[initial]
+omega = [[0.0, -0.3, 0.5, -0.2], [0.3, 0.0, -0.4, 0.6], [-0.5, 0.4, 0.0, -0.1], [0.2, -0.6, 0.1, 0.0]]
+[integrator]
+method = "cf4"
+step = 0.002
+t_end = 1.5
+project = true
+save_every = 10
+[output]
+quantities = ["energy", "casimirs"]
+"""
+
+
+@pytest.mark.slow
+def test_ten_kills_of_the_client_then_resume_give_the_uninterrupted_store_and_leave_no_worker(tmp_path):
+    """``lieint sweep --workers 2`` (a LocalCluster of two worker processes) SIGKILLed at 10
+    random instants of its run, each time resumed: the final store equals an uninterrupted one
+    bit for bit, no worker process outlives its client by 10 s, and a normal end prints nothing
+    on stderr (no warnings from distributed)."""
+    scene = tmp_path / "top4.toml"
+    scene.write_text(GENERIC_4D, encoding="utf-8")
+    cmd = [sys.executable, "-m", "lieint", "sweep", str(scene), "--vary", "initial.omega[0][1]=-0.6:0.6:12",
+           "--chunk", "1", "--workers", "2", "--quiet", "--out"]  # fmt: skip
+    tic = time.monotonic()
+    whole = subprocess.run([*cmd, str(tmp_path / "whole.zarr")], capture_output=True, text=True, timeout=600)
+    duration = time.monotonic() - tic
+    assert whole.returncode == 0, whole.stderr
+    assert whole.stderr == "", whole.stderr  # no warnings from distributed on a normal end
+    out = tmp_path / "s.zarr"
+    rng = np.random.default_rng(2026)
+    committed_before = []
+    for attempt in range(10):
+        committed_before.append(_committed(out))
+        args = [*cmd, str(out)] + (["--resume"] if out.exists() else [])
+        proc = subprocess.Popen(args, start_new_session=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        time.sleep(float(rng.uniform(0.2, 1.1)) * duration)  # anywhere in its run: starting, computing, committing
+        if proc.poll() is not None:
+            continue  # it finished first: the next attempt resumes a complete store
+        os.kill(proc.pid, signal.SIGKILL)  # the client only: its workers must end by themselves
+        proc.wait(timeout=30)
+        deadline = time.monotonic() + 10
+        while _session(proc.pid) and time.monotonic() < deadline:
+            time.sleep(0.05)
+        left = _session(proc.pid)
+        for pid in left:  # leave the machine clean whatever the outcome
+            os.kill(pid, signal.SIGKILL)
+        assert not left, f"attempt {attempt}: worker processes {left} outlived their client by 10 s"
+    done = subprocess.run([*cmd, str(out), "--resume"], capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0 and done.stderr == "", done.stderr
+    _same(lieint.sweeps.open_sweep(out), lieint.sweeps.open_sweep(tmp_path / "whole.zarr"))
+    assert any(0 < c < 12 for c in committed_before), f"no resume met a partly committed store: {committed_before}"
+
+
+def _committed(out) -> int:
+    try:
+        return int(np.sum(zarr.open_array(str(out / "chunk_committed"), mode="r")[...]))
+    except Exception:
+        return 0
+
+
+def test_a_scheduler_of_other_versions_or_with_workers_without_lieint_is_refused():
+    """What the probe answered, checked against this process (the probe itself is exercised by
+    every test above that names a scheduler address)."""
+    from lieint.sweeps.cluster import check_versions
+
+    here = distributed.versions.get_versions()["packages"]
+    ok = {w: lieint.__version__ for w in ("tcp://127.0.0.1:1", "tcp://127.0.0.1:2")}
+    assert check_versions("tcp://h:1", {"scheduler": dict(here), "workers": ok}) == 2
+    cases = [
+        ({**here, "distributed": "2020.1.0"}, ok, r"runs distributed 2020.1.0, this process " + here["distributed"]),
+        ({**here, "python": "3.8.1.final.0"}, ok, r"runs Python 3.8.1.final.0, this process"),
+        (here, {"tcp://127.0.0.1:1": "0.0.1"}, r"tcp://127.0.0.1:1 runs lieint 0.0.1; every worker needs lieint"),
+        (here, {"tcp://127.0.0.1:1": "!ModuleNotFoundError: No module named 'lieint'"},
+         r"cannot import lieint \(ModuleNotFoundError: No module named 'lieint'\)"),
+    ]  # fmt: skip
+    for scheduler, workers, match in cases:
+        with pytest.raises(lieint.sweeps.SweepError, match=match):
+            check_versions("tcp://h:1", {"scheduler": scheduler, "workers": workers})

@@ -39,10 +39,12 @@ class RunLock:
     ----------
     out : path
         The run file; the lock is ``out`` + ``".lock"`` in the same directory.
+    kind : str
+        What ``out`` is, in the message to a refused writer (a sweep store takes the same lock).
     """
 
-    def __init__(self, out):
-        self.out = Path(out)
+    def __init__(self, out, kind: str = "run file"):
+        self.out, self.kind = Path(out), kind
         self.path = Path(str(out) + ".lock")
         self.fd: int | None = None
 
@@ -97,7 +99,7 @@ class RunLock:
             else "another process"
         )
         return (
-            f"{str(self.out)!r} is being written by {who}; only one writer per run file. Wait for it to "
+            f"{str(self.out)!r} is being written by {who}; only one writer per {self.kind}. Wait for it to "
             f"finish or stop it (its lock is {str(self.path)!r}, released when that process ends)."
         )
 

@@ -23,6 +23,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ..text import printable
+
 __all__ = ["BINS", "DRIFT_FLOOR", "MAX_COMPONENTS", "READ_ROWS", "PlotError", "plot_run", "run_figure"]
 
 #: rows read from the file at most (a stride beyond; 40,001 rows are read whole)
@@ -39,19 +41,29 @@ class PlotError(ValueError):
     """A file that cannot be plotted (missing, corrupt, or not a lieint run)."""
 
 
-def _read(path: Path):
+def _read(path: Path, timeout: float):
     """The strided series and attributes, read safely (:mod:`lieint.runs.reading`: a truncated or
-    damaged file is reported within seconds, never waited for)."""
+    damaged file is reported within seconds, never waited for), all within ``timeout`` s."""
+    import time
+
     from .reading import IsolatedError, read_header, read_series
 
-    header = read_header(path)
+    deadline = time.monotonic() + timeout
+    header = read_header(path, timeout=timeout)
+    if header.timed_out:
+        raise PlotError(f"could not read {str(path)!r} within the deadline of {timeout:g} s; pass a longer --timeout")
     if not header.ok:
         raise PlotError(f"cannot open {str(path)!r} as an HDF5 run file: {header.problem}")
     if "t" not in header.datasets or not any(n.startswith("states/") for n in header.datasets):
         raise PlotError(f"{str(path)!r} is not a lieint run (no /t and /states)")
     try:
-        series = read_series(path, READ_ROWS, header=header)
+        series = read_series(path, READ_ROWS, timeout=max(0.0, deadline - time.monotonic()), header=header)
     except IsolatedError as exc:
+        if exc.timed_out:
+            raise PlotError(
+                f"could not read the rows of {str(path)!r} within the deadline of {timeout:g} s (a busy machine or a "
+                "large file); pass a longer --timeout"
+            ) from None
         raise PlotError(
             f"cannot read the rows of {str(path)!r}: {exc} (`lieint info {path}` says where it is damaged)"
         ) from None
@@ -114,8 +126,11 @@ def _band(ax, t, series, label, color, log_floor=None):
     return color, thinned, clamped
 
 
-def plot_run(path, out=None) -> Path:
-    """Draw the figure of a streamed run; returns the figure's path (PNG or SVG by suffix)."""
+def plot_run(path, out=None, timeout: float = 20.0) -> Path:
+    """Draw the figure of a streamed run; returns the figure's path (PNG or SVG by suffix).
+
+    The file is read within ``timeout`` seconds (all stages together); a file that cannot be
+    read in that time gives :class:`PlotError` saying so (never a wait without end)."""
     from .._plotting import pyplot
 
     path = Path(path)
@@ -124,7 +139,7 @@ def plot_run(path, out=None) -> Path:
     out = Path(out) if out else path.with_suffix(".png")
     if out.suffix.lower() not in (".png", ".svg"):
         raise PlotError(f"the figure must be .png or .svg; got {out.name!r}")
-    fig = run_figure(path)
+    fig = run_figure(path, timeout)
     plt = pyplot()
     try:
         fig.savefig(out, dpi=110)
@@ -135,7 +150,7 @@ def plot_run(path, out=None) -> Path:
     return out
 
 
-def run_figure(path):
+def run_figure(path, timeout: float = 20.0):
     """The figure of a streamed run (a matplotlib ``Figure``, left open); see the module docstring."""
     from .._plotting import PALETTE, pyplot
 
@@ -143,7 +158,7 @@ def run_figure(path):
     path = Path(path)
     if not os.path.lexists(path):
         raise PlotError(f"no run file {str(path)!r}")
-    t, states, inv, outputs, attrs = _read(path)
+    t, states, inv, outputs, attrs = _read(path, timeout)
     if t.size < 2:
         raise PlotError(
             f"{str(path)!r} holds {t.size} saved row(s); a plot needs at least two (run longer, or lower save_every)"
@@ -171,7 +186,7 @@ def run_figure(path):
     rows_per_bin = t.size / BINS
     if t.size > 2 * BINS:
         title += f"\n{t.size:,} saved rows drawn as the min/max envelope of {BINS} bins (~{rows_per_bin:.0f} rows each)"
-    fig.suptitle(title, fontsize=10)
+    fig.suptitle(printable(title), fontsize=10)  # the file's text, escaped: a name may hold control characters
 
     ax = axes[0]
     tt = t - t[0]

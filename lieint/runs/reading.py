@@ -240,6 +240,8 @@ class Header:
     superblock: Superblock | None = None
     attrs: dict = field(default_factory=dict)
     datasets: dict = field(default_factory=dict)
+    #: True when the problem is only that the deadline came first (not damage)
+    timed_out: bool = False
 
     @property
     def rows(self) -> int:
@@ -253,12 +255,16 @@ def read_header(path, timeout: float = HEADER_SECONDS) -> Header:
     sb, problem = read_superblock(path)
     if sb is None:
         return Header(path, False, problem)
+    if timeout <= 0:
+        return Header(path, False, "no time was left to read it", sb, timed_out=True)
     try:
         messages, finished = isolated(_header_child, (str(path), sb.flags != 0), timeout)
     except IsolatedError as exc:
         return Header(path, False, f"damaged: HDF5 cannot read it ({_short(str(exc))})", sb)
     if not finished or not messages:
-        return Header(path, False, f"damaged: reading its metadata did not finish within {timeout:g} s", sb)
+        # slow is not damaged: a machine under heavy load can take this long on a good file
+        problem = f"reading its metadata did not finish within {timeout:.3g} s"
+        return Header(path, False, problem, sb, timed_out=True)
     return Header(path, True, "", sb, messages[0]["attrs"], messages[0]["datasets"])
 
 

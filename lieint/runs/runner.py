@@ -120,7 +120,7 @@ def run(
         limits = _check_limits(max_drift, streamed.invariant_names)
         if not resume:
             _check_room(streamed)
-        with _file_size_signal_ignored():
+        with file_size_signal_ignored():
             return _Session(
                 streamed, stream, progress, checkpoint_every, checkpoint_seconds, monitor_every, stop_after, limits
             ).run(resume)
@@ -226,7 +226,7 @@ class _Session:
             wall = time.monotonic() - tic
             if bar is not None:
                 bar.update(s.carry.k - k0 if total is not None else s.carry.t - t0)
-            chunk = max(1, int(chunk * min(4.0, max(0.25, _SEGMENT_SECONDS / max(wall, 1e-6)))))
+            chunk = next_segment_plan(chunk, s.carry.k - k0, wall, s.max_segment_steps)
             k = s.carry.k
             if seg.failure:
                 return "failed", seg.failure
@@ -254,6 +254,22 @@ class _Session:
                 s.checkpoint()
                 last_ckpt_time, last_ckpt_step = now, k
         return "complete", f"complete: {s.carry.k} steps, {s.output.rows} saved rows"
+
+
+def next_segment_plan(planned: int, ran: int, wall: float, cap: int) -> int:
+    """The steps to plan for the next segment, from the one just run.
+
+    The aim is a segment of about :data:`_SEGMENT_SECONDS` of wall time: the rate measured on
+    the ``ran`` steps just done (which may be fewer than ``planned`` when a checkpoint, a
+    monitor line or the end cut the segment short) gives the steps that would take that long,
+    changed by at most ×4 or ÷4 from the last plan (one slow or fast segment is noise). The plan
+    never exceeds ``cap``, the longest segment that may be run (its rows must fit in memory):
+    a plan left to grow past what is ever run grew ×4 after every short segment and overflowed
+    a float after about 500 of them (a run with ``--checkpoint-every 200`` died at step 101,400).
+    """
+    rate_steps = max(ran, 1) * _SEGMENT_SECONDS / max(wall, 1e-6)
+    bounded = min(4.0 * planned, max(planned / 4.0, rate_steps))
+    return int(max(1, min(cap, bounded)))
 
 
 def _check_arguments(overwrite, resume, checkpoint_every, monitor_every, stop_after, checkpoint_seconds) -> None:
@@ -319,7 +335,7 @@ def _check_room(streamed: StreamedRun) -> None:
         )
 
 
-class _file_size_signal_ignored:
+class file_size_signal_ignored:
     """Ignore SIGXFSZ while writing, so that passing ``ulimit -f`` makes write() fail with EFBIG
     (reported clearly) instead of killing the process (main thread only)."""
 

@@ -90,10 +90,13 @@ class TableReader:
         return None
 
     def fail(self, table: str, key: str | None, message: str) -> SceneError:
+        from ..text import printable
+
         where = f"[{table}]" + (f" {key}" if key else "")
         line = self.line_of(table, key)
         at = f" (line {line})" if line else ""
-        return SceneError(f"{self.source}: {where}{at}: {message}")
+        # escaped: a table or key name of the file may hold control characters
+        return SceneError(printable(f"{self.source}: {where}{at}: {message}"))
 
     # -- typed readers -----------------------------------------------------------------
     def table(self, name: str, check_keys: bool = True) -> dict:

@@ -34,6 +34,7 @@ from typing import Any
 
 import numpy as np
 
+from ..text import printable
 from .reader import SceneError, TableReader, load_members, max_nesting, read_regular
 
 if sys.version_info >= (3, 11):
@@ -184,7 +185,7 @@ class _Reader(TableReader):
                 raise self.fail("events", "terminal", f"expected true, false or a count >= 0; got {terminal!r}")
             out.append(
                 {
-                    "name": self.string("events", "name", ev.get("name", output)),
+                    "name": printable(self.string("events", "name", ev.get("name", output))),
                     "output": output,
                     "component": tuple(component),
                     "value": self.number("events", "value", ev.get("value", 0.0)),
@@ -206,8 +207,10 @@ class _Reader(TableReader):
         # a named system's [initial] keys are its initial_state's parameters (checked when built)
         initial = self.table("initial", check_keys="system" not in body)
 
-        name = self.string("scene", "name", self.required(meta, "scene", "name"))
-        description = self.string("scene", "description", meta.get("description", ""))
+        # the scene's own words are printed by every front end (and drawn in figures): their control
+        # characters are escaped once here, so that no terminal ever receives them
+        name = printable(self.string("scene", "name", self.required(meta, "scene", "name")))
+        description = printable(self.string("scene", "description", meta.get("description", "")))
         orientation = self.string("body", "orientation", body.get("orientation", "matrix"), ORIENTATIONS)
         if "system" in body:
             scene = self.named_system_scene(name, description, body, initial, integ, output)

@@ -6,19 +6,25 @@ cut into chunks that run as batched ensembles on a dask cluster, and commits eac
 Zarr store that ``xarray.open_zarr`` reads (:mod:`lieint.sweeps.store`).
 
 Modules: :mod:`~lieint.sweeps.keys` (scene keys such as ``body.principal_moments[0]``),
-:mod:`~lieint.sweeps.plan` (members and chunks), :mod:`~lieint.sweeps.chunk` (one chunk, one
-worker), :mod:`~lieint.sweeps.store` (the Zarr store), :mod:`~lieint.sweeps.engine` (dask).
+:mod:`~lieint.sweeps.plan` (members and chunks, their sizes checked), :mod:`~lieint.sweeps.chunk`
+(one chunk, one worker), :mod:`~lieint.sweeps.store` (the Zarr store),
+:mod:`~lieint.sweeps.integrity` (checksums; what ``--overwrite`` may replace),
+:mod:`~lieint.sweeps.info` (``lieint info SWEEP.zarr``), :mod:`~lieint.sweeps.cluster` (where the
+chunks run, reached and checked first), :mod:`~lieint.sweeps.engine` (dask, the lock, commits).
 dask, distributed and zarr are imported only when a sweep runs (``pip install "lieint[sweep]"``).
 """
 
 from __future__ import annotations
 
 from .api import sweep
+from .integrity import DamagedStoreError, StoreError
 from .keys import SceneKey, SweepKeyError, parse_key
 from .plan import SweepError, SweepPlan, parse_vary, plan_from_scene, plan_from_systems
 
 __all__ = [
+    "DamagedStoreError",
     "SceneKey",
+    "StoreError",
     "SweepError",
     "SweepKeyError",
     "SweepPlan",
@@ -31,8 +37,9 @@ __all__ = [
 ]
 
 
-def open_sweep(path, *, grid: bool = False):
-    """Open a sweep store as an xarray Dataset (see :func:`lieint.sweeps.store.open_sweep`)."""
+def open_sweep(path, *, grid: bool = False, damaged: str = "raise"):
+    """Open a sweep store as an xarray Dataset, its chunks verified first (see
+    :func:`lieint.sweeps.store.open_sweep`)."""
     from .store import open_sweep as _open
 
-    return _open(path, grid=grid)
+    return _open(path, grid=grid, damaged=damaged)

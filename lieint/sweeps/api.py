@@ -44,6 +44,7 @@ def sweep(
     project: bool = False,
     save_every: int = 1,
     outputs: Sequence[str] = (),
+    connect_timeout: float = 20.0,
 ) -> SweepReport:
     """Integrate a parameter and initial-condition sweep on dask and store it in Zarr.
 
@@ -101,6 +102,9 @@ def sweep(
     outputs : sequence of str, default ()
         Outputs or invariants of the systems to store besides the state (a scene names its
         own in ``[output]``).
+    connect_timeout : float, default 20
+        Seconds allowed to reach ``scheduler`` (an address), complete dask's handshake and check
+        the versions of the scheduler and its workers — all before anything is created.
 
     Returns
     -------
@@ -112,7 +116,13 @@ def sweep(
     SweepError
         A key the scene does not have, a value that makes the scene invalid, an adaptive method
         (sweeps run fixed-step methods), an existing store without ``resume``/``overwrite``, a
-        store of another sweep, or a chunk that failed on every retry.
+        store of another sweep or not a lieint sweep store (``overwrite`` replaces nothing
+        else), a store another process is writing (its pid, host and start time), a scheduler
+        that cannot be reached or runs other versions, or a chunk that failed on every retry;
+        :class:`~lieint.sweeps.store.NoSpaceError` (a SweepError) when the disk is full.
+    lieint.limits.LimitError
+        A sweep beyond a size limit (values, points, members, chunks, a chunk's memory,
+        workers): the message names the flag and the environment variable that raises it.
 
     Examples
     --------
@@ -164,4 +174,5 @@ def sweep(
         overwrite=overwrite,
         progress=progress,
         backend=backend,
+        connect_timeout=connect_timeout,
     )

@@ -21,6 +21,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..groups.base import DexpinvRangeError
 from .plan import SweepError, SweepPlan
 
 __all__ = ["ChunkResult", "compute_chunk"]
@@ -87,6 +88,25 @@ def _run(plan: SweepPlan, system, y0: dict, backend: str):
     return sol, notes
 
 
+def _name_the_member(exc, plan: SweepPlan, system, y: dict, first_member: int):
+    """The error of a batch refused its step, naming the sweep's member that refuses it."""
+    from ..scenes.engine import fastest_member
+
+    which = fastest_member(system, y, float(plan.t_span[0]), float(plan.options["h"]))
+    if which is None:
+        index, radius = 0, None
+    else:
+        index, radius = which
+    member = first_member + index
+    point = member // plan.ensemble
+    values = ", ".join(f"{v.key.text} = {x:g}" for v, x in zip(plan.variations, plan.point_values(point), strict=True))
+    step = f": its first step has ‖h ξ‖ = {radius:.3g}" if radius is not None else ""
+    return DexpinvRangeError(
+        f"{exc} The member that refuses it is member {member} (point {point}{', ' + values if values else ''}, "
+        f"ensemble member {member % plan.ensemble}){step}."
+    )
+
+
 def compute_chunk(plan: SweepPlan, index: int, backend: str = "auto") -> ChunkResult:
     """Integrate the members of chunk ``index`` (see the module docstring).
 
@@ -124,6 +144,7 @@ def compute_chunk(plan: SweepPlan, index: int, backend: str = "auto") -> ChunkRe
     backends, reasons, notes = [], [], []
     nsteps, success, messages = 0, True, []
     cpu_steps = wall_steps = 0.0
+    first_member = start
     for system, y in runs:
         if system.fields != systems[0].fields:
             raise SweepError(
@@ -132,7 +153,11 @@ def compute_chunk(plan: SweepPlan, index: int, backend: str = "auto") -> ChunkRe
                 f"{list(systems[0].fields)} at others (e.g. a centre of mass that becomes zero changes a heavy top "
                 "into an Euler top)"
             )
-        sol, caught = _run(plan, system, y, backend)
+        try:
+            sol, caught = _run(plan, system, y, backend)
+        except DexpinvRangeError as exc:
+            raise _name_the_member(exc, plan, system, y, first_member) from None
+        first_member += system.batch_shape(y)[0] if system.batch_shape(y) else 1
         if t is None:
             t = sol.t
         elif not np.array_equal(t, sol.t):  # pragma: no cover - fixed-step grids are shared

@@ -211,6 +211,10 @@ def parse_vary(text: str) -> tuple[str, np.ndarray]:
             num = 0
         if num < 1:
             raise SweepError(f"--vary {key.strip()}: NUM must be a positive integer; got {parts[2]!r}")
+        from ..limits import check
+
+        # before the values are allocated (NUM = 10⁹ would be 8 GB)
+        check("LIEINT_MAX_SWEEP_POINTS", num, f"--vary {key.strip()}: the number of values NUM")
         values = np.linspace(start, stop, num)
     elif len(parts) == 1:
         values = np.array([number(s) for s in spec.split(",")])

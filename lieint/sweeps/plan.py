@@ -23,6 +23,7 @@ from typing import Any
 
 import numpy as np
 
+from ..limits import check
 from .keys import SceneKey, SweepError, SweepKeyError, parse_key, parse_vary
 
 if sys.version_info >= (3, 11):
@@ -80,6 +81,10 @@ class SweepPlan:
     outputs: tuple[str, ...] = ()
     coords: dict[str, np.ndarray] = field(default_factory=dict)
     description: str = ""
+    #: bytes the store holds per member and save time (state fields, outputs), and save times
+    row_bytes: int = 0
+    largest_row_bytes: int = 0
+    nsaves: int = 0
 
     # -- sizes ---------------------------------------------------------------------------
     @property
@@ -98,6 +103,18 @@ class SweepPlan:
     def nchunks(self) -> int:
         """Number of chunks."""
         return -(-self.nmembers // self.chunk)
+
+    @property
+    def store_bytes(self) -> int:
+        """Bytes of the store's member arrays, uncompressed (an upper bound of what it takes:
+        Zstandard compresses trajectories little), plus the drifts and per-chunk metadata."""
+        return self.nmembers * (self.nsaves * self.row_bytes + 8 * (len(self.outputs) + 4)) + self.nchunks * 4096
+
+    @property
+    def chunk_file_bytes(self) -> int:
+        """Bytes of the largest file of the store, uncompressed: one chunk of all its members'
+        save times of the state field or output with the most numbers per save time."""
+        return self.chunk * self.nsaves * self.largest_row_bytes
 
     def chunk_range(self, c: int) -> tuple[int, int]:
         """Members ``[start, stop)`` of chunk ``c``."""
@@ -218,12 +235,75 @@ def _default_chunk(npoints: int, ensemble: int) -> int:
     return ensemble * max(1, -(-npoints // DEFAULT_CHUNKS))
 
 
-def _check_chunk(chunk, default: int) -> int:
+def _check_chunk(chunk, default: int, nmembers: int) -> int:
+    """The members per chunk: ``chunk`` (or the default), never more than the sweep's members
+    (a larger chunk is the same single chunk; its Zarr chunk shape must not claim more)."""
     if chunk is None:
-        return default
+        return min(default, nmembers)
     if isinstance(chunk, bool) or not isinstance(chunk, (int, np.integer)) or chunk < 1:
         raise SweepError(f"`chunk` must be a positive integer (members per chunk); got {chunk!r}")
-    return int(chunk)
+    return min(int(chunk), nmembers)
+
+
+# -- sizes, checked before anything is allocated (lieint.limits) ---------------------------------
+
+
+def _check_points_count(counts: list[int], keys: list[str]) -> None:
+    """The product of the numbers of values, computed on integers before any grid exists."""
+    points = math.prod(counts)
+    if len(counts) > 1:
+        check(
+            "LIEINT_MAX_SWEEP_POINTS",
+            points,
+            lambda: (
+                "the number of parameter points (the product of the values of "
+                + " × ".join(f"{k} ({n})" for k, n in zip(keys, counts, strict=True))
+                + ")"
+            ),
+            "or vary fewer keys or fewer values (--vary KEY=START:STOP:NUM)",
+        )
+
+
+def _check_members(npoints: int, ensemble: int) -> None:
+    check(
+        "LIEINT_MAX_SWEEP_MEMBERS",
+        npoints * ensemble,
+        f"the number of members (parameter points {npoints} × --ensemble {ensemble})",
+        "or fewer points or a smaller --ensemble",
+    )
+
+
+def _check_chunk_sizes(plan: SweepPlan, point) -> None:
+    """Chunks in the store and the memory of one chunk (its member arrays on a worker and on
+    the client) against the limits; sets ``plan.row_bytes`` and ``plan.nsaves``."""
+    from ..control import Plan
+
+    check(
+        "LIEINT_MAX_SWEEP_CHUNKS",
+        plan.nchunks,
+        f"the number of chunks ({plan.nmembers} members in chunks of --chunk {plan.chunk})",
+        "or a larger --chunk (members per chunk); every chunk is a few files of the store",
+    )
+    system, y0 = point
+    steps = Plan.make(float(plan.t_span[0]), float(plan.t_span[1]), float(plan.options["h"])).nsteps
+    every = int(plan.options.get("save_every", 1))
+    plan.nsaves = steps // every + 1 + (1 if steps % every else 0)
+    one = {k: np.asarray(v)[:1] for k, v in y0.items()}
+    sizes = [8 * math.prod(shape) for shape in system.fields.values()]
+    if plan.outputs:
+        values = system.evaluate_outputs(np.zeros(1) + plan.t_span[0], one, list(plan.outputs))
+        sizes += [8 * np.asarray(v).size for v in values.values()]
+    plan.row_bytes, plan.largest_row_bytes = int(sum(sizes)), int(max(sizes))
+    # a chunk's arrays exist twice on a worker (the solution and the member-major copy)
+    check(
+        "LIEINT_MAX_MEMORY",
+        2 * plan.chunk * plan.nsaves * plan.row_bytes,
+        lambda: (
+            f"the memory of one chunk ({plan.chunk} members × {plan.nsaves} save times × {plan.row_bytes} bytes, "
+            "twice) (bytes)"
+        ),
+        "or a smaller --chunk (members per chunk), or a larger save_every",
+    )
 
 
 def scene_data_of(scene) -> tuple[dict, str]:
@@ -312,10 +392,12 @@ def plan_from_scene(
         if any(v.key.text == key.text for v in variations):
             raise SweepError(f"sweep key {key.text!r} is varied twice")
         variations.append(Variation(key, arr))
+    _check_points_count([len(v.values) for v in variations], [v.key.text for v in variations])
     ensemble_spec = ensemble_members = None
     if ensemble is not None:
         if isinstance(ensemble, bool) or not isinstance(ensemble, (int, np.integer)) or ensemble < 1:
             raise SweepError(f"`ensemble` must be a positive integer (initial states per point); got {ensemble!r}")
+        check("LIEINT_MAX_ENSEMBLE", int(ensemble), "--ensemble: the number of initial states per point")
         if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
             raise SweepError(f"`seed` must be a nonnegative integer; got {seed!r}")
         own = data.get("ensemble", {})
@@ -356,8 +438,10 @@ def plan_from_scene(
         outputs=tuple(base.outputs),
         description=base.name,
     )
-    plan.chunk = _check_chunk(chunk, _default_chunk(plan.npoints, size))
+    _check_members(plan.npoints, size)
+    plan.chunk = _check_chunk(chunk, _default_chunk(plan.npoints, size), plan.nmembers)
     _check_points(plan)
+    _check_chunk_sizes(plan, plan.build_point(0))
     return plan
 
 
@@ -447,6 +531,7 @@ def plan_from_systems(
                 f"{sorted(set(first.outputs) | set(first.invariants))}"
             )
     size = next(iter(stacked.values())).shape[0]
+    _check_members(len(systems), size)
     plan = SweepPlan(
         source="systems",
         variations=[],
@@ -459,5 +544,6 @@ def plan_from_systems(
         outputs=tuple(outputs),
         description=type(first).__name__,
     )
-    plan.chunk = _check_chunk(chunk, _default_chunk(plan.npoints, size))
+    plan.chunk = _check_chunk(chunk, _default_chunk(plan.npoints, size), plan.nmembers)
+    _check_chunk_sizes(plan, (first, stacked))
     return plan

@@ -25,13 +25,18 @@ takes ``rates`` (body rates ``(m, 3)``) and their ``times`` ``(m,)``::
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Callable
 from importlib import metadata
 
-__all__ = ["ENTRY_POINT_GROUP", "make_system", "system_factories"]
+__all__ = ["ENTRY_POINT_GROUP", "PluginWarning", "make_system", "system_factories"]
 
 #: the entry-point group other packages register their systems under
 ENTRY_POINT_GROUP = "lieint.systems"
+
+
+class PluginWarning(UserWarning):
+    """An installed system that is not used: its name is a built-in's or another plugin's."""
 
 
 def _builtin() -> dict[str, Callable]:
@@ -67,11 +72,36 @@ def _motor_rigid_body(**parameters):
 
 
 def system_factories() -> dict[str, Callable]:
-    """name → factory of every system a scene can name (built-in first, then entry points)."""
+    """name → factory of every system a scene can name (built-in first, then entry points).
+
+    A built-in name cannot be taken over; an installed system under such a name (or under the
+    name of one installed before it) is ignored with a :class:`PluginWarning` naming it, so
+    that a scene never runs another system than the one its author sees."""
     out = _builtin()
     for ep in metadata.entry_points(group=ENTRY_POINT_GROUP):
-        out.setdefault(ep.name, ep)  # loaded on use; a built-in name cannot be taken over
+        if ep.name not in out:
+            out[ep.name] = ep  # loaded on use
+            continue
+        kept = out[ep.name]
+        which = f"the installed system {ep.name!r} ({ep.value}{_distribution(ep)})"
+        if isinstance(kept, metadata.EntryPoint):
+            why = f"another installed system of that name ({kept.value}{_distribution(kept)}) is used instead"
+        else:
+            why = "it has the name of a built-in system, which is used instead"
+        warnings.warn(PluginWarning(f"{which} is ignored: {why}; rename its entry point"), stacklevel=2)
     return out
+
+
+def _distribution(ep: metadata.EntryPoint) -> str:
+    dist = getattr(ep, "dist", None)
+    name = getattr(dist, "name", None) if dist is not None else None
+    return f", from the package {name}" if name else ""
+
+
+def _plugin_failure(exc: BaseException) -> str:
+    """A plugin's exception in words (SystemExit and the like too: a plugin must not end lieint)."""
+    text = str(exc)
+    return f"{type(exc).__name__}: {text}" if text else type(exc).__name__
 
 
 def make_system(name: str, parameters: dict):
@@ -83,14 +113,23 @@ def make_system(name: str, parameters: dict):
             f"under the entry-point group {ENTRY_POINT_GROUP!r})."
         )
     factory = factories[name]
-    if isinstance(factory, metadata.EntryPoint):
+    plugin = isinstance(factory, metadata.EntryPoint)
+    if plugin:
         try:
             factory = factory.load()
-        except Exception as exc:  # a broken plugin must not look like a lieint bug
+        except KeyboardInterrupt:
+            raise
+        except BaseException as exc:  # a broken plugin (even one calling sys.exit) must not look like a lieint bug
             raise ValueError(
-                f"`system`: the installed system {name!r} ({factory.value}) failed to load: {exc}"
+                f"`system`: the installed system {name!r} ({factory.value}) failed to load: {_plugin_failure(exc)}"
             ) from None
     try:
         return factory(**parameters)
     except TypeError as exc:
         raise ValueError(f"`parameters` of system {name!r}: {exc}") from None
+    except (KeyboardInterrupt, ValueError):
+        raise
+    except BaseException as exc:
+        if not plugin:
+            raise
+        raise ValueError(f"`system`: the installed system {name!r} failed to build: {_plugin_failure(exc)}") from None
