@@ -9,6 +9,7 @@ import mpmath as mp
 import numpy as np
 import pytest
 from conftest import fitted_slope
+from taylor_reference import mp_cross, mp_hat, taylor_flow
 
 import lieint
 from lieint.groups.bivectors import hat, vee
@@ -26,35 +27,6 @@ def hv_top():
 
 
 # -- the coefficients, in 50 digits --------------------------------------------------------------
-
-
-def _cross(a, b):
-    return [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
-
-
-def _hat(w):
-    return mp.matrix([[0, -w[2], w[1]], [w[2], 0, -w[0]], [-w[1], w[0], 0]])
-
-
-def taylor_flow(I, Pi0, h):
-    """``(Π(h), R(h))`` of ``Π' = Π × w``, ``R' = R ŵ``, ``w = Π/I``, ``R(0) = Id``, summed from the
-    Taylor series (Cauchy products of the quadratic field) until the terms fall below 1e-45."""
-    P, R = [list(Pi0)], [mp.eye(3)]
-    Pi, Rh = list(Pi0), mp.eye(3)
-    for k in range(200):
-        s, S = [mp.mpf(0)] * 3, mp.zeros(3, 3)
-        for j in range(k + 1):
-            w = [P[k - j][i] / I[i] for i in range(3)]
-            s = [a + b for a, b in zip(s, _cross(P[j], w), strict=True)]
-            S += R[j] * _hat(w)
-        P.append([v / (k + 1) for v in s])
-        R.append(S / (k + 1))
-        hk = h ** (k + 1)
-        Pi = [a + b * hk for a, b in zip(Pi, P[-1], strict=True)]
-        Rh += R[-1] * hk
-        if max(abs(v) for v in P[-1]) * hk < mp.mpf(10) ** -45:
-            return Pi, Rh
-    raise AssertionError("Taylor series did not converge")
 
 
 def modified_mv_step(I, Pi0, h, degree):
@@ -77,11 +49,11 @@ def modified_mv_step(I, Pi0, h, degree):
 
     def residual(*xv):
         a = 4 / (4 + sum(v * v for v in xv))
-        c = _cross(xv, [b[i] * xv[i] for i in range(3)])
+        c = mp_cross(xv, [b[i] * xv[i] for i in range(3)])
         return [a * (Im[i] * xv[i] - c[i] / 2) - h * Pi0[i] for i in range(3)]
 
     root = mp.findroot(residual, [h * Pi0[i] / Im[i] for i in range(3)])
-    X = _hat([root[i] for i in range(3)])
+    X = mp_hat([root[i] for i in range(3)])
     omega = mp.inverse(mp.eye(3) - X / 2) * (mp.eye(3) + X / 2)
     Pi1 = omega.T * mp.matrix(Pi0)
     return [Pi1[i] for i in range(3)], omega
