@@ -29,10 +29,10 @@ is about the size of its local error (body (0.6, 0.8, 1), h = 0.3: 2.9e-3 at ord
 at order 10; ``tests/test_modified_mv.py``). Only plain ``moser_veselov`` (S = 1, D = 0) is
 symplectic.
 
-In the project's conventions (MATH.md §2, §11) the step is the ``moser_veselov`` step with the
-mass tensor ``B̃ = P diag(b̃) Pᵀ``, ``b̃_i = (Ĩ_j + Ĩ_k − Ĩ_i)/2``, in the principal frame P of
-the body; it is solved in the principal frame, for a whole batch at once (each member with its
-own b̃).
+In lieint's conventions (``A = −(BΩ + ΩB)``, the right action) the step is the
+``moser_veselov`` step with the mass tensor ``B̃ = P diag(b̃) Pᵀ``, ``b̃_i = (Ĩ_j + Ĩ_k − Ĩ_i)/2``,
+in the principal frame P of the body; it is solved in the principal frame, for a whole batch at
+once (each member with its own b̃).
 """
 
 from __future__ import annotations
