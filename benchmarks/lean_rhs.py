@@ -18,7 +18,8 @@ each raveled, as ``np.concatenate``), for
   (``f = G + Ω²κ``, ``l = X_G + κ``, ``J_K = tr(B_K) − B_K``), ``Γ̇ = −ΩΓ``, ``Ġ = −ΩG``,
   ``Ṙ = RΩ``, centre ``ṗ = r RΩΓ``;
 * the Chaplygin ball ``Ȧ = [A, Ω]`` with ``B_K(Γ) = B_C + M r² ΓΓᵀ`` (n = 3: ``w = J_K⁻¹Π``;
-  n ≥ 4: Ω from A in the eigenbasis of ``B_K``), ``Γ̇ = −ΩΓ``, R and the centre as the ball's.
+  n ≥ 4: Ω from ``−A = B_K Ω + Ω B_K`` as one ``d × d`` linear solve, the matrix linear in B_K),
+  ``Γ̇ = −ΩΓ``, R and the centre as the ball's.
 
 :func:`check` compares one with ``system.vector_field`` at random states (the benchmarks call
 it before timing; ``tests/test_lean_rhs.py`` too).
@@ -290,15 +291,40 @@ def _heavy_top(system):
     return f
 
 
+def _lyapunov_tensor(n):
+    """``T[a, b]``: the matrix of ``X ↦ E_ab X + X E_ab`` on skew X in the coordinates ``X_ij``
+    (i < j), so that ``X ↦ BX + XB`` is ``Σ_ab B_ab T[a, b]`` (a ``d × d`` matrix, d = n(n−1)/2)."""
+    iu, ju = np.triu_indices(n, 1)
+    d = iu.size
+    T = np.zeros((n, n, d, d))
+    for k in range(d):
+        X = np.zeros((n, n))
+        X[iu[k], ju[k]], X[ju[k], iu[k]] = 1.0, -1.0
+        for a in range(n):
+            for b in range(n):
+                E = np.zeros((n, n))
+                E[a, b] = 1.0
+                T[a, b, :, k] = (E @ X + X @ E)[iu, ju]
+    return T, iu, ju
+
+
 def _chaplygin(system):
     BC, Mr2, radius = system.B_C, system.mass * system.radius**2, system.radius
     s, n = _slices(system), system.n
+    T, iu, ju = _lyapunov_tensor(n)
+    M_C = np.tensordot(BC, T, axes=2)  # X ↦ B_C X + X B_C
+    T_flat = T.reshape(n * n, -1)
+    d = iu.size
 
     def f(t, z):
         A = z[s["A"]].reshape(n, n)
         Gam = z[s["Gamma"]]
-        b, P = np.linalg.eigh(BC + Mr2 * np.multiply.outer(Gam, Gam))
-        Om = P @ ((P.T @ A @ P) * _pair_inverse(b)) @ P.T
+        # Ω from −A = B_K Ω + Ω B_K, B_K = B_C + M r² ΓΓᵀ, as a d × d linear system
+        M = M_C + Mr2 * (np.multiply.outer(Gam, Gam).ravel() @ T_flat).reshape(d, d)
+        x = np.linalg.solve(M, -A[iu, ju])
+        Om = np.zeros((n, n))
+        Om[iu, ju] = x
+        Om[ju, iu] = -x
         dA = A @ Om
         dA -= dA.T
         OmG = Om @ Gam
