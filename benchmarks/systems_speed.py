@@ -3,7 +3,8 @@
 Run: ``OPENBLAS_NUM_THREADS=1 python benchmarks/systems_speed.py`` (about five minutes, seven
 with ``--busy --ensembles``; ``--quick`` for a smoke run; ``--only n=6`` for the systems whose label contains "n=6";
 ``--busy`` times everything a second time while another CPU-bound process runs, as on a user's
-busy laptop; ``--ensembles`` adds the ensemble throughput).
+busy laptop; ``--ensembles`` adds the ensemble throughput; ``--markdown PATH`` also writes the
+tables to a Markdown page).
 
 For each system — the Euler top in 3, 4 and 6 dimensions, the heavy top in 3 and 4, the ball
 with an offset centre of mass on an incline in 3, the Chaplygin ball in 3 and 4 — and each
@@ -17,9 +18,12 @@ G, R, the centre; max over fields of ``max|y − y_ref| / max(1, max|y_ref|)``):
   in Cayley coordinates (the method's ``coordinates``; ``[cay]`` in the table); beside it, the
   cheaper adaptive rkmk853 against the cheapest fixed-step series (``853/fixed``) and DOP853
   against rkmk853 (``DOP/853``);
-* ``scipy.integrate.solve_ivp(method="DOP853")`` on the same equations (the system's embedded
-  vector field, all fields flattened), the loosest rtol (atol = rtol·1e-3) that reaches the
-  target, R projected onto SO(n) at the end as a user would.
+* ``scipy.integrate.solve_ivp(method="DOP853")`` on the same equations written out in plain
+  numpy and float arithmetic (``benchmarks/lean_rhs.py``, checked against ``system.vector_field``
+  at random states before any timing), the loosest rtol (atol = rtol·1e-3) that reaches the
+  target, R projected onto SO(n) at the end as a user would. The ratio is against it; beside it,
+  only for reference, DOP853 at the same rtol on lieint's own vector field (``field ms``,
+  ``× field``: 2–16× dearer per evaluation, a baseline that flatters lieint).
 
 The settings: step counts from 6 by ratios of √2, rtols from 1e-4 by ratios of √10, each series
 until two settings in a row reach the tightest target or one costs more than 2 s CPU (an
@@ -52,6 +56,7 @@ import sys
 import time
 import warnings
 
+import lean_rhs
 import numpy as np
 from scipy.integrate import solve_ivp
 
@@ -132,14 +137,16 @@ def interleaved_cpu_min(fns, repeats: int) -> list[float]:
 
 
 class Case:
-    """One system: its flattened vector field for scipy, the reference and the error measure."""
+    """One system: its right-hand sides for scipy (lean and lieint's), the reference and the error measure."""
 
     def __init__(self, system, y0, T):
         self.system, self.y0, self.T = system, y0, T
-        self.names = list(y0)
+        self.names = list(system.fields)
         self.shapes = [np.shape(y0[k]) for k in self.names]
         self.sizes = [int(np.prod(s)) for s in self.shapes]
         self.z0 = self.flat(y0)
+        lean_rhs.check(system, y0)  # the lean equations are the system's, pointwise
+        self.lean = lean_rhs.lean_rhs(system)
         sol = self.scipy(1e-13, 1e-15)
         self.ref = sol
         check = self.lieint("rkmk6", 20_000)
@@ -156,10 +163,12 @@ class Case:
         return out
 
     def rhs(self, t, z):
+        """lieint's own vector field, flattened (the second DOP853 column only)."""
         return self.flat(self.system.vector_field(t, self.unflat(z)))
 
-    def scipy(self, rtol, atol):
-        sol = solve_ivp(self.rhs, (0.0, self.T), self.z0, method="DOP853", rtol=rtol, atol=atol)
+    def scipy(self, rtol, atol, field: str = "lean"):
+        rhs = self.lean if field == "lean" else self.rhs
+        sol = solve_ivp(rhs, (0.0, self.T), self.z0, method="DOP853", rtol=rtol, atol=atol)
         y = self.unflat(sol.y[:, -1].copy())
         if "R" in y:
             y["R"] = project_to_so(y["R"])  # the projection a user would apply
@@ -289,12 +298,22 @@ def cheapest(series, name, target):
     return max(ok, key=lambda r: r[1]) if name in (*ADAPTIVE, "DOP853") else min(ok, key=lambda r: r[1])
 
 
+#: the tables as Markdown lines, for ``--markdown``
+MARKDOWN: list[str] = []
+
+HEADER = ("system", "target", "lieint best", "error", "CPU ms", "DOP853 (lean)", "error", "CPU ms", "ratio",
+          "853/fixed", "DOP/853", "field ms", "× field")  # fmt: skip
+
+
 def table(all_series, reps: int, label: str) -> None:
-    print(f"\n{label}; load average {os.getloadavg()[0]:.2f}; CPU time, min of {reps} repeats")
+    title = f"{label}; load average {os.getloadavg()[0]:.2f}; CPU time, min of {reps} repeats"
+    print(f"\n{title}")
     print(
         f"{'system':<27s} {'target':>6s} {'lieint best':>27s} {'error':>8s} {'CPU ms':>8s}"
-        f" {'DOP853':>12s} {'error':>8s} {'CPU ms':>8s} {'ratio':>7s} {'853/fixed':>9s} {'DOP/853':>8s}"
+        f" {'DOP853 lean':>12s} {'error':>8s} {'CPU ms':>8s} {'ratio':>7s} {'853/fixed':>9s} {'DOP/853':>8s}"
+        f" {'field ms':>9s} {'x field':>8s}"
     )
+    MARKDOWN.extend(["", f"**{title}**", "", "| " + " | ".join(HEADER) + " |", "|" + "---|" * len(HEADER)])
     for name, (case, series) in all_series.items():
         for target in TARGETS:
             timed = {}  # method -> (setting, error, cpu)
@@ -313,21 +332,27 @@ def table(all_series, reps: int, label: str) -> None:
             fixed = [timed[m][2] for m in FIXED if m in timed]
             adaptive = min((timed[m] for m in PAIR if m in timed), key=lambda r: r[2], default=None)
             sp = cheapest(series, "DOP853", target)
-            sp_cpu = None
+            sp_cpu = field_cpu = None
             if sp:
-                # DOP853 and the cheapest lieint series once more, alternating, as many rounds each
+                # DOP853 (lean, and on lieint's field at the same rtol) and the cheapest lieint series
+                # once more, alternating, as many rounds each
                 dop = lambda c=case, r=sp[1]: c.scipy(r, r * 1e-3)  # noqa: E731
+                dop_field = lambda c=case, r=sp[1]: c.scipy(r, r * 1e-3, field="lieint")  # noqa: E731
                 if best:
-                    lie_cpu, sp_cpu = interleaved_cpu_min([best[3], dop], reps)
+                    lie_cpu, sp_cpu, field_cpu = interleaved_cpu_min([best[3], dop, dop_field], reps)
                     best = (best[0], best[1], lie_cpu, best[3])  # the same number of rounds as DOP853
                 else:
-                    sp_cpu = cpu_min(dop, reps)
-            lie_txt = f"{best[0]:>27s} {best[1]:8.1e} {1e3 * best[2]:8.2f}" if best else f"{'not reached':>45s}"
-            sp_txt = f"{f'rtol {sp[1]:.1e}':>12s} {sp[0]:8.1e} {1e3 * sp_cpu:8.2f}" if sp else f"{'not reached':>30s}"
-            ratio = f"{sp_cpu / best[2]:7.1f}" if best and sp else "      -"
-            vs_fixed = f"{adaptive[2] / min(fixed):9.2f}" if adaptive and fixed else "        -"
-            vs_dop = f"{sp_cpu / adaptive[2]:8.1f}" if adaptive and sp else "       -"
-            print(f"{name:<27s} {target:6.0e} {lie_txt} {sp_txt} {ratio} {vs_fixed} {vs_dop}")
+                    sp_cpu, field_cpu = interleaved_cpu_min([dop, dop_field], reps)
+            cells = [name, f"{target:.0e}"]
+            cells += [best[0], f"{best[1]:.1e}", f"{1e3 * best[2]:.2f}"] if best else ["not reached", "", ""]
+            cells += [f"rtol {sp[1]:.1e}", f"{sp[0]:.1e}", f"{1e3 * sp_cpu:.2f}"] if sp else ["not reached", "", ""]
+            cells.append(f"{sp_cpu / best[2]:.1f}" if best and sp else "-")
+            cells.append(f"{adaptive[2] / min(fixed):.2f}" if adaptive and fixed else "-")
+            cells.append(f"{sp_cpu / adaptive[2]:.1f}" if adaptive and sp else "-")
+            cells += [f"{1e3 * field_cpu:.2f}", f"{field_cpu / best[2]:.1f}" if best else "-"] if sp else ["-", "-"]
+            widths = (27, 6, 27, 8, 8, 12, 8, 8, 7, 9, 8, 9, 8)
+            print(" ".join([f"{cells[0]:<27s}"] + [f"{c:>{w}s}" for c, w in zip(cells[1:], widths[1:], strict=True)]))
+            MARKDOWN.append("| " + " | ".join(cells) + " |")
 
 
 def ensembles(quick: bool) -> None:
@@ -356,6 +381,30 @@ def ensembles(quick: bool) -> None:
         print(f"{label:<27s} {run.stats.backend_reason[:60]:<60s} {work / best_wall:13.3g} {work / best_cpu:11.3g}")
 
 
+def write_markdown(path, command: str) -> None:
+    """The tables of this run as a Markdown page at ``path``."""
+    from pathlib import Path
+
+    head = [
+        "---",
+        "orphan: true",
+        "---",
+        "",
+        "# lieint against DOP853 on a lean right-hand side, every built-in system",
+        "",
+        f"Generated by `{command}` (benchmarks/systems_speed.py; its docstring says what is measured).",
+        f"{os.cpu_count()} CPUs; numpy {np.__version__}; lieint {lieint.__version__}; {time.strftime('%Y-%m-%d')}.",
+        "",
+        "CPU time of whole calls on a shared machine: *idle* means no CPU-bound process of the benchmark's own "
+        "(the load average of the machine is in each title). **ratio** is DOP853's time on the lean right-hand side "
+        "(benchmarks/lean_rhs.py: the system's equations in plain numpy and float arithmetic, checked against "
+        "`system.vector_field` before timing) over lieint's; **field ms** and **× field** time DOP853 at the same "
+        "rtol on lieint's own vector field — a baseline that flatters lieint, for reference only.",
+    ]
+    Path(path).parent.mkdir(parents=True, exist_ok=True)
+    Path(path).write_text("\n".join(head + MARKDOWN) + "\n")
+
+
 def main(quick: bool, busy: bool, only: str | None = None) -> None:
     reps = 3 if quick else 5
     threads = os.environ.get("NUMBA_NUM_THREADS", "default")
@@ -376,11 +425,14 @@ def main(quick: bool, busy: bool, only: str | None = None) -> None:
             table(all_series, reps, "With another CPU-bound process running")
         finally:
             hog.kill()
-    print(
-        "ratio: DOP853's CPU time / lieint's (the cheapest lieint series reaching the target; [cay]: Cayley "
-        "coordinates); 853/fixed: the cheaper adaptive rkmk853's CPU time / the cheapest fixed-step series at the "
-        "same target; DOP/853: DOP853's / the cheaper rkmk853's"
+    legend = (
+        "ratio: DOP853's CPU time on the lean right-hand side / lieint's (the cheapest lieint series reaching the "
+        "target; [cay]: Cayley coordinates); 853/fixed: the cheaper adaptive rkmk853's CPU time / the cheapest "
+        "fixed-step series at the same target; DOP/853: DOP853's (lean) / the cheaper rkmk853's; field ms, x field: "
+        "DOP853 at the same rtol on lieint's own vector field, and its CPU time / lieint's (reference only)"
     )
+    print(legend)
+    MARKDOWN.extend(["", legend])
 
 
 if __name__ == "__main__":
@@ -390,9 +442,12 @@ if __name__ == "__main__":
     parser.add_argument("--ensembles", action="store_true", help="the ensemble throughput of every system")
     parser.add_argument("--ensembles-only", action="store_true", help="only the ensemble throughput")
     parser.add_argument("--only", metavar="TEXT", help="only the systems whose label contains TEXT (e.g. 'n=6')")
+    parser.add_argument("--markdown", metavar="PATH", help="also write the tables to a Markdown page")
     args = parser.parse_args()
     if not args.ensembles_only:
         main(args.quick, args.busy, args.only)
+        if args.markdown:
+            write_markdown(args.markdown, "python benchmarks/systems_speed.py " + " ".join(sys.argv[1:]))
     if args.ensembles or args.ensembles_only:
         ensembles(args.quick)
         from flop_ceiling import report  # the 3D ensemble against this machine's ceiling

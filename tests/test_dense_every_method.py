@@ -99,14 +99,17 @@ def dense_order(order):
 @pytest.mark.parametrize("name", [n for n in TOP_METHODS if is_fixed(n)])
 def test_dense_error_between_steps_has_the_expected_order(name):
     order = SPECS[name].order
-    hs = [0.4, 0.2, 0.1] if order == 8 else [0.1, 0.05, 0.025]
+    hs = [0.4, 0.2, 0.1] if order is not None and order >= 8 else [0.1, 0.05, 0.025]
     between = [dense_error(name, h, "between") for h in hs]
     assert abs(fitted_slope(hs, between) - dense_order(order)) <= 0.35, between
     if order is not None:
-        at_steps = [dense_error(name, h, "steps") for h in hs]
-        assert abs(fitted_slope(hs, at_steps) - order) <= 0.35, at_steps
-        # between the steps the error is of the size it has at the steps
-        assert between[-1] <= 5 * at_steps[-1], (between, at_steps)
+        # order 10: at h = 0.1 the error at the steps is round-off, so longer steps (T a multiple of each)
+        step_hs, T = ([0.5, 0.375, 0.25], 3.0) if order > 8 else (hs, 2.0)
+        at_steps = [dense_error(name, h, "steps", T) for h in step_hs]
+        assert abs(fitted_slope(step_hs, at_steps) - order) <= 0.35, at_steps
+        if dense_order(order) == order:
+            # between the steps the error is of the size it has at the steps
+            assert between[-1] <= 5 * at_steps[-1], (between, at_steps)
 
 
 def middle_axis_rate(t, y):

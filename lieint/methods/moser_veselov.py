@@ -50,6 +50,7 @@ __all__ = [
     "moser_veselov_generator",
     "moser_veselov_increment",
     "require_free_top",
+    "solve_generator",
 ]
 
 _EPS = np.finfo(float).eps
@@ -149,12 +150,40 @@ def moser_veselov_generator(inertia, A: np.ndarray, h: float) -> tuple[np.ndarra
     iterations : int
         Newton iterations spent.
     """
+    return solve_generator(inertia.B, A, h, h * inertia.angular_velocity(A))
+
+
+def solve_generator(B: np.ndarray, A: np.ndarray, h: float, X0: np.ndarray) -> tuple[np.ndarray, int]:
+    """Newton's method for ``h A = B Kᵀ − K B``, ``K = cay(X) − I``, from the guess ``X = X0``.
+
+    The core of :func:`moser_veselov_generator`, with the mass tensor given as an array so that
+    it may differ from member to member of a batch (the modified moments of
+    :mod:`lieint.methods.modified_mv` depend on each member's invariants).
+
+    Parameters
+    ----------
+    B : ndarray, shape (n, n) or (..., n, n)
+        Mass tensors, broadcasting against A's leading axes.
+    A : ndarray, shape (..., n, n)
+        Body angular momentum bivectors.
+    h : float
+        The step.
+    X0 : ndarray, shape (..., n, n)
+        The first guess of the Cayley parameter (``hΩ(A)``: first order in h).
+
+    Returns
+    -------
+    K : ndarray, shape (..., n, n)
+        ``ω − I``.
+    iterations : int
+        Newton iterations spent (the batch's members share them).
+    """
     n = A.shape[-1]
-    B = inertia.B
+    B_stages = B[..., None, :, :]  # against the d basis directions of the Jacobian
     E = _basis(n)  # (d, n, n)
     eye = np.eye(n)
     rhs = h * A
-    X = h * inertia.angular_velocity(A)  # the first-order guess
+    X = X0
     scale = max(float(np.max(np.abs(rhs))), np.finfo(float).tiny)
     last = np.inf
     it = 0
@@ -167,7 +196,7 @@ def moser_veselov_generator(inertia, A: np.ndarray, h: float) -> tuple[np.ndarra
                 F = B @ np.swapaxes(K, -1, -2) - K @ B - rhs
                 # d cay_X(E_k) = ½ W E_k (I + cay X) = ½ W E_k (2I + K); dF = B dωᵀ − dω B
                 domega = 0.5 * W[..., None, :, :] @ E @ (2.0 * eye + K)[..., None, :, :]
-                dF = B @ np.swapaxes(domega, -1, -2) - domega @ B  # (..., d, n, n)
+                dF = B_stages @ np.swapaxes(domega, -1, -2) - domega @ B_stages  # (..., d, n, n)
                 J = np.swapaxes(_coords(dF), -1, -2)  # (..., d, d): column k = dF(E_k)
                 delta = np.linalg.solve(J, -_coords(F)[..., None])[..., 0]
                 X = X + _skew(delta, n)
@@ -243,8 +272,10 @@ class MoserVeselovComposition(Method):
     momentum, symplecticity — the composition keeps, in any n.
 
     These are compositions (any n), not the modified-moment Moser–Veselov methods of
-    McLachlan & Zanna (2005) and Hairer & Vilmart (2006) (``moser_veselov4/6/8``, n = 3), which
-    reach the higher orders at the cost of one Moser–Veselov step.
+    McLachlan & Zanna (2005) and Hairer & Vilmart (2006) (``moser_veselov4/6/8/10``, n = 3),
+    which reach the higher orders at the cost of one Moser–Veselov step but, their moments
+    depending on the state, are Poisson maps for the momentum and not symplectic for the whole
+    state (:mod:`lieint.methods.modified_mv`); the compositions are symplectic.
     """
 
     name: str

@@ -33,9 +33,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..groups.bivectors import hat
 from .euler_top_exact import _setup, elliptic_functions_of_phase, energy_momentum_gaps, jacobi_elliptic
 
-__all__ = ["euler_top_rotation"]
+__all__ = ["euler_top_rotation", "euler_top_rotation_minus_identity", "rotation_minus_identity"]
 
 
 def _third_kind(nu: float, u: np.ndarray, p: float) -> np.ndarray:
@@ -69,14 +70,49 @@ def _incomplete_third_kind(nu: float, r: np.ndarray, p: float) -> np.ndarray:
     return incomplete
 
 
-def _frame(Pi: np.ndarray) -> np.ndarray:
-    """``U`` with rows ``u₁ = (e₁ − n₁n)/ρ``, ``u₂ = n × u₁``, ``u₃ = n`` for ``n = Π/|Π|`` (batched)."""
-    n = Pi / np.linalg.norm(Pi, axis=-1, keepdims=True)
-    rho = np.hypot(n[..., 1], n[..., 2])
-    # e₁ − n₁ n = (1 − n₁², −n₁n₂, −n₁n₃) = (ρ², −n₁n₂, −n₁n₃)
-    u1 = np.stack([rho * rho, -n[..., 0] * n[..., 1], -n[..., 0] * n[..., 2]], axis=-1) / rho[..., None]
-    u2 = np.cross(n, u1)
-    return np.stack([u1, u2, n], axis=-2)
+def _quaternion_product(p: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """``p ⊗ q`` of quaternions ``(s, v)`` (scalar first, batched): the rotation of ``R(p) R(q)``."""
+    ps, pv, qs, qv = p[..., :1], p[..., 1:], q[..., :1], q[..., 1:]
+    scalar = ps * qs - np.sum(pv * qv, axis=-1, keepdims=True)
+    return np.concatenate([scalar, ps * qv + qs * pv + np.cross(pv, qv)], axis=-1)
+
+
+def _axis_quaternion(axis: int, angle: np.ndarray) -> np.ndarray:
+    """The quaternion of the rotation by ``angle`` about ``e_axis`` (batched)."""
+    angle = np.asarray(angle, dtype=float)
+    q = np.zeros(angle.shape + (4,))
+    q[..., 0] = np.cos(0.5 * angle)
+    q[..., 1 + axis] = np.sin(0.5 * angle)
+    return q
+
+
+def _frame_quaternion(Pi: np.ndarray) -> np.ndarray:
+    """The quaternion of ``U`` with rows ``u₁ = (e₁ − n₁n)/ρ``, ``u₂ = n × u₁``, ``u₃ = n``, ``n = Π/|Π|``.
+
+    With ``n = (cos a, sin a cos b, sin a sin b)`` (``ρ = sin a > 0``: n stays away from ±e₁),
+    ``U = Rx(π/2) Rz(π/2 − a) Rx(−b)``: ``U n = e₃`` and ``U u₁ = e₁``.
+    """
+    a = np.arctan2(np.hypot(Pi[..., 1], Pi[..., 2]), Pi[..., 0])
+    b = np.arctan2(Pi[..., 2], Pi[..., 1])
+    q = _quaternion_product(_axis_quaternion(0, np.full(a.shape, 0.5 * np.pi)), _axis_quaternion(2, 0.5 * np.pi - a))
+    return _quaternion_product(q, _axis_quaternion(0, -b))
+
+
+def rotation_minus_identity(q: np.ndarray) -> np.ndarray:
+    """``R(q) − I`` for quaternions q (any norm, batched), orthogonal to the round-off of its own size.
+
+    ``R(q) = H²`` with H the rotation by half the angle, ``H = cay(2ĝ)``, ``g = v/(|q| + s)``
+    the Gibbs vector ``tan(θ/4) e`` of the quarter angle (q's sign chosen with ``s ≥ 0``, so
+    ``|g| ≤ 1`` for every rotation). The Cayley map is rational, ``H − I = 2(ĝ + ĝ²)/(1 + |g|²)``:
+    ``K = R − I = 2(H − I) + (H − I)²`` keeps ``K + Kᵀ + KᵀK`` at ``ε‖K‖`` whatever q's norm,
+    where ``I + K`` formed from three separately rounded frames misses orthogonality by ε —
+    an error that moves ``|Π|`` and the energy by ε every step.
+    """
+    q = np.where(q[..., :1] < 0.0, -q, q)
+    g = q[..., 1:] / (np.linalg.norm(q, axis=-1, keepdims=True) + q[..., :1])
+    G = hat(g)
+    half = 2.0 * (G + G @ G) / (1.0 + np.sum(g * g, axis=-1))[..., None, None]
+    return 2.0 * half + half @ half
 
 
 def euler_top_rotation(moments, w0, t) -> np.ndarray:
@@ -97,15 +133,29 @@ def euler_top_rotation(moments, w0, t) -> np.ndarray:
     ndarray, shape (m, 3, 3)
         ``Q(t) ∈ SO(3)`` solving ``Q̇ = Q ŵ(t)``, ``Q(0) = I``; the attitude is ``R(t) = R(0) Q(t)``.
     """
-    from ..groups.bivectors import hat
-    from ..groups.so import so3_exp
+    return np.eye(3) + euler_top_rotation_minus_identity(moments, w0, t)
 
+
+def euler_top_rotation_minus_identity(moments, w0, t) -> np.ndarray:
+    """``Q(t) − I`` for the increments of :func:`euler_top_rotation`, without forming ``Q(t)``.
+
+    ``Q`` is assembled as the product of the quaternions of its three rotations and turned into a
+    matrix by :func:`rotation_minus_identity`: ``K = Q − I`` keeps its small entries (a short
+    step) to their own relative precision and ``I + K`` is orthogonal to ``ε‖K‖``. Stepping
+    with it (:meth:`lieint.EulerTop.act_near_identity`) moves ``|Π|`` and the energy only by the
+    rounding of the new state.
+
+    Parameters and the shape of the result are those of :func:`euler_top_rotation`.
+    """
     t = np.atleast_1d(np.asarray(t, dtype=float))
     I = np.asarray(moments, dtype=float)
     w0 = np.asarray(w0, dtype=float)
     e = _setup(I, w0)
-    if e is None:  # a steady rotation
-        return so3_exp(hat(t[:, None] * w0))
+    if e is None:  # a steady rotation about w0
+        speed = float(np.linalg.norm(w0))
+        axis = w0 / speed if speed > 0 else np.zeros(3)
+        half = 0.5 * speed * t
+        return rotation_minus_identity(np.concatenate([np.cos(half)[:, None], np.sin(half)[:, None] * axis], axis=-1))
     D = np.eye(3)[:, e.perm]
     I1, I2, I3 = I[e.perm]
     a1, a2, a3 = e.a
@@ -125,10 +175,10 @@ def euler_top_rotation(moments, w0, t) -> np.ndarray:
         in_period = _incomplete_third_kind(nu, r, e.p)
         rest = -c * (in_period - _third_kind(nu, np.array([e.u0]), e.p)[0])
     psi = phase.reduce_psi(t, j, rest)
-    c, s = np.cos(psi), np.sin(psi)
-    Rz = np.zeros((t.size, 3, 3))
-    Rz[:, 0, 0] = Rz[:, 1, 1] = c
-    Rz[:, 0, 1], Rz[:, 1, 0] = -s, s
-    Rz[:, 2, 2] = 1.0
-    U0 = _frame(Pi0)
-    return D @ U0.T @ Rz @ _frame(Pi) @ D.T
+    # Q̃ = U₀ᵀ Rz(ψ) U(t) as the product of quaternions, and Q = D Q̃ Dᵀ: the vector part moves
+    # by det(D)·D (D is a signed relabelling of the axes)
+    conj = np.array([1.0, -1.0, -1.0, -1.0])
+    q = _quaternion_product(_frame_quaternion(Pi0) * conj, _axis_quaternion(2, psi))
+    q = _quaternion_product(q, _frame_quaternion(Pi))
+    q = np.concatenate([q[:, :1], np.linalg.det(D) * q[:, 1:] @ D.T], axis=-1)
+    return rotation_minus_identity(q)
