@@ -108,12 +108,12 @@ def integrate(
         the same as ``h``, give one of them; scipy's: passed to the solver). Default: estimated
         from the vector field at ``y0``. Refused for fixed-step methods (they take ``h``).
     backend : {"auto", "numpy", "numba"}, default "auto"
-        "auto" runs a compiled kernel where one covers the system and method (the Euler top
-        of any dimension n ≥ 3 with fixed-step RKMK in exponential coordinates and truncated
-        dexp⁻¹, or classical RK; on the 3D top also the RKMK embedded pairs with their whole
-        step-size control loop), else the generic numpy path; "numpy" forces the generic path
-        (the reference); "numba" requires the kernel. Dense output, events and ``t_eval``
-        watch every step and keep the generic path.
+        "auto" runs the compiled engine where the system and the method declare compiled forms
+        (RKMK in exponential coordinates with truncated dexp⁻¹ or in Cayley coordinates, its
+        embedded pairs with the whole step-size control loop, classical RK; on the Euler top of
+        any dimension n ≥ 3, the heavy top, the free body and the balls), dense output, events
+        and ``t_eval`` included, else the generic numpy path; "numpy" forces the generic path
+        (the reference); "numba" requires the engine. ``sol.stats.backend_reason`` says why.
     dense_output : bool, default False
         Keep a continuous solution ``sol.sol(t)`` (:class:`lieint.dense.DenseOutput`): for
         Lie-group methods interpolated in the Lie algebra of each step, so its states lie on
