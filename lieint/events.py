@@ -114,7 +114,13 @@ class EventLog:
             if not ((up and ev.direction >= 0) or (down and ev.direction <= 0)):
                 continue
 
-            def g(t, ev=ev):
+            def g(t, ev=ev, a=a, b=b):
+                # Brent's method asks for the bracket's ends first: their values are known (the
+                # interpolant passes through the step's ends), so they are not computed again
+                if t == t0:
+                    return a
+                if t == t1:
+                    return b
                 return ev(t, interpolant(t))
 
             t_event = t1 if b == 0 else brentq(g, t0, t1, xtol=EVENT_XTOL, rtol=4 * np.finfo(float).eps)

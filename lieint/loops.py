@@ -246,20 +246,24 @@ class _KernelLoop(_CompiledRows):
         while carry.k < k_end:
             k_from, k_to = carry.k, min(k_end, carry.k + chunk)
             chunk = min(2 * chunk, 8192)
-            start = kernel.user_state(carry.state)
-            # every step is kept: the saved rows are among them (no second copy, no second conversion)
+            # every step is kept, the starting state first: the saved rows are among them (one
+            # conversion, and no copy but the final join)
             new, _, (kept_Y, kept_U) = kernel.advance(carry.state, k_from, k_to, plan, nothing, d.project, keep=True)
-            steps = kernel.user_rows(kept_Y)
+            rows = kernel.user_rows(kept_Y)
+            start, steps = {k: v[0] for k, v in rows.items()}, {k: v[1:] for k, v in rows.items()}
             good = _finite_rows(steps)
             if good < k_to - k_from:  # the run stops before the first non-finite state
                 done = k_from + good
                 failure = _nonfinite(done + 1, plan.time(done + 1), f"Reduce the step `h` = {plan.h:g}")
                 steps = {k: v[:good] for k, v in steps.items()}
+                rows = {k: v[: good + 1] for k, v in rows.items()}
                 kept_U, k_to = kept_U[:good], done
                 new = kernel.internal(_last(steps, start))
             saves = plan.saves_between(d.save_every, k_from, k_to)
-            states = {k: v[saves - k_from - 1] for k, v in steps.items()}
-            rows = {k: np.concatenate([start[k][None], v]) for k, v in steps.items()}
+            if saves.size == k_to - k_from:  # every step saved: the rows after the start, no copy
+                states = {k: v[1:] for k, v in rows.items()}
+            else:
+                states = {k: v[saves - k_from] for k, v in rows.items()}
             table = d.observer.table(
                 plan.times(np.arange(k_from, k_to + 1)), rows, self._increments(kept_U), kernel.tableau.cayley
             )

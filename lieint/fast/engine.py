@@ -528,7 +528,7 @@ class Engine:
         """Steps ``k_from < k ≤ k_to``: the state after them, the user's rows after the steps in
         ``save_steps`` (``with_start``: the starting state's row first) and, with ``keep``, every
         step's flat state and increment (``(k_to − k_from, N, d)``, ``(…, N, du)``) for dense
-        output and events."""
+        output and events (the flat states with the starting one first, ``(k_to − k_from + 1, N, d)``)."""
         Y0 = internal["Y"]
         N, d = Y0.shape
         save_steps = np.ascontiguousarray(save_steps, dtype=np.int64)
@@ -541,10 +541,13 @@ class Engine:
         norm2 = np.empty(N)
         evals = np.empty(N, dtype=np.int64)
         steps = k_to - k_from if keep else 0
-        kept_Y = np.empty((steps, N, d))
+        # the kept states with the starting one first (row 0): the observer's table of steps
+        # needs both ends of every step, and gets them in one conversion, without a copy
+        kept_Y = np.empty((steps + 1, N, d))
+        kept_Y[0] = Y0
         kept_U = np.empty((steps, N, self.du))  # the steps write their increments: its length always
         grid = (float(plan.h), float(plan.last_step), int(k_from), int(k_to), int(plan.nsteps), bool(project))
-        outs = (out[s:], fin, status, norm2, evals, kept_Y, kept_U)
+        outs = (out[s:], fin, status, norm2, evals, kept_Y[1:], kept_U)
         ctx, par, tab = self.layout.context(), self.layout.params, self.tableau
         fixed = self.loops.fixed
         threads = min(self.threads, N)
