@@ -47,6 +47,7 @@ def integrate(
     atol: float = 1e-10,
     t_eval: ArrayLike | None = None,
     first_step: float | None = None,
+    max_step: float | None = None,
     backend: str = "auto",
     dense_output: bool = False,
     events: EventFunction | Sequence[EventFunction] | None = None,
@@ -202,7 +203,7 @@ def integrate(
         )
     stepper = get_method(method, coordinates=coordinates, **_options(method, dexpinv_degree))
     y = system.validate_state(y0, "y0")
-    t0, t1 = _check_t_span(t_span)
+    t0, t1 = _check_t_span(t_span, backward=True)
     if isinstance(save_every, bool) or not isinstance(save_every, (int, np.integer)) or save_every < 1:
         raise ValueError(f"`save_every` must be a positive integer; got {save_every!r}.")
     if not isinstance(project, (bool, np.bool_)):
@@ -222,6 +223,14 @@ def integrate(
         atol = check_finite_positive(atol, "atol")
         if first_step is not None:
             h, stepper = _first_step(first_step, h, stepper, t0, t1)
+        if max_step is not None:
+            max_step, stepper = _max_step(max_step, stepper)
+    elif max_step is not None:
+        raise ValueError(
+            f"`max_step` applies to adaptive methods, which choose their steps; {stepper.name!r} takes fixed "
+            f"steps of the size `h` you give (got max_step = {max_step!r}): drop max_step, or choose an adaptive "
+            "method (method='rkmk45', 'rkmk853', scipy's 'RK45', 'DOP853', …)."
+        )
     elif first_step is not None:
         raise ValueError(
             f"`first_step` applies to adaptive methods; {stepper.name!r} takes fixed steps: give `h` instead "
@@ -237,9 +246,9 @@ def integrate(
     # terminal event's run with the event's row: t0 is added in front, and the rows not at a
     # time of t_eval are dropped afterwards (lieint's methods save t_eval in the observer)
     t_eval_driver = t_eval
-    if t_eval is not None and stepper.self_controlled and t_eval[0] > t0:
+    if t_eval is not None and stepper.self_controlled and t_eval[0] != t0:
         t_eval_driver = np.concatenate([[t0], t_eval])
-    observer = _observer(system, stepper, t0, t_eval, dense_output, events, project)
+    observer = _observer(system, stepper, (t0, t1), t_eval, dense_output, events, project)
     driver = Driver(
         system,
         stepper,
@@ -250,6 +259,7 @@ def integrate(
         project=bool(project),
         save_every=int(save_every),
         t_eval=t_eval_driver,
+        max_step=max_step if not stepper.self_controlled else None,
         backend=backend,
         observer=observer,
     )
@@ -310,8 +320,11 @@ def _first_step(first_step, h, stepper, t0: float, t1: float):
     """``first_step`` checked, as the driver's ``h`` (lieint's adaptive methods) or in the scipy
     solver (whose ``h`` is the save grid); returns ``(h, stepper)``."""
     first_step = check_finite_positive(first_step, "first_step")
-    if first_step > t1 - t0:
-        raise ValueError(f"`first_step` = {first_step:g} must not exceed the span t1 - t0 = {t1 - t0:g} (as in scipy).")
+    if first_step > abs(t1 - t0):
+        span = "t1 - t0" if t1 > t0 else "|t1 - t0|"
+        raise ValueError(
+            f"`first_step` = {first_step:g} must not exceed the span {span} = {abs(t1 - t0):g} (as in scipy)."
+        )
     if stepper.self_controlled:
         if not hasattr(stepper, "first_step"):
             raise ValueError(f"`first_step` does not apply to the method object {stepper.name!r}.")
@@ -322,6 +335,25 @@ def _first_step(first_step, h, stepper, t0: float, t1: float):
             f"method {stepper.name!r}; give one of them."
         )
     return first_step, stepper
+
+
+def _max_step(max_step, stepper):
+    """``max_step`` checked (a positive number; ``inf``, scipy's default, sets no bound): for
+    lieint's adaptive methods the driver's bound, for scipy's passed to the solver; returns
+    ``(max_step, stepper)`` (None when there is no bound)."""
+    expected = "a positive number, the largest step size (inf, scipy's default, for no bound)"
+    if isinstance(max_step, (bool, np.bool_)) or not isinstance(max_step, (int, float, np.integer, np.floating)):
+        raise TypeError(f"`max_step` must be {expected}; got {max_step!r}.")
+    max_step = float(max_step)
+    if math.isnan(max_step) or max_step <= 0:
+        raise ValueError(f"`max_step` must be {expected}; got {max_step!r}.")
+    if math.isinf(max_step):  # scipy's default: no bound
+        return None, stepper
+    if stepper.self_controlled:
+        if not hasattr(stepper, "max_step"):
+            raise ValueError(f"`max_step` does not apply to the method object {stepper.name!r}.")
+        return None, dataclasses.replace(stepper, max_step=max_step)
+    return max_step, stepper
 
 
 def _h_required(system, stepper, y: dict, t0: float) -> str:
@@ -347,16 +379,18 @@ def _h_required(system, stepper, y: dict, t0: float) -> str:
     return message
 
 
-def _observer(system, stepper, t0: float, t_eval, dense_output, events, project) -> StepObserver | None:
+def _observer(system, stepper, t_span, t_eval, dense_output, events, project) -> StepObserver | None:
     """The step observer of dense output, events and ``t_eval`` rows; None when nothing watches
     the steps (the driver would drop an inactive observer: building one costs microseconds)."""
     if stepper.self_controlled:
         t_eval = None  # scipy's solvers save t_eval through their own dense output
     if not dense_output and events is None and t_eval is None:
         return None
+    t0, t1 = t_span
     return StepObserver(
         system,
         t0,
+        direction=1.0 if t1 >= t0 else -1.0,
         t_eval=t_eval,
         dense_output=bool(dense_output),
         events=events,
@@ -374,17 +408,22 @@ def _options(method, dexpinv_degree) -> dict:
 
 
 def _check_t_eval(t_eval, t0: float, t1: float) -> np.ndarray:
-    """``t_eval`` as a float array: strictly increasing times inside ``[t0, t1]`` (scipy's rules)."""
+    """``t_eval`` as a float array: times inside the span, strictly increasing when ``t1 > t0``
+    and strictly decreasing when ``t1 < t0`` (scipy's rules)."""
     try:
         t_save = np.asarray(t_eval, dtype=float)
     except (TypeError, ValueError):
         raise ValueError(f"`t_eval` must be a 1-D array of times; got {type(t_eval).__name__}.") from None
     if t_save.ndim != 1 or t_save.size < 1 or not np.all(np.isfinite(t_save)):
         raise ValueError(f"`t_eval` must be a 1-D array of at least one finite time; got shape {t_save.shape}.")
-    if np.any(np.diff(t_save) <= 0):
-        k = int(np.argmax(np.diff(t_save) <= 0))
-        raise ValueError(f"`t_eval` must increase strictly; got t_eval[{k}] = {t_save[k]} followed by {t_save[k + 1]}.")
-    if t_save[0] < t0 or t_save[-1] > t1:
+    forward = t1 > t0
+    steps = np.diff(t_save) if forward else -np.diff(t_save)
+    if np.any(steps <= 0):
+        k = int(np.argmax(steps <= 0))
+        way = "increase strictly" if forward else "decrease strictly (t1 < t0: a run backward in time)"
+        raise ValueError(f"`t_eval` must {way}; got t_eval[{k}] = {t_save[k]} followed by {t_save[k + 1]}.")
+    lo, hi = min(t0, t1), max(t0, t1)
+    if t_save.min() < lo or t_save.max() > hi:
         raise ValueError(f"`t_eval` must lie inside t_span = ({t0}, {t1}); got times from {t_save[0]} to {t_save[-1]}.")
     return t_save
 
@@ -459,13 +498,16 @@ def _finite_max(rho) -> float:
     return float(np.maximum.reduce(np.where(np.isfinite(rho), rho, 0.0), axis=None, initial=0.0))
 
 
-def _check_t_span(t_span) -> tuple[float, float]:
+def _check_t_span(t_span, backward: bool = False) -> tuple[float, float]:
+    """``(t0, t1)`` as floats: finite, ``t1 != t0``; ``t1 > t0`` unless ``backward`` allows either way."""
     try:
         t0, t1 = (float(v) for v in t_span)
     except (TypeError, ValueError):
         raise ValueError(f"`t_span` must be a pair (t0, t1) of numbers; got {t_span!r}.") from None
     if not (math.isfinite(t0) and math.isfinite(t1)):
         raise ValueError(f"`t_span` must be finite; got {t_span!r}.")
-    if not t1 > t0:
+    if backward and t1 == t0:
+        raise ValueError(f"`t_span` = (t0, t1) must have t1 != t0 (nonempty, either way in time); got {t_span!r}.")
+    if not backward and not t1 > t0:
         raise ValueError(f"`t_span` = (t0, t1) must have t1 > t0 (nonempty, forward in time); got {t_span!r}.")
     return t0, t1
