@@ -67,10 +67,12 @@ def integrate(
         Initial state from ``system.initial_state(...)``; leading batch dimensions integrate
         as one ensemble.
     t_span : (float, float)
-        ``(t0, t1)`` with ``t1 > t0``.
+        ``(t0, t1)``, either way in time as in scipy: ``t1 < t0`` integrates backward, with
+        every method (each step is then negative; ``y0`` is the state at ``t0``).
     h : float, optional
-        Step size of fixed-step methods (required for them). The steps are ``t_k = t0 + k h``;
-        a last, shorter step lands exactly on ``t1`` when ``(t1 − t0)/h`` is not an integer.
+        Step size (positive, also backward) of fixed-step methods (required for them). The
+        steps are ``t_k = t0 + k h`` (``t0 − k h`` backward); a last, shorter step lands exactly
+        on ``t1`` when ``|t1 − t0|/h`` is not an integer.
         For lieint's adaptive methods the first trial step (the same as ``first_step``); for
         scipy's methods the grid of save times (``t0 + k h``, with ``save_every``).
     method : str or Method, default "rkmk4"
@@ -99,15 +101,22 @@ def integrate(
         digits. lieint's adaptive methods measure the error on the state as scipy does,
         ``|y − ŷ| / (atol + rtol·|y|)`` in the RMS norm over every component.
     t_eval : array_like, optional
-        Times at which to save the solution: strictly increasing, inside ``[t0, t1]`` (they
-        need not start at ``t0`` nor end at ``t1``; the run still goes to ``t1`` unless a
-        terminal event stops it, as in scipy). Every method: lieint's methods save them from
+        Times at which to save the solution, inside the span, sorted the way the run goes:
+        strictly increasing, or strictly decreasing when ``t1 < t0`` (as in scipy; they need
+        not start at ``t0`` nor end at ``t1``; the run still goes to ``t1`` unless a terminal
+        event stops it). Every method: lieint's methods save them from
         the dense output on the group (:mod:`lieint.dense`), scipy's from their own. Default:
         the grid of ``h`` and ``save_every``, else every ``save_every``-th accepted step.
     first_step : float, optional
         scipy's name for the first trial step of an adaptive method (lieint's adaptive methods:
         the same as ``h``, give one of them; scipy's: passed to the solver). Default: estimated
         from the vector field at ``y0``. Refused for fixed-step methods (they take ``h``).
+    max_step : float, optional
+        scipy's largest step size for an adaptive method: no trial step (the first included)
+        is longer, lieint's pairs and scipy's solvers alike (passed to the solver). Use it when
+        the tolerance lets the steps grow across what the run must resolve, such as the flips
+        of a top near its middle axis. Default (or ``inf``, scipy's default): no bound. Refused
+        for fixed-step methods (their step is ``h``).
     backend : {"auto", "numpy", "numba"}, default "auto"
         "auto" runs the compiled engine where the system and the method declare compiled forms
         (RKMK in exponential coordinates with truncated dexp⁻¹ or in Cayley coordinates, its
@@ -122,7 +131,9 @@ def integrate(
     events : callable or list of callables, optional
         Event functions ``g(t, y)`` with scipy's ``terminal`` and ``direction`` attributes,
         located on the dense output to 1e-12 in time (:mod:`lieint.events`); the result has
-        ``t_events`` and ``y_events``.
+        ``t_events`` and ``y_events``. As in scipy, a crossing's direction is read in the
+        order the run goes: backward in time, ``direction > 0`` selects the crossings where
+        ``g`` rises as t decreases.
 
     Returns
     -------
@@ -151,17 +162,18 @@ def integrate(
     ========================  =============================================================
     ``fun``                   ``system`` (a :class:`~lieint.LieGroupSystem`: equations, group,
                               invariants), not a function
-    ``t_span``                ``t_span`` (forward only: ``t1 > t0``)
+    ``t_span``                ``t_span`` (either way: ``t1 < t0`` integrates backward, every
+                              method)
     ``y0`` (a vector)         ``y0`` (a state dict from ``system.initial_state``)
     ``method="RK45"``         ``method="RK45"`` or ``"scipy:RK45"``; lieint's methods by name
-    ``t_eval``                ``t_eval`` (the same rules)
+    ``t_eval``                ``t_eval`` (the same rules: inside the span, decreasing backward)
     ``dense_output``          ``dense_output`` (``sol.sol(t)`` returns a state dict)
     ``events``                ``events`` (``g(t, y)`` of a state dict; ``terminal``,
-                              ``direction``)
+                              ``direction`` read in the run's order, also backward)
     ``rtol``, ``atol``        ``rtol``, ``atol`` (scalars; defaults 1e-8, 1e-10)
     ``first_step``            ``first_step`` (or ``h``) for adaptive methods
     (none)                    ``h``: the step of fixed-step methods
-    ``max_step``              (none)
+    ``max_step``              ``max_step`` for adaptive methods (lieint's and scipy's)
     ``OdeResult.t``           ``sol.t``
     ``OdeResult.y``           ``sol.y`` (the same layout, :attr:`Solution.y`); by field:
                               ``sol.states``
@@ -192,6 +204,14 @@ def integrate(
     >>> t, y = sol.t, sol.y
     >>> y.shape  # 9 entries of A, then 9 of R, at 3 times
     (18, 3)
+
+    Backward in time, from the last state saved (at t = 7.5) back to t = 0, no step longer
+    than 0.1:
+
+    >>> y_end = {name: rows[-1] for name, rows in sol.states.items()}
+    >>> back = lieint.integrate(top, y_end, (7.5, 0.0), method="rkmk45", rtol=1e-9, max_step=0.1)
+    >>> float(back.t[-1]), bool(abs(back.t[1] - back.t[0]) <= 0.1)
+    (0.0, True)
     """
     if not isinstance(system, LieGroupSystem):
         raise TypeError(_not_a_system(system))
