@@ -231,6 +231,11 @@ def integrate(
     if backend not in ("auto", "numpy", "numba"):
         raise ValueError(f"`backend` must be one of ['auto', 'numpy', 'numba']; got {backend!r}.")
     if h is not None:
+        if isinstance(h, (int, float, np.integer, np.floating)) and not isinstance(h, (bool, np.bool_)) and h < 0:
+            raise ValueError(
+                f"`h` must be a positive finite number; got {h!r}. The step size is positive either way in time: "
+                f"to integrate backward give t_span = (t0, t1) with t1 < t0, e.g. t_span=({t1}, {t0})."
+            )
         h = check_finite_positive(h, "h")
     if stepper.adaptive or stepper.self_controlled:
         for name, tol in (("rtol", rtol), ("atol", atol)):

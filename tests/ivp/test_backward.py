@@ -246,6 +246,11 @@ def test_t_eval_in_the_wrong_order_or_outside_the_span_is_refused():
         lieint.integrate(TOP, Y0, (1.0, 1.0), h=0.1)
 
 
+def test_a_negative_h_is_refused_with_the_way_to_go_backward():
+    with pytest.raises(ValueError, match=r"`h` must be a positive finite number; got -0.1\. .*t_span=\(2.0, 0.0\)"):
+        lieint.integrate(TOP, Y0, (0.0, T), h=-0.1)
+
+
 @pytest.mark.parametrize("backend", ["auto", "numpy"])
 def test_save_every_backward(backend):
     """Every k-th row of the backward grid t = T − j h and the last, the same rows as without."""
