@@ -360,6 +360,7 @@ class StepTable:
         self.end = float(self.t[-1])
         #: −1 when the steps go backward in time (the times decrease), else +1
         self.direction = -1.0 if self.steps and self.t[-1] < self.t[0] else 1.0
+        self._negated: np.ndarray | None = None  # −t, for the bisection of a backward table
         self.nfev = 0
         self._field: dict[int, object] = {}
         self._pieces: dict[int, object] = {}
@@ -411,8 +412,10 @@ class StepTable:
         """The step whose interval holds t (a time equal to a step's end belongs to that step)."""
         if self.direction > 0:
             j = int(np.searchsorted(self.t, t, side="left")) - 1
-        else:  # decreasing times: the bisection on −t
-            j = int(np.searchsorted(-self.t, -t, side="left")) - 1
+        else:  # decreasing times: the bisection on −t (negated once per table)
+            if self._negated is None or self._negated.size != self.t.size:
+                self._negated = -self.t
+            j = int(np.searchsorted(self._negated, -t, side="left")) - 1
         return min(max(j, 0), self.steps - 1)
 
     def __call__(self, t: float) -> dict:

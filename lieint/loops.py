@@ -476,6 +476,10 @@ class ScipyLoop:
         solver, layout = d.method.start(d.system, d.t0, y0, d.t1, d.rtol, d.atol, first_step=None)
         self.layout = layout
         self.next_save = 1  # index into save_times (0 is t0)
+        # the save times as direction·t, increasing either way (decreasing times backward), for
+        # the bisection of each step
+        st = d.save_times
+        self.save_keys = None if st is None else (st if d.direction > 0 else -st)
         return Carry(0, d.t0, {"solver": solver}, None)
 
     def first_row(self, carry: Carry) -> Segment:
@@ -518,8 +522,7 @@ class ScipyLoop:
                     rows.append(self._row(solver.y.copy()))
                 continue
             st = d.save_times
-            # the save times up to t_reach (the times' order is the run's: decreasing backward)
-            stop = int(np.searchsorted(d.direction * st, d.direction * t_reach, side="right"))
+            stop = int(np.searchsorted(self.save_keys, d.direction * t_reach, side="right"))
             if stop > self.next_save:
                 dense = solver.dense_output()
                 budget.hold(len(rows) + stop - self.next_save)
