@@ -264,8 +264,13 @@ def test_save_every_backward(backend):
     np.testing.assert_array_equal(every.states["R"], all_rows.states["R"][picks])
 
 
-@pytest.mark.parametrize(("name", "backend"), [("rkmk4", "auto"), ("rkmk4", "numpy"), ("rkmk853", "auto"),
-                                               ("moser_veselov", "numpy"), ("scipy:RK45", "auto")])  # fmt: skip
+DENSE_CASES = [
+    ("rkmk4", "auto"), ("rkmk4", "numpy"), ("rkmk853", "auto"), ("moser_veselov", "numpy"), ("lie_midpoint", "numpy"),
+    ("rkmk45+energy", "numpy"), ("rk4", "auto"), ("scipy:RK45", "auto"),
+]  # fmt: skip
+
+
+@pytest.mark.parametrize(("name", "backend"), DENSE_CASES)
 def test_dense_output_on_a_decreasing_grid(rng, name, backend):
     """sol.sol(t) of a backward run: the exact solution at random times inside [0, T] as well as
     the forward run's dense output (within 5×), on the group, the step ends returned as saved,
@@ -280,9 +285,9 @@ def test_dense_output_on_a_decreasing_grid(rng, name, backend):
     forward, backward = (distance(run.sol(times), exact) for run in runs)
     assert backward <= 5 * max(forward, 1e-12), (backward, forward)
     # second order at h = 0.01; rkmk853's 8 steps, the first ones interpolated by curves of degree 3 and 5
-    assert backward < {"moser_veselov": 3e-4, "rkmk853": 1e-7}.get(name, 1e-8), backward
+    assert backward < {"moser_veselov": 3e-4, "lie_midpoint": 3e-4, "rkmk853": 1e-7}.get(name, 1e-8), backward
     sol = runs[1]
-    if not name.startswith("scipy"):
+    if not name.startswith("scipy") and name != "rk4":  # on the group
         R = sol.sol(times)["R"]
         assert np.abs(np.swapaxes(R, -1, -2) @ R - np.eye(3)).max() < 1e-13
         j = sol.t.size // 2
@@ -369,6 +374,17 @@ def test_a_terminal_event_stops_a_backward_run(name, backend):
     assert sol.status == 1 and sol.success
     assert abs(sol.t[-1] - exact[-1]) < 1e-4 and sol.t[-1] == sol.t_events[0][0]
     assert np.all(np.diff(sol.t) < 0) and sol.t.min() == sol.t[-1]
+
+
+@pytest.mark.parametrize("name", ["rkmk45", "rkmk853", "cf4", "rkmk4"])
+def test_a_time_dependent_generator_backward(name):
+    """The prescribed rotation (ξ depends on t): from the exact R(T) back to R(0) = I, each stage
+    evaluated at its own (decreasing) time, to the method's error."""
+    options = {"rtol": 1e-10, "atol": 1e-12} if kind(name) != "fixed" else {"h": 0.01}
+    sol = lieint.integrate(PRESCRIBED, prescribed_exact(T), (T, 0.0), method=name, t_eval=[1.5, 0.5, 0.0], **options)
+    for t, R in zip(sol.t, sol.states["R"], strict=True):
+        assert np.abs(R - prescribed_exact(t)["R"]).max() < 1e-7, (t, name)
+    assert sol.t.tolist() == [1.5, 0.5, 0.0]
 
 
 def test_a_backward_run_is_not_warned_about_its_negative_step():
