@@ -50,6 +50,19 @@ def test_the_first_trial_step_is_bounded_too(backend):
         assert 0 < sol.t[1] - sol.t[0] <= 0.01
 
 
+@pytest.mark.parametrize("name", ["rkmk45", "scipy:RK45"])
+@pytest.mark.parametrize("backend", ["auto", "numpy"])
+def test_first_step_and_max_step_backward(name, backend):
+    """Both are sizes (positive) either way in time: backward, the first step is −first_step,
+    and no step is longer than max_step."""
+    sol = lieint.integrate(TOP, Y0, (3.0, 0.0), method=name, rtol=1e-6, first_step=0.01, max_step=0.2, backend=backend)
+    assert sol.t[0] == 3.0 and sol.t[-1] == 0.0
+    assert sol.t[1] - sol.t[0] == pytest.approx(-0.01, abs=1e-15)
+    assert steps(sol).max() <= 0.2 * (1 + 1e-12)
+    with pytest.raises(ValueError, match=r"`first_step` = 4 must not exceed the span \|t1 - t0\| = 3"):
+        lieint.integrate(TOP, Y0, (3.0, 0.0), method=name, first_step=4.0)
+
+
 @pytest.mark.parametrize("backend", ["auto", "numpy"])
 def test_compiled_and_numpy_paths_take_the_same_steps_under_max_step(backend):
     ref = lieint.integrate(TOP, Y0, (0.0, 5.0), method="rkmk45", rtol=1e-6, max_step=0.05, backend="numpy")
