@@ -90,7 +90,8 @@ def integrate(
     save_every : int, default 1
         Keep every k-th step (and always the last one).
     dexpinv_degree : int, None or "auto", default "auto"
-        dexp⁻¹ truncation of Lie-group methods ("auto": degree p − 2; None: exact).
+        dexp⁻¹ truncation of Lie-group methods ("auto": degree p − 2, p + 4 for the adaptive
+        pairs, whose error estimate cannot see the truncation; None: exact).
     rtol, atol : float, default 1e-8, 1e-10
         Tolerances of adaptive and scipy methods (ignored by fixed-step methods). Both are
         scalars. The defaults are tighter than scipy's (``rtol=1e-3``, ``atol=1e-6``): the
