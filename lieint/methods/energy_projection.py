@@ -67,11 +67,16 @@ combination, 9.6e-12 s with e₅ (scipy's DOP853: 4.1e-12 s), for 2.3× the step
 
 Cost: on the generic path about 2.3× the base pair's step (H at the step's end, the gradient's
 ``2 dim 𝔤`` evaluations of H in one batched call, then one to four secant evaluations, each an
-exponential and an action); there is no compiled path.
+exponential and an action). On the 3D Euler top in exponential coordinates the compiled engine
+runs the whole step (:mod:`lieint.fast.top3`, family ``rkmk_energy``: the level carried in the
+compiled state, the orbit gradient ``w × Π`` exact instead of by differences), the same steps as
+the generic path to round-off; a run with dense output, events or ``t_eval`` stays on the generic
+path, whose dense output steps again (:class:`lieint.dense.Restep`).
 """
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from functools import partial
 from typing import Any
@@ -79,6 +84,7 @@ from typing import Any
 import numpy as np
 
 from ..dense import Restep
+from ..fast.forms import RKMKForm
 from ..groups.base import MatrixLieGroup
 from ..groups.se import SE
 from ..groups.so import SO
@@ -359,7 +365,16 @@ class EnergyProjected(Method):
         return {k: np.where(keep[k], moved[k], y[k]) for k in moved}
 
     def compiled(self):
-        return None
+        """The base pair's form marked ``keeps_energy`` (the compiled engine runs it on the 3D
+        top, :mod:`lieint.fast.top3`), with the estimate this method steps on — the embedded
+        solution of the highest order alone — or None (a base without a compiled pair, or whose
+        steps a subclass replaced)."""
+        if type(self) is not EnergyProjected:
+            return None
+        form = self.base.compiled()
+        if not isinstance(form, RKMKForm) or not form.pair:
+            return None
+        return dataclasses.replace(form, b_low=None, error_order=self.error_order, keeps_energy=True)
 
 
 def _build(base_name: str, coordinates: str | None = None, dexpinv_degree=AUTO) -> EnergyProjected:
@@ -368,9 +383,9 @@ def _build(base_name: str, coordinates: str | None = None, dexpinv_degree=AUTO) 
 
 _KEEPS = "every step moved along the group orbit onto the initial energy (the top's spin flowed exactly)"
 for _base, _order, _text in (
-    ("rkmk23", 3, f"adaptive RKMK 3(2), {_KEEPS}"),
-    ("rkmk45", 5, f"adaptive RKMK 5(4), {_KEEPS}"),
-    ("rkmk853", 8, f"adaptive RKMK 8(5,3), {_KEEPS}"),
+    ("rkmk23", 3, f"adaptive RKMK 3(2), {_KEEPS}; global error follows rtol"),
+    ("rkmk45", 5, f"adaptive RKMK 5(4), {_KEEPS}; global error follows rtol"),
+    ("rkmk853", 8, f"adaptive RKMK 8(5), {_KEEPS}; global error follows rtol — the default adaptive choice"),
 ):
     register(
         MethodSpec(

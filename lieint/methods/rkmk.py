@@ -234,10 +234,15 @@ _FIXED = {
     "rkmk4": (tableaux.RK4, "RKMK with the classical RK4 tableau"),
     "rkmk6": (tableaux.BUTCHER6, "RKMK with Butcher's 7-stage sixth-order tableau"),
 }
+#: what the registry says of the plain pairs where a user chooses one (docs/measurements/adaptive.md)
+_NOT_RTOL = "; global error not proportional to rtol near a separatrix (10³–10⁴ × rtol): take {0}+energy"
 _EMBEDDED = {
-    "rkmk23": (tableaux.BOGACKI_SHAMPINE32, "adaptive RKMK, Bogacki–Shampine 3(2) pair"),
-    "rkmk45": (tableaux.DORMAND_PRINCE54, "adaptive RKMK, Dormand–Prince 5(4) pair"),
-    "rkmk853": (tableaux.DORMAND_PRINCE853, "adaptive RKMK, Dormand–Prince 8(5) pair of DOP853"),
+    "rkmk23": (tableaux.BOGACKI_SHAMPINE32, "adaptive RKMK, Bogacki–Shampine 3(2) pair" + _NOT_RTOL.format("rkmk23")),
+    "rkmk45": (tableaux.DORMAND_PRINCE54, "adaptive RKMK, Dormand–Prince 5(4) pair" + _NOT_RTOL.format("rkmk45")),
+    "rkmk853": (
+        tableaux.DORMAND_PRINCE853,
+        "adaptive RKMK, Dormand–Prince 8(5) pair of DOP853" + _NOT_RTOL.format("rkmk853"),
+    ),
 }
 
 for _name, (_tab, _text) in _FIXED.items():
