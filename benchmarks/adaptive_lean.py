@@ -102,7 +102,8 @@ def run(quick: bool, hogging: bool) -> None:
         dop_rows = [(rtol, *dop(rtol)[:2]) for rtol in rtols]
         time.sleep(0.5)
         load = os.getloadavg()[0]
-        print(f"\n{label}, T = {T:g} ({'with a busy-looping process' if hogging else 'idle'}; load average {load:.2f})")
+        beside = "with a busy-looping process" if hogging else "no busy-looping process"
+        print(f"\n{label}, T = {T:g} ({beside}; load average {load:.2f})")
         print(f"{METHOD}: {first.stats.backend_reason}")
         print("| target | series | rtol | steps | error at T | CPU [ms] | × DOP853 |")
         print("|---|---|---|---|---|---|---|")
