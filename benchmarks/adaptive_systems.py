@@ -23,6 +23,8 @@ dexp⁻¹ series truncated after ``ad_u^DEGREE``; ``@exact`` for the exact dexp�
 global error / rtol and the accepted steps. ``--flips`` prints the error of the Dzhanibekov flip times located as events
 (I = (1, 2, 3), ω₀ = (0.01, 1, 0.01), T = 60, rtol 1e-10, atol 1e-12) against
 ``lieint.euler_top_flip_times``.
+``--growth`` prints the global error at T/8, T/4, T/2 and T at the first rtol and the exponent of
+its growth (1: like t; 2: like t²).
 ``--local`` prints instead, for each method on each
 system at one rtol (the first of ``--rtols``), the true local error of every accepted step (one
 step from the numerical state against the reference from that state) over the pair's own error
@@ -151,6 +153,24 @@ def flips(specs) -> None:
         print(f"  {spec:28}{error:>10.2e} s  ({found.size} flips, {sol.stats.nsteps} steps)", flush=True)
 
 
+def growth(truth: Truth, specs, rtol) -> None:
+    """Global error at T/8, T/4, T/2, T and the exponent of its growth (least squares in log-log):
+    about 1 for an error that grows like t, 2 like t²."""
+    system, y0, T = truth.system, truth.y0, truth.T
+    times = T * np.array([0.125, 0.25, 0.5, 1.0])
+    ends = [truth.flow(y0, t) for t in times]
+    for spec in specs:
+        method = build_method(spec)
+        sol = lieint.integrate(system, y0, (0.0, T), method=method, rtol=rtol, atol=1e-3 * rtol, t_eval=times)
+        errors = []
+        for k, end in enumerate(ends):
+            z = lean_rhs.flatten(system, {f: v[k] for f, v in sol.states.items()})
+            errors.append(np.linalg.norm(z - end) / np.linalg.norm(end))
+        slope = np.polyfit(np.log(times), np.log(errors), 1)[0]
+        cells = " ".join(f"{e:9.2e}" for e in errors)
+        print(f"  {spec:28}{cells}   exponent {slope:5.2f}", flush=True)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--rtols", default="1e-6,1e-8,1e-10")
@@ -158,6 +178,7 @@ def main() -> None:
     parser.add_argument("--methods", default=",".join(DEFAULT_METHODS))
     parser.add_argument("--local", action="store_true")
     parser.add_argument("--flips", action="store_true")
+    parser.add_argument("--growth", action="store_true")
     args = parser.parse_args()
     rtols = [float(r) for r in args.rtols.split(",")]
     specs = args.methods.split(",")
@@ -169,6 +190,11 @@ def main() -> None:
         if chosen and label not in chosen:
             continue
         truth = Truth(system, y0, T)
+        if args.growth:
+            print(f"\n{label}, rtol {rtols[0]:g}: global error at T/8, T/4, T/2, T (T = {T:g})")
+            growth(truth, [s for s in specs if not s.startswith("scipy")] + [s for s in specs if s.startswith("scipy")],
+                   rtols[0])  # fmt: skip
+            continue
         if args.local:
             print(f"\n{label}, T = {T:g}, rtol {rtols[0]:g}: true local error / estimate, median [90th percentile]")
             for spec in specs:
