@@ -551,7 +551,6 @@ NAMESPACES["rkmk_energy"] = {
 }
 
 
-
 @njit(cache=True)
 def _minus_hat_rows(w, out):
     for r in range(w.shape[0]):
