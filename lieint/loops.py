@@ -366,6 +366,10 @@ def adaptive_loop(driver: Driver, y0: dict):
     from .fast.engine import engine_for
 
     kernel, reason = engine_for(driver.system, driver.method, y0, adaptive=True, project=driver.project)
+    if kernel is not None and driver.observer is not None and getattr(kernel.method, "keeps_energy", False):
+        # the energy pairs' dense output steps again from each step's start (lieint.dense.Restep):
+        # a curve through the compiled rows would err ~10⁵× more than their steps
+        kernel, reason = None, f"{driver.method.name!r}: dense output, events and t_eval step again (generic path)"
     if kernel is not None:
         return _AdaptiveKernelLoop(driver, kernel)
     if driver.backend_request == "numba":

@@ -129,6 +129,8 @@ def warmup(
         if name == "euler_top":  # an ensemble of 3D tops runs in SIMD lanes
             batch = system.initial_state(angular_velocity=np.tile([0.3, 1.0, 0.2], (64, 1)))
             runs.append(("RKMK, SIMD lanes (ensemble)", dict(method="rkmk4", h=0.01, y0=batch)))
+            # the default adaptive method, compiled on the 3D top only
+            runs.append(("energy-keeping pair (controller loop)", dict(method="rkmk853+energy", rtol=1e-6, atol=1e-9)))
         for family, keywords in runs:
             keywords = dict(keywords)
             state = keywords.pop("y0", y0)

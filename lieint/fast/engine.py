@@ -226,6 +226,27 @@ class _Top3Layout(_Layout):
         return hat(u).reshape(U.shape[:-2] + batch + (3, 3))
 
 
+class _Top3EnergyLayout(_Top3Layout):
+    """The 3D top under an energy-keeping pair: ``(Π, R P, H₀)``, the level every accepted step
+    ends on carried as a 13th entry (:mod:`lieint.fast.top3`, family ``rkmk_energy``)."""
+
+    d = 13
+
+    def family(self, method) -> str:
+        return "rkmk_energy"
+
+    def start(self, y: dict, N: int) -> np.ndarray:
+        Y = super().start(y, N)
+        pi, inverse = Y[:, :3], 1.0 / self.moments
+        # H₀ = ½ Σ Π_i²/I_i, in the compiled step's order of operations
+        p0, p1, p2 = pi[:, 0], pi[:, 1], pi[:, 2]
+        level = 0.5 * (inverse[0] * p0 * p0 + inverse[1] * p1 * p1 + inverse[2] * p2 * p2)
+        return np.concatenate([Y, level[:, None]], axis=1)
+
+    def user(self, Y: np.ndarray, batch: tuple) -> dict:
+        return super().user(Y[..., :12], batch)
+
+
 class _Top3LanesLayout(_Top3Layout):
     """An ensemble of 3D tops in SIMD lanes: blocks of bodies structure-of-arrays (Π rows and
     the attitude as quaternion rows; :mod:`lieint.fast.lanes`). A unit of the loop is a block."""
@@ -492,6 +513,8 @@ class Engine:
             kind = "RKMK (Cayley)" if m.coordinates == "cayley" else "RKMK"
             if self.adaptive:
                 kind = "adaptive " + kind + " (whole controller loop)"
+            if getattr(m, "keeps_energy", False):
+                kind += ", energy kept"
         else:
             kind = "classical RK"
         threads = f"{self.threads} threads" if self.parallel else "serial"
@@ -661,6 +684,12 @@ def engine_for(system, method, y0, adaptive: bool = False, project: bool = True)
         )
     if adaptive and not (meth.family == "rkmk" and meth.pair):
         return None, f"{method.name!r} has no compiled adaptive form (compiled: RKMK embedded pairs)"
+    keeps_energy = getattr(meth, "keeps_energy", False)
+    if keeps_energy and not (isinstance(form, Top3Form) and meth.coordinates == "exp" and adaptive):
+        return None, (
+            f"{method.name!r} runs compiled on the 3D Euler top in exponential coordinates only "
+            f"(here: {_label(system)}, {meth.coordinates} coordinates)"
+        )
     batch = system.batch_shape(y0)
     if 0 in batch:
         return None, "the ensemble is empty"
@@ -671,7 +700,10 @@ def engine_for(system, method, y0, adaptive: bool = False, project: bool = True)
     if isinstance(form, Top3Form):
         N = math.prod(batch)
         lanes = not adaptive and meth.family == "rkmk" and N >= _Top3LanesLayout.FROM
-        layout = _Top3LanesLayout(form, N) if lanes else _Top3Layout(form)
+        if keeps_energy:
+            layout = _Top3EnergyLayout(form)
+        else:
+            layout = _Top3LanesLayout(form, N) if lanes else _Top3Layout(form)
     elif isinstance(form, TopNForm):
         layout = _TopNLayout(form)
     elif isinstance(form, PiecesForm):

@@ -48,7 +48,9 @@ class RKMKForm:
     """An explicit RKMK method: tableau ``(A, b, c)``, coordinates ("exp" with the dexp⁻¹ series
     truncated at ``degree``, or "cayley" with the exact dcay⁻¹) and, for an embedded pair, the
     embedded weights ``b_hat`` (DOP853's third-order ``b_low`` too) and the controller's error
-    order q."""
+    order q. ``keeps_energy``: the pair of an energy-keeping method
+    (:mod:`lieint.methods.energy_projection`: the spin about the momentum flowed exactly, every
+    step moved onto the initial energy), compiled on the 3D top."""
 
     A: np.ndarray
     b: np.ndarray
@@ -58,6 +60,7 @@ class RKMKForm:
     b_hat: np.ndarray | None = None
     b_low: np.ndarray | None = None
     error_order: int | None = None
+    keeps_energy: bool = False
 
     family = "rkmk"
 

@@ -66,9 +66,23 @@ def _rodrigues(u, Q):
     Q[2, 1] = a * x + b * y * z
 
 
+@njit(cache=True, inline="always")
+def _without_spin(p0, p1, p2, x0, x1, x2, reduce):
+    """``ξ − μΠ`` with ``μ = ⟨ξ, Π⟩/⟨Π, Π⟩`` when ``reduce`` (the generator without its part along
+    the momentum, :meth:`lieint.EulerTop.commuting_generator`), else ξ."""
+    if not reduce:
+        return x0, x1, x2
+    n2 = p0 * p0 + p1 * p1 + p2 * p2
+    if n2 == 0.0:
+        return x0, x1, x2
+    mu = (x0 * p0 + x1 * p1 + x2 * p2) / n2
+    return x0 - mu * p0, x1 - mu * p1, x2 - mu * p2
+
+
 @njit(cache=True)
-def _lie_step(pi, R, Iinv, A, b, h, coeffs, K, u, Q, tmp_pi, tmp_R):
-    """One RKMK step (right action, exp coordinates) in place on pi (3,) and R (3, 3).
+def _lie_step(pi, R, Iinv, A, b, h, coeffs, K, u, Q, tmp_pi, tmp_R, reduce=False):
+    """One RKMK step (right action, exp coordinates) in place on pi (3,) and R (3, 3); with
+    ``reduce`` of the generator without its part along the momentum (:func:`_without_spin`).
 
     Returns False, leaving pi and R as they were, when a stage increment ``u`` reaches the
     radius of the dexp⁻¹ series (``|u| ≥ 2π`` on so(3)): the same exact test as the generic path."""
@@ -85,17 +99,18 @@ def _lie_step(pi, R, Iinv, A, b, h, coeffs, K, u, Q, tmp_pi, tmp_R):
                 u[1] += w * K[j, 1]
                 u[2] += w * K[j, 2]
         if i == 0 or (u[0] == 0.0 and u[1] == 0.0 and u[2] == 0.0):
-            K[i, 0] = Iinv[0] * pi[0]
-            K[i, 1] = Iinv[1] * pi[1]
-            K[i, 2] = Iinv[2] * pi[2]
+            K[i, 0], K[i, 1], K[i, 2] = _without_spin(
+                pi[0], pi[1], pi[2], Iinv[0] * pi[0], Iinv[1] * pi[1], Iinv[2] * pi[2], reduce
+            )
             continue
         if u[0] * u[0] + u[1] * u[1] + u[2] * u[2] >= _RADIUS2:
             return False
         _rodrigues(u, Q)
         # Π_i = Qᵀ Π, ξ = I⁻¹ Π_i
-        x0 = Iinv[0] * (Q[0, 0] * pi[0] + Q[1, 0] * pi[1] + Q[2, 0] * pi[2])
-        x1 = Iinv[1] * (Q[0, 1] * pi[0] + Q[1, 1] * pi[1] + Q[2, 1] * pi[2])
-        x2 = Iinv[2] * (Q[0, 2] * pi[0] + Q[1, 2] * pi[1] + Q[2, 2] * pi[2])
+        p0 = Q[0, 0] * pi[0] + Q[1, 0] * pi[1] + Q[2, 0] * pi[2]
+        p1 = Q[0, 1] * pi[0] + Q[1, 1] * pi[1] + Q[2, 1] * pi[2]
+        p2 = Q[0, 2] * pi[0] + Q[1, 2] * pi[1] + Q[2, 2] * pi[2]
+        x0, x1, x2 = _without_spin(p0, p1, p2, Iinv[0] * p0, Iinv[1] * p1, Iinv[2] * p2, reduce)
         # k = dexp⁻¹_{−u}(ξ) = Σ_d c_d ad_{−u}^d ξ, ad_{−u} v = (−u) × v
         k0, k1, k2 = x0, x1, x2
         t0, t1, t2 = x0, x1, x2
@@ -346,8 +361,9 @@ def form_error_sum(fx, y0, y1, yh, par, rtol, atol, scr):
 
 @njit(cache=True)
 def form_project(fx, y, par, out, scr):
-    """R onto SO(3) by Newton–Schulz (:func:`_newton_schulz`); Π as it is."""
-    for i in range(12):
+    """R onto SO(3) by Newton–Schulz (:func:`_newton_schulz`); Π (and the energy pairs' level,
+    entry 12) as it is."""
+    for i in range(y.shape[0]):
         out[i] = y[i]
     _newton_schulz(_att(out), scr[2])
 
@@ -387,6 +403,132 @@ def form_user_field(fx, yu, par, fu, scr):
             fu[11 + 3 * r] = R0 * o1 - R1 * o0
 
 
+# -- the energy-keeping pairs (lieint.methods.energy_projection) on the 3D top ---------------------
+# State of one body: (Π, R P, H₀), 13 floats — the level every accepted step ends on travels with
+# the state, so a run split into calls keeps the level of its start. A step: the exact flow of the
+# generator's part along Π (``R ← R exp(hμΠ)``, Π stays), the pair's step of ``w − μΠ`` from there,
+# then the move along the orbit onto H₀; the error estimate is the pair's (before the move), as on
+# the generic path.
+
+#: :data:`lieint.methods.energy_projection.LEVEL_ULPS` · ε (the generic path's level band)
+_LEVEL = 64 * 2.220446049250313e-16
+#: the largest orbit move accepted and the secant iterations (the generic path's)
+_MAX_MOVE = 1e-3
+_ITERATIONS = 4
+
+
+@njit(cache=True, inline="always")
+def _energy(Iinv, p0, p1, p2):
+    """``H = ½ Σ Π_i²/I_i``."""
+    return 0.5 * (Iinv[0] * p0 * p0 + Iinv[1] * p1 * p1 + Iinv[2] * p2 * p2)
+
+
+@njit(cache=True)
+def _turned_energy(Iinv, pi, g, s, Q):
+    """H of ``exp(s ĝ)ᵀ Π`` (Q receives the rotation)."""
+    u = np.empty(3)
+    u[0], u[1], u[2] = s * g[0], s * g[1], s * g[2]
+    _rodrigues(u, Q)
+    p0 = Q[0, 0] * pi[0] + Q[1, 0] * pi[1] + Q[2, 0] * pi[2]
+    p1 = Q[0, 1] * pi[0] + Q[1, 1] * pi[1] + Q[2, 1] * pi[2]
+    p2 = Q[0, 2] * pi[0] + Q[1, 2] * pi[1] + Q[2, 2] * pi[2]
+    return _energy(Iinv, p0, p1, p2)
+
+
+@njit(cache=True)
+def _onto_level(pi, R, Iinv, level0, g, Q, tmp_pi, tmp_R):
+    """Move ``(Π, R)`` along the orbit, ``(exp(sĝ)ᵀΠ, R exp(sĝ))``, onto ``H = level0`` in place:
+    ĝ the steepest ascent of H within the orbit, ``g = w × Π`` (``dH/ds = g·(w × Π)`` at s = 0:
+    the exact gradient the generic path takes by central differences), s by one Newton step and
+    secant steps — the generic path's rule (:meth:`EnergyProjected.onto_level`), band, limits and
+    all, for one body."""
+    w0, w1, w2 = Iinv[0] * pi[0], Iinv[1] * pi[1], Iinv[2] * pi[2]
+    f0 = _energy(Iinv, pi[0], pi[1], pi[2]) - level0
+    band = _LEVEL * abs(level0)
+    if not (np.isfinite(f0) and abs(f0) > band):
+        return
+    g[0], g[1], g[2] = _cross(w0, w1, w2, pi[0], pi[1], pi[2])
+    slope0 = g[0] * g[0] + g[1] * g[1] + g[2] * g[2]
+    if not slope0 > 0.0:
+        return
+    s_prev, f_prev = 0.0, f0
+    s = -f0 / slope0
+    f = _turned_energy(Iinv, pi, g, s, Q) - level0
+    for _ in range(_ITERATIONS - 1):
+        if not (abs(f) > band and f != f_prev):
+            break
+        step = f * (s - s_prev) / (f - f_prev)
+        s_prev, f_prev, s = s, f, s - step
+        f = _turned_energy(Iinv, pi, g, s, Q) - level0
+    size = abs(s) * np.sqrt(slope0)
+    if not (np.isfinite(s) and np.isfinite(f) and size <= _MAX_MOVE):
+        return
+    if not (abs(f) <= band or abs(f) <= 1e-2 * abs(f0)):
+        return
+    _turned_energy(Iinv, pi, g, s, Q)
+    for r in range(3):
+        tmp_pi[r] = Q[0, r] * pi[0] + Q[1, r] * pi[1] + Q[2, r] * pi[2]
+    for r in range(3):
+        for c2 in range(3):
+            tmp_R[r, c2] = R[r, 0] * Q[0, c2] + R[r, 1] * Q[1, c2] + R[r, 2] * Q[2, c2]
+    for r in range(3):
+        pi[r] = tmp_pi[r]
+        for c2 in range(3):
+            R[r, c2] = tmp_R[r, c2]
+
+
+@njit(cache=True)
+def form_energy_scratch(fx, meth, par, d):
+    """:func:`form_scratch`'s arrays, the state after the spin's flow (12: where the embedded
+    solutions start), the move onto the level (12: added to them) and the orbit direction (3)."""
+    return form_scratch(fx, meth, par, d) + (np.zeros(12), np.zeros(12), np.zeros(3))
+
+
+@njit(cache=True)
+def form_energy_step(fx, y, par, meth, h, y1, inc, aux, scr):
+    """One step of an energy-keeping pair (see above); ``inc`` = the pair's increment (the
+    compiled path serves no dense output of these pairs: they step again, on the generic path)."""
+    K, u, Q, tpi, tR = scr[0], scr[1], scr[2], scr[3], scr[4]
+    turned, moved, g = scr[9], scr[10], scr[11]
+    Iinv = par[0:3]
+    p0, p1, p2 = y[0], y[1], y[2]
+    n2 = p0 * p0 + p1 * p1 + p2 * p2
+    mu = (Iinv[0] * p0 * p0 + Iinv[1] * p1 * p1 + Iinv[2] * p2 * p2) / n2 if n2 > 0.0 else 0.0
+    u[0], u[1], u[2] = h * mu * p0, h * mu * p1, h * mu * p2
+    _rodrigues(u, Q)
+    for i in range(3):
+        turned[i] = y[i]
+    R0 = _att(y)
+    for r in range(3):
+        for c2 in range(3):
+            turned[3 + 3 * r + c2] = R0[r, 0] * Q[0, c2] + R0[r, 1] * Q[1, c2] + R0[r, 2] * Q[2, c2]
+    for i in range(12):
+        y1[i] = turned[i]
+    y1[12] = y[12]
+    if not _lie_step(_pi(y1), _att(y1), Iinv, meth.A, meth.b, h, meth.coeffs, K, u, Q, tpi, tR, True):
+        return -1
+    inc[0], inc[1], inc[2] = u[0], u[1], u[2]
+    for i in range(12):
+        moved[i] = y1[i]
+    _onto_level(_pi(y1), _att(y1), Iinv, y[12], g, Q, tpi, tR)
+    for i in range(12):
+        moved[i] = y1[i] - moved[i]
+    aux[0] = -1.0
+    return meth.b.shape[0]
+
+
+@njit(cache=True)
+def form_energy_embedded(fx, y, par, meth, weights, h, yh, scr):
+    """The pair's embedded solution from the state after the spin's flow, plus the move onto the
+    level: ``y₁ − ŷ`` is then the pair's own difference, as the generic path's estimate."""
+    K, u, Q, turned, moved = scr[0], scr[1], scr[2], scr[9], scr[10]
+    pih, Rh = yh[0:3], yh[3:12].reshape((3, 3))
+    _embedded(turned[0:3], turned[3:12].reshape((3, 3)), K, weights, h, u, Q, pih, Rh)
+    for i in range(12):
+        yh[i] += moved[i]
+    yh[12] = y[12]
+
+
 #: the names of :mod:`lieint.fast.loop` this form binds, per method family
 NAMESPACES = {
     family: {
@@ -400,6 +542,12 @@ NAMESPACES = {
         "user_field": form_user_field,
     }
     for family, stepper in (("rkmk", form_lie_step), ("rk", form_rk_step))
+}
+NAMESPACES["rkmk_energy"] = {
+    **NAMESPACES["rkmk"],
+    "scratch": form_energy_scratch,
+    "step": form_energy_step,
+    "embedded": form_energy_embedded,
 }
 
 

@@ -8,7 +8,7 @@ note that says why, so that a newcomer does not conclude the method is broken:
   Casimir ``|A|`` exactly, so its energy error is a pure frequency error and the phase error grows
   like t² instead of t; near a separatrix (the default scene starts next to the top's unstable
   middle axis) the global error is several orders of magnitude above rtol (docs/theory.md §13).
-  The ``+energy`` pairs keep the energy too and follow rtol on the free top;
+  The ``+energy`` pairs keep the energy too and follow rtol on every built-in system;
 * any other method: the global error also carries how the motion amplifies the local errors.
 """
 
@@ -30,7 +30,8 @@ _LIE_PAIR = (
     "exactly, so its energy error is a pure frequency error and the phase error grows like t² instead "
     "of t; near a separatrix (the default scene starts next to the top's unstable middle axis) the "
     "plain pairs' global error is several orders of magnitude above rtol. The '+energy' pairs keep "
-    "the energy as well and follow rtol on the free top (docs/theory.md §13)."
+    "the energy as well and follow rtol on every built-in system: take rkmk853+energy for an answer "
+    "to a tolerance (docs/theory.md §13)."
 )
 _OTHER = (
     "{names}: global error up to {worst:.0e} × rtol here. rtol bounds each step's local error; the "

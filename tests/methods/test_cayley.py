@@ -28,7 +28,9 @@ def _cayley_methods() -> list[str]:
     for name, spec in method_specs().items():
         if "cayley" in (spec.coordinates or ()):
             method = get_method(name, coordinates="cayley")
-            if method.compiled() is not None:
+            form = method.compiled()
+            # the energy-keeping pairs run compiled on the 3D top in exp coordinates only
+            if form is not None and not getattr(form, "keeps_energy", False):
                 out.append(name)
     return out
 
