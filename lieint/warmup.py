@@ -126,7 +126,8 @@ def warmup(
     for name in names:
         system, y0 = WARMUP_SYSTEMS[name]()
         runs = list(_RUNS)
-        if name == "euler_top":  # an ensemble of 3D tops runs in SIMD lanes
+        if name == "euler_top":  # the Moser–Veselov maps' own kernel; an ensemble runs in SIMD lanes
+            runs.append(("Moser–Veselov map", dict(method="moser_veselov", h=0.01)))
             batch = system.initial_state(angular_velocity=np.tile([0.3, 1.0, 0.2], (64, 1)))
             runs.append(("RKMK, SIMD lanes (ensemble)", dict(method="rkmk4", h=0.01, y0=batch)))
         for family, keywords in runs:

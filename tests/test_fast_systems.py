@@ -19,12 +19,15 @@ from lieint.systems.catalog import _builtin
 
 
 def _compiled(adaptive: bool) -> list[tuple[str, str | None]]:
-    """(name, coordinates) of every registered method and coordinate map with a compiled form."""
+    """(name, coordinates) of every registered method and coordinate map with a compiled
+    tableau form (RKMK, classical RK: what compiled pieces step; a map with stage code of its
+    own, such as Moser–Veselov on the 3D top, is tested in tests/fast)."""
     out = []
     for name, spec in method_specs().items():
         for coordinates in spec.coordinates or (None,):
             method = get_method(name, coordinates=coordinates)
-            if method.compiled() is not None and method.adaptive == adaptive:
+            form = method.compiled()
+            if getattr(form, "family", None) in ("rkmk", "rk") and method.adaptive == adaptive:
                 out.append((name, coordinates))
     return out
 
