@@ -258,8 +258,8 @@ class MoserVeselov(Method):
         return StepResult(act_near_identity(system, K, y), None, iterations, None)
 
     def compiled(self):
-        """The compiled engine's form: the map with its Newton solve in machine code for the
-        3D top (:mod:`lieint.fast.top3_mv`); an n-D top (n ≥ 4) runs on the numpy path."""
+        """The compiled engine's form: the map with its Newton solve in machine code, for the
+        3D top (:mod:`lieint.fast.top3_mv`) and the n-D top (:mod:`lieint.fast.topn_mv`)."""
         return _compiled_map(self, MoserVeselov, (1.0,))
 
 
@@ -311,14 +311,14 @@ class MoserVeselovComposition(Method):
         return StepResult(y, None, nfev, None)
 
     def compiled(self):
-        """The compiled engine's form: the composition's Moser–Veselov substeps in machine code
-        for the 3D top (:mod:`lieint.fast.top3_mv`); an n-D top runs on the numpy path."""
+        """The compiled engine's form: the composition's Moser–Veselov substeps in machine code,
+        for the 3D top (:mod:`lieint.fast.top3_mv`) and the n-D top (:mod:`lieint.fast.topn_mv`)."""
         return _compiled_map(self, MoserVeselovComposition, tuple(float(c) for c in self.coefficients))
 
 
 #: where the Moser–Veselov maps have compiled stage code: system form (class name) -> the
-#: module of the map's stage functions for it (the n-D top, n ≥ 4, runs on the numpy path)
-COMPILED_MAPS = {"Top3Form": "lieint.fast.top3_mv"}
+#: module of the map's stage functions for it (the modified moments: the 3D top only)
+COMPILED_MAPS = {"Top3Form": "lieint.fast.top3_mv", "TopNForm": "lieint.fast.topn_mv"}
 
 
 def _compiled_map(method, cls, substeps, degree: int = 0, coefficients=None):
