@@ -509,7 +509,9 @@ class Engine:
             if self.adaptive:
                 kind = "adaptive " + kind + " (whole controller loop)"
         elif isinstance(m, MapForm):
-            kind = m.family.replace("_", "–").title() + " map"
+            kind = {"moser_veselov": "Moser–Veselov map", "splitting": "splitting into exact rotations"}.get(
+                m.family, m.family
+            )
         else:
             kind = "classical RK"
         threads = f"{self.threads} threads" if self.parallel else "serial"
