@@ -19,6 +19,7 @@ the one driving loop, :class:`Solution`) → front ends (``ivp.integrate``, ``sc
 """
 
 from . import analysis, rotations
+from ._version import __version__
 from .driver import Stats
 from .groups import SE, SO, DexpinvRangeError
 from .ivp import LieStepWarning, integrate
@@ -31,8 +32,6 @@ from .systems.atoms import AtomsBody
 from .systems.euler_top_exact import euler_top_flip_times
 from .systems.particles import CentralForceParticle, ConstantForceParticle, SurfaceParticle
 from .systems.prescribed import PrescribedRotation
-
-__version__ = "0.2.0"
 
 __all__ = [
     "SE",

@@ -13,8 +13,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from bodies import initial
 from test_engine_coverage import SYSTEMS, _applies, _methods
-from test_fast_systems import initial
 
 import lieint
 from lieint.methods.registry import get_method
