@@ -125,3 +125,16 @@ def test_the_heavy_top_the_n_dimensional_top_and_the_exact_free_part_run_on_the_
     top = lieint.EulerTop.from_principal_moments([1.0, 2.0, 3.0])
     sol = lieint.integrate(top, top.initial_state(angular_velocity=[0.3, 1.0, 0.4]), (0.0, 0.1), h=0.01, method=exact)
     assert sol.stats.backend == "numpy" and "has no compiled form" in sol.stats.backend_reason
+
+
+def test_a_backward_run_is_the_numpy_paths():
+    top = lieint.EulerTop.from_principal_moments([1.0, 2.0, 3.0])
+    y0 = top.initial_state(angular_velocity=[0.3, 1.0, 0.4])
+    kw = dict(h=0.01, method="splitting4", dense_output=True)
+    fast = lieint.integrate(top, y0, (5.0, 0.0), **kw)
+    ref = lieint.integrate(top, y0, (5.0, 0.0), backend="numpy", **kw)
+    assert fast.stats.backend == "numba" and fast.t[-1] == 0.0
+    midway = np.linspace(4.9, 0.1, 5)
+    for field in ("A", "R"):
+        np.testing.assert_allclose(fast.states[field], ref.states[field], rtol=0, atol=1e-13)
+        np.testing.assert_allclose(fast.sol(midway)[field], ref.sol(midway)[field], rtol=0, atol=1e-13)
