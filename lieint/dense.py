@@ -30,6 +30,7 @@ reuses it).
 
 from __future__ import annotations
 
+import functools
 from bisect import bisect_left, bisect_right
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -168,17 +169,9 @@ class LieHermite:
         for tj, vj, xij in earlier:
             theta = (float(tj) - self.t0) / h
             conditions += [(theta, 0, vj), (theta, 1, slope(vj, xij))]
-        m = len(conditions)
-        M = np.zeros((m, m))
-        for row, (theta, d, _) in enumerate(conditions):
-            powers = np.arange(m)
-            if d == 0:
-                M[row] = theta**powers
-            else:
-                M[row, 1:] = powers[1:] * theta ** (powers[1:] - 1)
-        self._coefficients = np.linalg.inv(M)  # polynomial coefficients per condition
+        self._coefficients = _hermite_coefficients(tuple((theta, d) for theta, d, _ in conditions))
         self._data = [(i, x) for i, (_, _, x) in enumerate(conditions) if x is not None]
-        self.degree = m - 1
+        self.degree = len(conditions) - 1
 
     def algebra(self, theta: float):
         """``u(θ)``."""
@@ -194,6 +187,25 @@ class LieHermite:
             w = _hermite(theta)[2]
             y = {k: v + w * self.mismatch[k] for k, v in y.items()}
         return y
+
+
+@functools.lru_cache(maxsize=256)
+def _hermite_coefficients(nodes: tuple[tuple[float, int], ...]) -> np.ndarray:
+    """The polynomial coefficients of the Hermite interpolant's basis, per condition: the inverse
+    of the matrix of the conditions ``(θ, derivative order)`` on ``1, θ, θ², …``. The same for
+    every step whose earlier nodes sit at the same θ (every step of a fixed grid), so computed
+    once (read only: the cached array is shared)."""
+    m = len(nodes)
+    M = np.zeros((m, m))
+    powers = np.arange(m)
+    for row, (theta, d) in enumerate(nodes):
+        if d == 0:
+            M[row] = theta**powers
+        else:
+            M[row, 1:] = powers[1:] * theta ** (powers[1:] - 1)
+    inverse = np.linalg.inv(M)
+    inverse.flags.writeable = False
+    return inverse
 
 
 class EmbeddedHermite:

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from test_fast_systems import initial, initial_batch, variants
+from bodies import initial, initial_batch, variants
 
 import lieint
 
