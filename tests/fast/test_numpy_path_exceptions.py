@@ -13,13 +13,14 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from bodies import initial
-from test_engine_coverage import SYSTEMS, _applies, _methods
+from bodies import applies, coverage_systems, initial, registered_methods
 
 import lieint
 from lieint.methods.registry import get_method
 
-#: every system of the coverage test
+#: the systems of the coverage tests (tests/fast/test_engine_coverage.py runs the same)
+SYSTEMS = coverage_systems()
+#: every one of them
 ALL = frozenset(SYSTEMS)
 
 #: the pairs that run on the numpy path: method -> the systems (labels of SYSTEMS)
@@ -57,9 +58,9 @@ DOC_NAMES = {
 def test_every_pair_runs_compiled_or_is_a_declared_exception(label):
     system = SYSTEMS[label]
     y0 = initial(system, np.random.default_rng(2))
-    for name, coordinates in _methods():
+    for name, coordinates in registered_methods():
         method = get_method(name, coordinates=coordinates)
-        if method.self_controlled or not _applies(method, system):
+        if method.self_controlled or not applies(method, system):
             continue
         kw = dict(rtol=1e-6, atol=1e-9) if method.adaptive else dict(h=0.01)
         sol = lieint.integrate(system, y0, (0.0, 0.03), method=name, coordinates=coordinates, **kw)
