@@ -3,7 +3,8 @@
 Run: ``LIEINT_REFERENCE_CODES=DIR OPENBLAS_NUM_THREADS=1 python benchmarks/reference_codes.py``
 (``--codes DIR`` instead of the variable; ``--hog`` times a second time while another
 CPU-bound process runs; ``--quick`` for a smoke run; ``--markdown PATH`` also writes the tables
-as a Markdown page). About ten minutes, most of it lieint's steps on the numpy path.
+as a Markdown page). A few minutes, most of it ``exact_flow``'s steps, which run on lieint's
+numpy path (the Moser–Veselov forms run compiled).
 
 DIR holds copies of two public codes, which are compiled here and never copied into lieint:
 
@@ -39,7 +40,9 @@ script measures whatever form of the steps lieint has.
    energy error at T, on the flat body (1, 2, 3) and Hairer–Vilmart's (0.6, 0.8, 1.0).
 4. CPU time per step, one thread: the marginal cost of a step in a call of N steps (the least
    over interleaved rounds of ``(t(N) − t(N/10)) / 0.9N``), lieint for one body and per body of a
-   batch of 200, the Fortran for one body (a loop of single-body steps); ratios lieint / Fortran.
+   batch of 200, the Fortran for one body (a loop of single-body steps); ratios lieint / Fortran,
+   and which of lieint's paths ran (``compiled``: the compiled engine; ``numpy``: the generic
+   path, for a method the engine does not cover on the 3D top).
 """
 
 from __future__ import annotations
@@ -390,7 +393,8 @@ def timings(codes: ReferenceCodes, out, quick: bool, label: str) -> None:
         f"4. CPU time per step ({label}; load average {os.getloadavg()[0]:.2f}): body {moments}, Π0 = {HV_PI0}, "
         f"h = {h}; least of {rounds} interleaved rounds of (t(N) − t(N/10))/0.9N"
     )
-    out.table(["lieint", "µs/step", f"µs/body-step (batch {batch})", "reference", "µs/step", "ratio", "ratio batch"])
+    out.table(["lieint", "backend", "µs/step", f"µs/body-step (batch {batch})", "reference", "µs/step", "ratio",
+               "ratio batch"])  # fmt: skip
     pairs = [*MV_PAIRS, ("exact_flow", "FRB")]
     for name, ref in pairs:
 
@@ -409,7 +413,8 @@ def timings(codes: ReferenceCodes, out, quick: bool, label: str) -> None:
             def fortran(n, order=ref):
                 codes.dmv(order, moments, Pi0, [1.0, 0.0, 0.0, 0.0], h, n)
 
-        lie(2), lie_batch(2), fortran(2)  # warm up
+        backend = lieint.integrate(top, y0, (0.0, 2 * h), h=h, method=name).stats.backend  # and warm up
+        lie(2), lie_batch(2), fortran(2)
         calls = {
             "lieint": (lie, _size(lie, seconds)),
             "batch": (lie_batch, _size(lie_batch, seconds, start=2)),
@@ -418,8 +423,14 @@ def timings(codes: ReferenceCodes, out, quick: bool, label: str) -> None:
         t = marginal_step_times(calls, rounds)
         per_body = t["batch"] / batch
         ref_name = "FRB_STEP" if ref == "FRB" else f"DMV{ref}"
-        out.row([name, f"{1e6 * t['lieint']:.2f}", f"{1e6 * per_body:.3f}", ref_name, f"{1e6 * t['fortran']:.3f}",
-                 f"{t['lieint'] / t['fortran']:.0f}", f"{per_body / t['fortran']:.1f}"])  # fmt: skip
+        out.row([name, "compiled" if backend == "numba" else backend, f"{1e6 * t['lieint']:.3f}",
+                 f"{1e6 * per_body:.3f}", ref_name, f"{1e6 * t['fortran']:.3f}", _ratio(t["lieint"] / t["fortran"]),
+                 _ratio(per_body / t["fortran"])])  # fmt: skip
+
+
+def _ratio(r: float) -> str:
+    """Two significant digits below 10 (the compiled steps), whole numbers above."""
+    return f"{r:.2f}" if r < 10 else f"{r:.0f}"
 
 
 # -- output -----------------------------------------------------------------------------------

@@ -283,7 +283,7 @@ class _KernelLoop(_CompiledRows):
     def _increments(self, kept_U):
         """The kept steps' increments in the user's algebra, converted when an interpolant asks
         for one (None for classical RK, whose dense output interpolates the state arrays)."""
-        if self.kernel.method.family != "rkmk":
+        if self.kernel.du == 0:
             return None
         kernel = self.kernel
         return lambda j: _take(kernel.increments(kept_U[j : j + 1]), 0)

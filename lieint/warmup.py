@@ -5,8 +5,9 @@ yet — a fresh install, a new numba, a cluster node's empty home directory — 
 machine code for every later process. A cluster job or a CI run that would otherwise pay that
 in its first integration compiles here instead, once: each built-in system with each compiled
 method family (fixed-step RKMK in exponential and Cayley coordinates, the embedded pairs'
-controller loop, classical RK, the SIMD lanes of a 3D-top ensemble), and the pieces of the
-generic form. Items the cache already holds cost a fraction of a second.
+controller loop, classical RK, the SIMD lanes of a 3D-top ensemble, the tops' Moser–Veselov
+maps and the 3D top's splitting), and the pieces of the generic form. Items the cache already
+holds cost a fraction of a second.
 """
 
 from __future__ import annotations
@@ -126,7 +127,10 @@ def warmup(
     for name in names:
         system, y0 = WARMUP_SYSTEMS[name]()
         runs = list(_RUNS)
-        if name == "euler_top":  # an ensemble of 3D tops runs in SIMD lanes
+        if name in ("euler_top", "euler_top_nd"):  # the Moser–Veselov maps' own kernels
+            runs.append(("Moser–Veselov map", dict(method="moser_veselov", h=0.01)))
+        if name == "euler_top":  # the splitting's own kernel; an ensemble runs in SIMD lanes
+            runs.append(("splitting into exact rotations", dict(method="splitting2", h=0.01)))
             batch = system.initial_state(angular_velocity=np.tile([0.3, 1.0, 0.2], (64, 1)))
             runs.append(("RKMK, SIMD lanes (ensemble)", dict(method="rkmk4", h=0.01, y0=batch)))
             # the default adaptive method, compiled on the 3D top only

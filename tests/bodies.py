@@ -72,3 +72,31 @@ def initial_batch(system, rng, bodies):
 def at_rest(system, y0):
     """``y0`` with the body at rest (the free body's vector field vanishes there)."""
     return system.initial_state(Omega=np.zeros((system.n, system.n)))
+
+
+def coverage_systems() -> dict[str, lieint.LieGroupSystem]:
+    """The built-in systems the registry-driven coverage tests run every method on, by label
+    (``"euler_top n=3"``, …): both tops' forms, every variant of n = 3, the heavy top at n = 4."""
+    out = {
+        "euler_top n=3": lieint.EulerTop.from_principal_moments([1.0, 2.0, 3.0]),
+        "euler_top n=4": lieint.EulerTop(np.diag([0.6, 0.9, 1.2, 1.5])),
+    }
+    out.update({f"{name} n=3": system for name, system in variants(3).items() if "/" not in name})
+    out["heavy_top n=4"] = variants(4)["heavy_top"]
+    return out
+
+
+def registered_methods() -> list[tuple[str, str | None]]:
+    """(name, coordinates) of every registered method in each of its coordinate maps."""
+    from lieint.methods.registry import method_specs
+
+    return [(name, c) for name, spec in method_specs().items() for c in (spec.coordinates or (None,))]
+
+
+def applies(method, system) -> bool:
+    """Whether ``method`` accepts ``system`` (its ``check_system``)."""
+    try:
+        method.check_system(system)
+    except (TypeError, ValueError):
+        return False
+    return True

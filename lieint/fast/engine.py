@@ -23,7 +23,7 @@ from functools import cache, lru_cache
 import numpy as np
 
 from ..groups.base import DexpinvRangeError, bernoulli_dexpinv_coefficients
-from .forms import ClassicalForm, PiecesForm, RKMKForm, Top3Form, TopNForm
+from .forms import ClassicalForm, MapForm, PiecesForm, RKMKForm, Top3Form, TopNForm
 
 __all__ = ["Engine", "Tableau", "bound_loops", "engine_for", "range_error", "use_threads"]
 
@@ -49,6 +49,16 @@ def range_error(k: int, plan, where: str = "so(3)") -> DexpinvRangeError:
         "the spectral radius of ad_u reached 2*pi, where the dexp^-1 series diverges (for so(n): "
         "theta_1 + theta_2 >= 2*pi, the two largest rotation angles of the stage increment). Reduce the "
         "step `h`, or use `coordinates='cayley'`, whose dcay^-1 is exact at every step."
+    )
+
+
+def _unsolved(k: int, plan) -> RuntimeError:
+    """The error a run of a Moser–Veselov map raises when Newton's method did not solve step
+    ``k``'s equation (the numpy path's message, with the step)."""
+    h = plan.step_size(k)
+    return RuntimeError(
+        f"Moser–Veselov step h = {h:g}: Newton did not reach round-off at step {k + 1} (t = {plan.time(k):.6g}); "
+        "take a smaller `h`."
     )
 
 
@@ -215,7 +225,7 @@ class _Top3Layout(_Layout):
         return np.ascontiguousarray(np.concatenate(parts, axis=1))
 
     def increments_size(self, method) -> int:
-        return 3 if method.family == "rkmk" else 0
+        return 3 if method.family == "rkmk" or isinstance(method, MapForm) else 0
 
     def increments(self, U: np.ndarray, batch: tuple):
         """The steps' increments in the user's so(3): ``(P u)^`` (conjugation by a proper P moves
@@ -352,7 +362,7 @@ class _TopNLayout(_Layout):
         return np.ascontiguousarray(np.concatenate(parts, axis=1))
 
     def increments_size(self, method) -> int:
-        return self.n * self.n if method.family == "rkmk" else 0
+        return self.n * self.n if method.family == "rkmk" or isinstance(method, MapForm) else 0
 
     def increments(self, U: np.ndarray, batch: tuple):
         n = self.n
@@ -482,14 +492,20 @@ class Engine:
     of the tops): a run split into segments gives the bits of one that is not.
     """
 
-    def __init__(self, layout: _Layout, method, batch: tuple[int, ...], adaptive: bool):
+    def __init__(self, layout: _Layout, method, batch: tuple[int, ...], adaptive: bool, stage_module: str = ""):
         self.layout, self.method, self.batch = layout, method, batch
         self.N = math.prod(batch)
         units = getattr(layout, "units", self.N)  # bodies, or blocks of bodies in SIMD lanes
-        self.tableau = _tableau(method)
+        module = stage_module or layout.module  # a map's own stage code (MapForm.module_for)
+        if isinstance(method, MapForm):
+            import importlib
+
+            self.tableau = importlib.import_module(module).numbers(method, layout)
+        else:
+            self.tableau = _tableau(method)
         self.stages = method.stages
         self.adaptive = adaptive
-        self.loops = bound_loops(layout.module, layout.family(method))
+        self.loops = bound_loops(module, layout.family(method))
         self.du = layout.increments_size(method)
         if adaptive:
             self.parallel, self.threads = False, 1  # a batch shares one step size
@@ -515,6 +531,10 @@ class Engine:
                 kind = "adaptive " + kind + " (whole controller loop)"
             if getattr(m, "keeps_energy", False):
                 kind += ", energy kept"
+        elif isinstance(m, MapForm):
+            kind = {"moser_veselov": "Moser–Veselov map", "splitting": "splitting into exact rotations"}.get(
+                m.family, m.family
+            )
         else:
             kind = "classical RK"
         threads = f"{self.threads} threads" if self.parallel else "serial"
@@ -591,6 +611,8 @@ class Engine:
         self._radius2 = max(self._radius2, largest) if math.isfinite(largest) else math.inf
         bad = status[status >= 0]
         if bad.size:
+            if isinstance(self.method, MapForm):
+                raise _unsolved(int(bad.min()), plan)
             raise range_error(int(bad.min()), plan, self.layout.group)
         result = {"Y": fin}, self.user_rows(out)
         if keep:
@@ -676,7 +698,7 @@ def engine_for(system, method, y0, adaptive: bool = False, project: bool = True)
     if form is None:
         return None, f"{_label(system)} declares no compiled form"
     meth = method.compiled()
-    if meth is None or not isinstance(meth, (RKMKForm, ClassicalForm)):
+    if meth is None or not isinstance(meth, (RKMKForm, ClassicalForm, MapForm)):
         what = "adaptive " if adaptive else ""
         return None, (
             f"{method.name!r} has no compiled {what}form (compiled: RKMK in exp coordinates with truncated dexp⁻¹ "
@@ -710,9 +732,12 @@ def engine_for(system, method, y0, adaptive: bool = False, project: bool = True)
         layout = _PiecesLayout(form, system, adaptive or meth.family == "rk", project)
     else:
         return None, f"no engine for the compiled form {type(form).__name__}"
+    if isinstance(meth, MapForm) and not meth.covers(form):
+        return None, f"{method.name!r} has no compiled form for the {layout.label} (it runs on the numpy path)"
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", category=_experimental_warning())
-        return Engine(layout, meth, batch, adaptive), ""
+        stage_module = meth.module_for(form) if isinstance(meth, MapForm) else ""
+        return Engine(layout, meth, batch, adaptive, stage_module), ""
 
 
 def _experimental_warning():

@@ -17,8 +17,9 @@ System forms:
   outside the package that declares its own.
 
 Method forms: :class:`RKMKForm` (explicit Runge–Kutta–Munthe-Kaas in exponential or Cayley
-coordinates, fixed-step or an embedded pair) and :class:`ClassicalForm` (classical explicit RK
-on the embedding space).
+coordinates, fixed-step or an embedded pair), :class:`ClassicalForm` (classical explicit RK
+on the embedding space) and :class:`MapForm` (a method whose step is a map of its own — the
+Moser–Veselov family, the splittings — with stage code for some system forms only).
 """
 
 from __future__ import annotations
@@ -33,6 +34,7 @@ __all__ = [
     "BUILTIN_PIECES",
     "ClassicalForm",
     "LazyPieces",
+    "MapForm",
     "PiecesForm",
     "RKMKForm",
     "Top3Form",
@@ -88,6 +90,46 @@ class ClassicalForm:
     @property
     def stages(self) -> int:
         return int(np.asarray(self.b).size)
+
+
+@dataclass(frozen=True, eq=False)
+class MapForm:
+    """A method whose step is a map of its own, not a tableau: the Moser–Veselov family, the
+    splittings into exact rotations.
+
+    ``family`` names the map (``"moser_veselov"``, ``"splitting"``); ``modules`` maps the system forms the map
+    has stage code for (by class name, ``"Top3Form"``) to the module holding it
+    (``"lieint.fast.top3_mv"``) — a system form not listed has no compiled form of the map, and
+    the run says so (:meth:`covers`). ``substeps`` are the fractions of h of the map's substeps (a symmetric
+    composition; ``(1.0,)`` for one map a step); ``degree`` the degree of the modified moments'
+    series (0: the plain map) and ``coefficients`` the function ``moments -> (s, d)`` giving
+    their coefficients (:func:`lieint.methods.modified_mv.modified_coefficients`); ``planes``
+    the coordinate planes ``(i, j)`` of a splitting's rotations in the order of its Strang step
+    (principal frame of the 3D top).
+    """
+
+    family: str
+    modules: dict
+    substeps: tuple = (1.0,)
+    degree: int = 0
+    coefficients: Any = None
+    planes: tuple = ()
+
+    coordinates = None
+    pair = False
+
+    @property
+    def stages(self) -> int:
+        """Generator solves per step (what a run reports as evaluations)."""
+        return len(self.substeps)
+
+    def covers(self, system_form) -> bool:
+        """Whether the map has compiled stage code for ``system_form`` (a system form object)."""
+        return type(system_form).__name__ in self.modules
+
+    def module_for(self, system_form) -> str:
+        """The module of the map's stage functions for ``system_form``."""
+        return self.modules[type(system_form).__name__]
 
 
 # -- system forms ------------------------------------------------------------------------------

@@ -44,7 +44,7 @@ import numpy as np
 
 from ..groups.bivectors import hat, vee
 from .base import Method, MethodSpec, StepResult
-from .moser_veselov import act_near_identity, require_free_top, solve_generator
+from .moser_veselov import _compiled_map, act_near_identity, require_free_top, solve_generator
 from .registry import register
 
 __all__ = ["ModifiedMoserVeselov", "modified_coefficients", "modified_moments"]
@@ -204,6 +204,12 @@ class ModifiedMoserVeselov(Method):
         if not inertia.diagonal:
             K = P @ K @ P.T
         return StepResult(act_near_identity(system, K, y), None, iterations, None)
+
+    def compiled(self):
+        """The compiled engine's form: one Moser–Veselov solve with the modified moments in
+        machine code for the 3D top (:mod:`lieint.fast.top3_mv`), the series' coefficients
+        from :func:`modified_coefficients`."""
+        return _compiled_map(self, ModifiedMoserVeselov, (1.0,), (self.order - 2) // 2, modified_coefficients)
 
 
 def _build(order: int, coordinates: str | None = None) -> ModifiedMoserVeselov:

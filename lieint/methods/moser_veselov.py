@@ -257,6 +257,11 @@ class MoserVeselov(Method):
         K, iterations = moser_veselov_generator(system.inertia, y["A"], h)
         return StepResult(act_near_identity(system, K, y), None, iterations, None)
 
+    def compiled(self):
+        """The compiled engine's form: the map with its Newton solve in machine code, for the
+        3D top (:mod:`lieint.fast.top3_mv`) and the n-D top (:mod:`lieint.fast.topn_mv`)."""
+        return _compiled_map(self, MoserVeselov, (1.0,))
+
 
 @dataclass(frozen=True)
 class MoserVeselovComposition(Method):
@@ -304,6 +309,26 @@ class MoserVeselovComposition(Method):
             K, iterations = moser_veselov_generator(system.inertia, y["A"], c * h)
             y, nfev = act_near_identity(system, K, y), nfev + iterations
         return StepResult(y, None, nfev, None)
+
+    def compiled(self):
+        """The compiled engine's form: the composition's Moser–Veselov substeps in machine code,
+        for the 3D top (:mod:`lieint.fast.top3_mv`) and the n-D top (:mod:`lieint.fast.topn_mv`)."""
+        return _compiled_map(self, MoserVeselovComposition, tuple(float(c) for c in self.coefficients))
+
+
+#: where the Moser–Veselov maps have compiled stage code: system form (class name) -> the
+#: module of the map's stage functions for it (the modified moments: the 3D top only)
+COMPILED_MAPS = {"Top3Form": "lieint.fast.top3_mv", "TopNForm": "lieint.fast.topn_mv"}
+
+
+def _compiled_map(method, cls, substeps, degree: int = 0, coefficients=None):
+    """The :class:`~lieint.fast.forms.MapForm` of a Moser–Veselov method that steps as ``cls``
+    defines it (a subclass that changes the step integrates something else: None)."""
+    if not method.steps_as(cls, ("step", "check_system")):
+        return None
+    from ..fast.forms import MapForm
+
+    return MapForm("moser_veselov", COMPILED_MAPS, substeps, degree, coefficients)
 
 
 def _build(coordinates: str | None = None) -> MoserVeselov:

@@ -150,6 +150,21 @@ class Splitting(Method):
             y = pieces.strang(y, c * h)
         return StepResult(y, None, len(self.coefficients), None)
 
+    def compiled(self):
+        """The compiled engine's form: the free 3D top's rotations in machine code
+        (:mod:`lieint.fast.top3_split`). The heavy top, the n-D top (n ≥ 4) and ``free="exact"``
+        run on the numpy path."""
+        if self.free != "rotations" or not self.steps_as(Splitting, ("step", "check_system")):
+            return None
+        from ..fast.forms import MapForm
+
+        substeps = tuple(float(c) for c in self.coefficients)
+        return MapForm("splitting", COMPILED_SPLITTINGS, substeps, planes=tuple(_planes(3, self.split)))
+
+
+#: where the splittings have compiled stage code: system form (class name) -> module
+COMPILED_SPLITTINGS = {"Top3Form": "lieint.fast.top3_split"}
+
 
 class _Pieces:
     """The exact flows of one system: plane rotations and (heavy top) the gravity kick."""

@@ -20,14 +20,18 @@ from lieint.methods.registry import get_method, method_specs
 
 
 def _compiled(adaptive: bool) -> list[tuple[str, str | None]]:
-    """(name, coordinates) of every registered method and coordinate map with a compiled form."""
+    """(name, coordinates) of every registered method and coordinate map with a compiled
+    tableau form (RKMK, classical RK: what compiled pieces step; a map with stage code of its
+    own, such as Moser–Veselov on the 3D top, is tested in tests/fast)."""
     out = []
     for name, spec in method_specs().items():
         for coordinates in spec.coordinates or (None,):
             method = get_method(name, coordinates=coordinates)
             form = method.compiled()
-            # the energy-keeping pairs run compiled on the 3D top only (tests/adaptive/)
-            if form is not None and method.adaptive == adaptive and not getattr(form, "keeps_energy", False):
+            # the energy-keeping pairs run compiled on the 3D top only (tests/adaptive/), the maps
+            # (Moser–Veselov, splittings) on the tops' forms only (tests/fast/test_compiled_*.py)
+            family = getattr(form, "family", None)
+            if family in ("rkmk", "rk") and method.adaptive == adaptive and not getattr(form, "keeps_energy", False):
                 out.append((name, coordinates))
     return out
 

@@ -1,0 +1,84 @@
+"""Every (method, built-in system) pair runs compiled, or is a declared exception.
+
+Registry-driven: every registered method (in each coordinate map) on every built-in system it
+applies to either runs on the compiled engine or is listed in :data:`NUMPY_PATH` — and then says
+so in ``sol.stats.backend_reason`` and is named in docs/architecture.md's table of what does not
+run compiled. The list works both ways: a pair listed that runs compiled fails too (the list
+and the docs stay current when a method gains a compiled form).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from bodies import applies, coverage_systems, initial, registered_methods
+
+import lieint
+from lieint.methods.registry import get_method
+
+#: the systems of the coverage tests (tests/fast/test_engine_coverage.py runs the same)
+SYSTEMS = coverage_systems()
+#: every one of them
+ALL = frozenset(SYSTEMS)
+
+#: the pairs that run on the numpy path: method -> the systems (labels of SYSTEMS)
+NUMPY_PATH: dict[str, frozenset] = {
+    # the exact free-body flow (elliptic functions and the third-kind integral)
+    "exact_flow": frozenset({"euler_top n=3"}),
+    # the splittings' exact sub-flows beyond the free 3D top's rotations
+    "splitting2": frozenset({"euler_top n=4", "heavy_top n=3", "heavy_top n=4"}),
+    "splitting4": frozenset({"euler_top n=4", "heavy_top n=3", "heavy_top n=4"}),
+    "splitting6": frozenset({"euler_top n=4", "heavy_top n=3", "heavy_top n=4"}),
+    # the implicit Lie–Poisson midpoint
+    "lie_midpoint": frozenset({"euler_top n=3", "euler_top n=4", "heavy_top n=3", "heavy_top n=4"}),
+    # commutator-free and Crouch–Grossman methods, the energy-keeping pairs: everywhere
+    "cf3": ALL,
+    "cf4": ALL,
+    "cg3": ALL,
+    "cg4a": ALL,
+    "rkmk23+energy": ALL,
+    "rkmk45+energy": ALL,
+    "rkmk853+energy": ALL,
+}
+
+#: how docs/architecture.md's table names each listed method
+DOC_NAMES = {
+    "exact_flow": "exact flow",
+    "splitting": "splittings",
+    "lie_midpoint": "midpoint",
+    "cf": "commutator-free",
+    "cg": "Crouch–Grossman",
+    "energy": "energy-keeping pairs",
+}
+
+
+@pytest.mark.parametrize("label", sorted(SYSTEMS))
+def test_every_pair_runs_compiled_or_is_a_declared_exception(label):
+    system = SYSTEMS[label]
+    y0 = initial(system, np.random.default_rng(2))
+    for name, coordinates in registered_methods():
+        method = get_method(name, coordinates=coordinates)
+        if method.self_controlled or not applies(method, system):
+            continue
+        kw = dict(rtol=1e-6, atol=1e-9) if method.adaptive else dict(h=0.01)
+        sol = lieint.integrate(system, y0, (0.0, 0.03), method=name, coordinates=coordinates, **kw)
+        where = (label, name, coordinates, sol.stats.backend_reason)
+        assert sol.success, where
+        if label in NUMPY_PATH.get(name, ()):
+            assert sol.stats.backend == "numpy", where
+            assert f"{method.name!r} has no compiled" in sol.stats.backend_reason, where
+        else:
+            assert sol.stats.backend == "numba", where
+
+
+def test_the_declared_exceptions_are_in_the_architecture_table():
+    text = (Path(__file__).resolve().parents[2] / "docs" / "architecture.md").read_text()
+    table = text[text.index("What does not run compiled") :]
+    table = table[: table.index("\n\n", table.index("| run |"))]
+    for name in NUMPY_PATH:
+        words = [v for k, v in DOC_NAMES.items() if k in name]
+        assert words, name
+        assert all(word in table for word in words), (name, words)
+    assert "Moser–Veselov" not in table  # compiled on every top it applies to
