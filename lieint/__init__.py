@@ -18,7 +18,7 @@ the one driving loop, :class:`Solution`) → front ends (``ivp.integrate``, ``sc
 ``study``, ``cli``).
 """
 
-from . import analysis, rotations
+from . import analysis, rotations, tangent
 from .driver import Stats
 from .groups import SE, SO, DexpinvRangeError
 from .ivp import LieStepWarning, integrate
@@ -31,6 +31,7 @@ from .systems.atoms import AtomsBody
 from .systems.euler_top_exact import euler_top_flip_times
 from .systems.particles import CentralForceParticle, ConstantForceParticle, SurfaceParticle
 from .systems.prescribed import PrescribedRotation
+from .tangent import tangent_flow
 
 __version__ = "0.2.0"
 
@@ -61,4 +62,6 @@ __all__ = [
     "rotations",
     "run",
     "sweep",
+    "tangent",
+    "tangent_flow",
 ]
