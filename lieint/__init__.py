@@ -19,6 +19,7 @@ the one driving loop, :class:`Solution`) → front ends (``ivp.integrate``, ``sc
 """
 
 from . import analysis, rotations, tangent
+from .analysis.chaos import lyapunov, megno
 from .driver import Stats
 from .groups import SE, SO, DexpinvRangeError
 from .ivp import LieStepWarning, integrate
@@ -58,6 +59,8 @@ __all__ = [
     "euler_top_flip_times",
     "get_method",
     "integrate",
+    "lyapunov",
+    "megno",
     "method_names",
     "rotations",
     "run",
