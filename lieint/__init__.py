@@ -20,6 +20,7 @@ the one driving loop, :class:`Solution`) → front ends (``ivp.integrate``, ``sc
 
 from . import analysis, rotations, tangent
 from .analysis.chaos import lyapunov, megno
+from .analysis.sections import poincare
 from .driver import Stats
 from .groups import SE, SO, DexpinvRangeError
 from .ivp import LieStepWarning, integrate
@@ -62,6 +63,7 @@ __all__ = [
     "lyapunov",
     "megno",
     "method_names",
+    "poincare",
     "rotations",
     "run",
     "sweep",
