@@ -15,7 +15,7 @@ Both carry tangent vectors along a run with the exact derivative of the method's
 
 The tangent vectors are renormalised before their growth could reach the complex step's
 limit (a vector grown by 10²⁰ would make ``ε²|v|²`` felt in the real part). Not compiled:
-:data:`lieint.tangent.BACKEND_REASON`.
+:data:`lieint.tangent.flow.BACKEND_REASON`.
 """
 
 from __future__ import annotations
@@ -176,7 +176,7 @@ def lyapunov(
     h : float
         The fixed step (the grid of :func:`lieint.integrate`).
     method : str or Method, default "rkmk4"
-        The method (one with a tangent map: :data:`lieint.tangent.REFUSED`).
+        The method (one with a tangent map: :data:`lieint.tangent.flow.REFUSED`).
     k : int, optional
         How many exponents (the largest k); default the whole tangent dimension.
     coordinates : {"exp", "cayley"}, optional
@@ -292,7 +292,7 @@ def megno(
     --------
     >>> import lieint
     >>> top = lieint.EulerTop.from_principal_moments([1.0, 2.0, 3.0], orientation=False)
-    >>> y0 = top.initial_state(angular_velocity=[0.3, 1.0, 0.4])
+    >>> y0 = top.initial_state(angular_velocity=[1.0, 0.3, 0.2])
     >>> result = lieint.megno(top, y0, (0.0, 200.0), h=0.05)
     >>> bool(abs(result.mean - 2.0) < 0.2)  # quasi-periodic
     True

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -60,7 +61,7 @@ def poincare(
     method: str | Method = "rkmk4",
     *,
     direction: float = 1.0,
-    **options,
+    **options: Any,
 ) -> PoincareSection:
     """The crossings of the surface ``section(t, y) = 0`` by a run, located to round-off.
 

@@ -7,12 +7,9 @@
 """
 
 from .coordinates import TangentChart, chart_of
-from .flow import BACKEND_REASON, COMPLEX_STEP, REFUSED, TangentFlow, TangentStepper, step_schedule, tangent_flow
+from .flow import TangentFlow, TangentStepper, step_schedule, tangent_flow
 
 __all__ = [
-    "BACKEND_REASON",
-    "COMPLEX_STEP",
-    "REFUSED",
     "TangentChart",
     "TangentFlow",
     "TangentStepper",

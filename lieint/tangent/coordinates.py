@@ -23,6 +23,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..systems.base import LieGroupSystem
+
 __all__ = ["TangentChart", "chart_of"]
 
 
@@ -137,7 +139,7 @@ class TangentChart:
         return np.concatenate(parts, axis=-1)
 
 
-def chart_of(system) -> TangentChart:
+def chart_of(system: LieGroupSystem) -> TangentChart:
     """The tangent coordinates of ``system``'s state (see the module docstring).
 
     Parameters

@@ -295,7 +295,7 @@ def tangent_flow(
         last step onto ``t1``). An embedded pair steps its propagated solution so. Give
         either ``h`` or ``steps``.
     method : str or Method, default "rkmk4"
-        The method (see :data:`REFUSED` for those without a tangent map here).
+        The method (see :data:`lieint.tangent.flow.REFUSED` for those without a tangent map here).
     coordinates : {"exp", "cayley"}, optional
         The coordinate map of a Lie-group method.
     vectors : array_like, shape (k, dim) or (k, *b, dim), optional
