@@ -4,7 +4,7 @@ Each table of ``docs/measurements/work_precision.md`` between ``<!-- study-table
 ``<!-- /study-table -->`` is printed by the command written next to it; this script runs each
 command once (through the same code as the command line, :func:`lieint.compare.studies`), prints
 every table with its command, and with ``--write`` puts them into that page.
-``tests/test_guide_tables.py`` checks that every row shown can be produced by the command
+``tests/project/test_guide_tables.py`` checks that every row shown can be produced by the command
 printed next to it.
 
     OPENBLAS_NUM_THREADS=1 python benchmarks/guide_tables.py [--write]

@@ -22,7 +22,7 @@ each raveled, as ``np.concatenate``), for
   ``Γ̇ = −ΩΓ``, R and the centre as the ball's.
 
 :func:`check` compares one with ``system.vector_field`` at random states (the benchmarks call
-it before timing; ``tests/test_lean_rhs.py`` too).
+it before timing; ``tests/benchmarks/test_lean_rhs.py`` too).
 """
 
 from __future__ import annotations

@@ -460,7 +460,7 @@ class Report:
             "Timings are process CPU time on a shared machine: *idle* means no CPU-bound process of the "
             "benchmark's own, and each table gives the load average. Near the separatrix the differences between "
             "`exact_flow` and FRB_STEP are FRB_STEP's: lieint's exact solution agrees there with an "
-            "extended-precision Taylor integrator (tests/test_exact_attitude.py).",
+            "extended-precision Taylor integrator (tests/systems/test_euler_top_exact.py).",
         ]
         path.parent.mkdir(parents=True, exist_ok=True)
         path.write_text("\n".join(head + self.lines) + "\n")

@@ -19,6 +19,7 @@ the one driving loop, :class:`Solution`) → front ends (``ivp.integrate``, ``sc
 """
 
 from . import analysis, rotations, tangent
+from ._version import __version__
 from .analysis.chaos import lyapunov, megno
 from .analysis.sections import poincare
 from .driver import Stats
@@ -34,8 +35,6 @@ from .systems.euler_top_exact import euler_top_flip_times
 from .systems.particles import CentralForceParticle, ConstantForceParticle, SurfaceParticle
 from .systems.prescribed import PrescribedRotation
 from .tangent import tangent_flow
-
-__version__ = "0.2.0"
 
 __all__ = [
     "SE",

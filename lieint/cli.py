@@ -6,27 +6,9 @@ import argparse
 import math
 import sys
 
+from ._arguments import positive_float, positive_int
+
 __all__ = ["main"]
-
-
-def _positive_float(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a positive number, got {text!r}") from None
-    if not value > 0 or value == float("inf"):
-        raise argparse.ArgumentTypeError(f"expected a positive finite number, got {text!r}")
-    return value
-
-
-def _positive_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}")
-    return value
 
 
 def _build_parser() -> argparse.ArgumentParser:
@@ -72,27 +54,27 @@ def _build_parser() -> argparse.ArgumentParser:
     )
     run.add_argument(
         "--checkpoint-every",
-        type=_positive_int,
+        type=positive_int,
         metavar="STEPS",
         help="write the checkpoint every STEPS steps (besides every --checkpoint-seconds, default 60 s)",
     )
     run.add_argument(
         "--checkpoint-seconds",
-        type=_positive_float,
+        type=positive_float,
         default=60.0,
         metavar="S",
         help="write the checkpoint at least every S seconds of wall time (default: 60)",
     )
     run.add_argument(
         "--stop-after",
-        type=_positive_int,
+        type=positive_int,
         metavar="STEPS",
         help="stop (resumable with --resume) after STEPS steps of this call",
     )
     run.add_argument("--quiet", action="store_true", help="no progress bar or progress lines")
     run.add_argument(
         "--monitor-every",
-        type=_positive_int,
+        type=positive_int,
         metavar="STEPS",
         help="print each saved invariant's drift so far every STEPS steps",
     )
@@ -114,7 +96,7 @@ def _build_parser() -> argparse.ArgumentParser:
     plot.add_argument("--out", metavar="FIG", help="output figure, .png or .svg (default: RUN.png beside the file)")
     plot.add_argument(
         "--timeout",
-        type=_positive_float,
+        type=positive_float,
         default=20.0,
         metavar="S",
         help="seconds allowed for reading the file, all stages together (default: 20)",
@@ -132,7 +114,7 @@ def _build_parser() -> argparse.ArgumentParser:
     info.add_argument("run", metavar="RUN.h5|SWEEP.zarr", help="a run file (lieint run --out) or a sweep store")
     info.add_argument(
         "--timeout",
-        type=_positive_float,
+        type=positive_float,
         default=4.0,
         metavar="S",
         help="seconds allowed for reading and verifying it, all stages together (default: 4)",
@@ -207,7 +189,7 @@ def _add_sweep_parser(sub) -> None:
         metavar="KEY=START:STOP:NUM",
         help="vary a scene key over NUM values from START to STOP (or KEY=V1,V2,...); repeatable: the product",
     )
-    sw.add_argument("--ensemble", type=_positive_int, metavar="N", help="N initial states per point (Gaussian)")
+    sw.add_argument("--ensemble", type=positive_int, metavar="N", help="N initial states per point (Gaussian)")
     sw.add_argument("--seed", type=int, default=0, help="seed of the ensemble (default: 0)")
     sw.add_argument(
         "--spread", type=float, help="standard deviation of the ensemble's perturbation (default: the scene's)"
@@ -219,8 +201,8 @@ def _add_sweep_parser(sub) -> None:
         metavar="ADDRESS",
         help="address of a running dask scheduler (tcp://host:8786), or 'synchronous' for this process",
     )
-    where.add_argument("--workers", type=_positive_int, metavar="K", help="worker processes of the local cluster")
-    sw.add_argument("--chunk", type=_positive_int, metavar="M", help="members per chunk (default: ~32 chunks)")
+    where.add_argument("--workers", type=positive_int, metavar="K", help="worker processes of the local cluster")
+    sw.add_argument("--chunk", type=positive_int, metavar="M", help="members per chunk (default: ~32 chunks)")
     sw.add_argument(
         "--resume",
         action="store_true",
@@ -230,7 +212,7 @@ def _add_sweep_parser(sub) -> None:
     sw.add_argument("--overwrite", action="store_true", help="replace an existing lieint sweep store (nothing else)")
     sw.add_argument(
         "--connect-timeout",
-        type=_positive_float,
+        type=positive_float,
         default=20.0,
         metavar="S",
         help="seconds allowed to reach --scheduler and check its versions (default: 20)",

@@ -28,7 +28,7 @@ def add_compare_parser(sub, scene=None):
     """Add the ``compare`` sub-command to an ``argparse`` sub-parser collection."""
     import argparse
 
-    from .cli import _positive_float, _positive_int
+    from ._arguments import positive_float, positive_int
 
     scene = default_scene() if scene is None else scene
     moments = tuple(float(x) for x in scene.mass_tensor.trace() - scene.mass_tensor.diagonal())
@@ -61,9 +61,9 @@ def add_compare_parser(sub, scene=None):
         "--methods",
         help="comma-separated method names (default: every registered method that applies; 'all' is the same)",
     )
-    cmp.add_argument("--repeats", type=_positive_int, help="timed calls per point after the warm-up (3; --full: 5)")
+    cmp.add_argument("--repeats", type=positive_int, help="timed calls per point after the warm-up (3; --full: 5)")
     cmp.add_argument(
-        "--threads", type=_positive_int, default=1, help="threads of numba's compiled kernels during the study"
+        "--threads", type=positive_int, default=1, help="threads of numba's compiled kernels during the study"
     )
     cmp.add_argument(
         "--backend",
@@ -73,14 +73,14 @@ def add_compare_parser(sub, scene=None):
     )
     cmp.add_argument(
         "--max-seconds",
-        type=_positive_float,
+        type=positive_float,
         default=None,
         metavar="S",
         help="stop a method's sweep after a point taking more than S CPU seconds per call (listed as skipped; "
         "default: 1 s, with --full 5 s)",
     )
     cmp.add_argument("--full", action="store_true", help="the full sweep (6-8 points per method) and 5 repeats")
-    cmp.add_argument("--t-end", type=_positive_float, help="override the scenes' span (T = t_end - t_start)")
+    cmp.add_argument("--t-end", type=positive_float, help="override the scenes' span (T = t_end - t_start)")
     cmp.add_argument("--out-dir", default="lieint-compare", help="where the tables and figures go")
     cmp.add_argument("--no-plots", action="store_true", help="write the tables only")
     cmp.add_argument(
@@ -90,7 +90,7 @@ def add_compare_parser(sub, scene=None):
         "table fits 120 columns",
     )
     cmp.add_argument(
-        "--long-run", type=_positive_float, default=10.0, metavar="FACTOR", help="span of long_run.png in scene spans"
+        "--long-run", type=positive_float, default=10.0, metavar="FACTOR", help="span of long_run.png in scene spans"
     )
     cmp.add_argument(
         "--format",

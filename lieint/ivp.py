@@ -202,7 +202,7 @@ def integrate(
         )
     stepper = get_method(method, coordinates=coordinates, **_options(method, dexpinv_degree))
     y = system.validate_state(y0, "y0")
-    t0, t1 = _check_t_span(t_span)
+    t0, t1 = check_t_span(t_span)
     if isinstance(save_every, bool) or not isinstance(save_every, (int, np.integer)) or save_every < 1:
         raise ValueError(f"`save_every` must be a positive integer; got {save_every!r}.")
     if not isinstance(project, (bool, np.bool_)):
@@ -459,7 +459,7 @@ def _finite_max(rho) -> float:
     return float(np.maximum.reduce(np.where(np.isfinite(rho), rho, 0.0), axis=None, initial=0.0))
 
 
-def _check_t_span(t_span) -> tuple[float, float]:
+def check_t_span(t_span) -> tuple[float, float]:
     try:
         t0, t1 = (float(v) for v in t_span)
     except (TypeError, ValueError):

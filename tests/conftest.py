@@ -95,3 +95,58 @@ def pytest_terminal_summary(terminalreporter):
             fh.write("| case | figure | value | checked against |\n|---|---|---|---|\n")
             for case, figure, value, truth in HARD_FIGURES:
                 fh.write(f"| `{case}` | {figure} | {value} | {truth} |\n")
+
+
+# -- run files ------------------------------------------------------------------------------
+def read_all(path):
+    """Every series and the root attributes of a run file, read whole."""
+    import h5py
+
+    with h5py.File(path, "r", swmr=True) as f:  # swmr: also readable right after a SIGKILL
+        out = {"t": f["t"][()]}
+        for group in ("states", "invariants", "outputs"):
+            if group in f:
+                out.update({f"{group}/{k}": v[()] for k, v in f[group].items()})
+        return out, dict(f.attrs)
+
+
+def assert_identical(a, b):
+    """Two :func:`read_all` series equal bit for bit."""
+    assert a.keys() == b.keys()
+    for key in a:
+        assert a[key].shape == b[key].shape, key
+        assert np.array_equal(a[key], b[key]), key  # bit for bit
+
+
+# -- scenes ---------------------------------------------------------------------------------
+#: the Dzhanibekov top with each flip recorded as an event (its flip times are known exactly)
+FLIPS = """
+[scene]
+name = "Dzhanibekov top, each flip recorded"
+
+[body]
+principal_moments = [1.0, 2.0, 3.0]
+
+[support]
+type = "fixed_point"
+
+[initial]
+angular_velocity = [0.01, 1.0, 0.01]
+
+[integrator]
+method = "rkmk853"
+step = 0.01
+t_end = 60.0
+rtol = 1e-13
+atol = 1e-16
+save_every = 20
+
+[output]
+quantities = ["energy"]
+
+# w₂ = Ω[0, 2] (w = (Ω₂₁, Ω₀₂, Ω₁₀)) changes sign at each flip
+[[events]]
+name = "flip"
+output = "angular_velocity"
+component = [0, 2]
+"""

@@ -1,7 +1,7 @@
 """Write :mod:`lieint.fast.small_cayley`: the Cayley map of so(n) for 4 ≤ n ≤ 6, unrolled.
 
 Run ``python -m lieint.fast._generate_cayley`` after changing this generator;
-``tests/test_small_products.py`` checks that the module is its output. (Generated source, not
+``tests/groups/test_small_products.py`` checks that the module is its output. (Generated source, not
 code built at import: numba caches machine code only for functions of a file on disk.)
 """
 

@@ -1,7 +1,7 @@
 """Write :mod:`lieint.fast.small_products`: the n × n products for 3 ≤ n ≤ 8, unrolled.
 
 Run ``python -m lieint.fast._generate_products`` after changing this generator;
-``tests/test_small_products.py`` checks that the module is its output. (Generated source, not
+``tests/groups/test_small_products.py`` checks that the module is its output. (Generated source, not
 code built at import: numba caches machine code only for functions of a file on disk.)
 """
 

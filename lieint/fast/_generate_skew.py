@@ -2,7 +2,7 @@
 matrices, 4 ≤ n ≤ 6, unrolled and using the skew symmetry.
 
 Run ``python -m lieint.fast._generate_skew`` after changing this generator;
-``tests/test_small_skew.py`` checks that the module is its output. (Generated source, not code
+``tests/groups/test_small_skew.py`` checks that the module is its output. (Generated source, not code
 built at import: numba caches machine code only for functions of a file on disk.)
 """
 

@@ -68,6 +68,8 @@ def compilations() -> int:
     cache) so far; the listener counts them from the first use of the engine on."""
     _install_notice()
     return _COMPILED[0]
+
+
 _NOTICE_AFTER = 2.0  # seconds: an unnamed compilation this long is mentioned too
 _PROGRESS_EVERY = 10.0  # seconds between "still compiling" lines
 

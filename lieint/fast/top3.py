@@ -14,7 +14,7 @@ The generic path moves dicts of batched matrices through Python for every stage;
   than threads, runs serially in the calling thread.
 
 ``lieint.integrate`` dispatches here automatically (``backend="auto"``) and the generic numpy
-path remains the reference: ``tests/test_fast.py`` checks that they agree to round-off.
+path remains the reference: ``tests/fast/test_top3.py`` checks that they agree to round-off.
 """
 
 from __future__ import annotations
@@ -401,6 +401,7 @@ NAMESPACES = {
     }
     for family, stepper in (("rkmk", form_lie_step), ("rk", form_rk_step))
 }
+
 
 @njit(cache=True)
 def _minus_hat_rows(w, out):

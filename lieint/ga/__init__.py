@@ -14,13 +14,12 @@ from .algebra import (
     algebra,
     bivector_to_skew,
     from_values,
-    matrix_to_rotor,
     resolve,
     rotor_to_matrix,
     skew_to_bivector,
     to_values,
 )
-from .exponential import exp
+from .exponential import exp, matrix_to_rotor
 from .motor import MotorGroup, MotorRigidBody
 from .results import as_multivectors, read_multivectors
 from .rotor_top import RotorEulerTop, Spin

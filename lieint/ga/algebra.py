@@ -1,6 +1,6 @@
 """Bivectors and rotors of Cl(n) through ``clifford``, batched (docs/theory.md §1).
 
-Sign convention, checked once and for all in ``tests/test_ga.py``: the skew matrix of a
+Sign convention, checked once and for all in ``tests/ga/test_ga.py``: the skew matrix of a
 bivector ω acts on vectors as the commutator product ``x ↦ ω × x = ½(ωx − xω)`` (the entry
 ``[i, j]``, i < j, is the coefficient of the blade ``e_ij = e_i ∧ e_j``), and the rotor
 ``exp(tω/2)`` moves ``x ↦ R x R̃`` with ``d/dt = ω × x``. So the rotation matrix ``exp(X)``
@@ -19,14 +19,11 @@ from functools import cache, cached_property
 import clifford
 import numpy as np
 
-from ..groups.so import so_log
-
 __all__ = [
     "GA",
     "algebra",
     "bivector_to_skew",
     "from_values",
-    "matrix_to_rotor",
     "resolve",
     "rotor_to_matrix",
     "skew_to_bivector",
@@ -139,15 +136,6 @@ class GA:
     def sandwich(self, R: np.ndarray, x: np.ndarray) -> np.ndarray:
         """``R x R̃``."""
         return self.product(self.product(R, x), self.reverse(R))
-
-    def rotor_exp(self, X: np.ndarray) -> np.ndarray:
-        """Rotor ``exp(ω/2)`` of the bivector of the skew matrix X (Spin(n) element).
-
-        Exact to round-off for every bivector, simple or not (:func:`lieint.ga.exp`).
-        """
-        from .exponential import rotor_exp_of_skew
-
-        return rotor_exp_of_skew(X, 0.5)
 
     def normalize(self, R: np.ndarray) -> np.ndarray:
         """Nearest rotor: ``R (R̃R)^{-1/2}`` — the Clifford analogue of the polar factor.
@@ -338,22 +326,6 @@ def rotor_to_matrix(R, n=None) -> np.ndarray:
     """
     values, ga, _ = resolve(R, n, "R")
     return ga.rotor_matrix(values)
-
-
-def matrix_to_rotor(Q, reference=None, *, as_multivector: bool = True):
-    """Rotor(s) of rotation matrices: ``exp(log(Q)/2)``.
-
-    The double cover leaves a sign free; it is chosen so that the rotor has a nonnegative
-    scalar part, or, given ``reference`` rotors (clifford objects or coefficient arrays), a
-    nonnegative inner product with them (continuity along a trajectory).
-    """
-    Q = np.asarray(Q, dtype=float)
-    ga = algebra(Q.shape[-1])
-    R = ga.rotor_exp(so_log(Q))
-    ref = resolve(reference, ga.n, "reference")[0] if reference is not None else ga.scalar(np.ones(R.shape[:-1]))
-    sign = np.where(np.sum(R * ref, axis=-1, keepdims=True) < 0, -1.0, 1.0)
-    R = sign * R
-    return _to_mv(R, ga) if as_multivector else R
 
 
 def _layout_of(mv):

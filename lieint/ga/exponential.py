@@ -23,9 +23,10 @@ import math
 
 import numpy as np
 
-from .algebra import GA, algebra, from_values, resolve
+from ..groups.so import so_log
+from .algebra import GA, _to_mv, algebra, from_values, resolve
 
-__all__ = ["exp", "rotor_exp_of_skew", "simple_planes", "so_exp_with_rotor"]
+__all__ = ["exp", "matrix_to_rotor", "rotor_exp_of_skew", "simple_planes", "so_exp_with_rotor"]
 
 
 def simple_planes(X: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -255,3 +256,19 @@ def exp(B, n: int | None = None):
             f"`B` must be a bivector (grade 2 only); got other grades of size {float(np.max(np.abs(other))):.3g}."
         )
     return from_values(rotor_exp_of_skew(ga.skew(values)), ga, kind)
+
+
+def matrix_to_rotor(Q, reference=None, *, as_multivector: bool = True):
+    """Rotor(s) of rotation matrices: ``exp(log(Q)/2)``.
+
+    The double cover leaves a sign free; it is chosen so that the rotor has a nonnegative
+    scalar part, or, given ``reference`` rotors (clifford objects or coefficient arrays), a
+    nonnegative inner product with them (continuity along a trajectory).
+    """
+    Q = np.asarray(Q, dtype=float)
+    ga = algebra(Q.shape[-1])
+    R = rotor_exp_of_skew(so_log(Q), 0.5)
+    ref = resolve(reference, ga.n, "reference")[0] if reference is not None else ga.scalar(np.ones(R.shape[:-1]))
+    sign = np.where(np.sum(R * ref, axis=-1, keepdims=True) < 0, -1.0, 1.0)
+    R = sign * R
+    return _to_mv(R, ga) if as_multivector else R

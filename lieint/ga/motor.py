@@ -44,7 +44,8 @@ from ..groups.vector import ProductGroup, VectorSpace
 from ..systems.base import Invariant, LieGroupSystem, Output, State
 from ..systems.euler_top import EulerTop
 from ..systems.mass import check_mass_tensor
-from .algebra import algebra, matrix_to_rotor
+from .algebra import algebra
+from .exponential import matrix_to_rotor
 from .pga import PGA
 from .spin import rotor_matrix
 

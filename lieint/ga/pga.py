@@ -1,6 +1,6 @@
 """Projective geometric algebra Cl(3,0,1) (clifford's ``pga`` layout), batched.
 
-Conventions, all read off clifford's own products and checked in ``tests/test_motor.py``
+Conventions, all read off clifford's own products and checked in ``tests/ga/test_motor.py``
 (blade order ``1, e0, e1, e2, e3, e01, e02, e03, e12, e13, e23, e012, e013, e023, e123, e0123``;
 ``e0² = 0``):
 

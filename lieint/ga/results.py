@@ -25,7 +25,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .algebra import _to_mv, algebra, matrix_to_rotor
+from .algebra import _to_mv, algebra
+from .exponential import matrix_to_rotor
 
 __all__ = ["MULTIVECTOR_KINDS", "as_multivectors", "read_multivectors", "solution_multivectors"]
 

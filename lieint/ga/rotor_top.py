@@ -18,6 +18,7 @@ from ..groups.bivectors import bivector_dimension
 from ..groups.so import SO
 from ..systems.euler_top import EulerTop
 from .algebra import algebra
+from .exponential import rotor_exp_of_skew
 from .spin import RotorForm
 
 __all__ = ["RotorEulerTop", "Spin"]
@@ -51,7 +52,7 @@ class Spin(LieGroup):
         return self.ga.reverse(g)
 
     def exp(self, X):
-        return self.ga.rotor_exp(X)
+        return rotor_exp_of_skew(X, 0.5)
 
     def log(self, g):
         """The principal logarithm of the rotation under ``g`` (rotors with positive scalar part)."""

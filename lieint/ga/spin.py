@@ -32,8 +32,8 @@ from ..groups.se import SE
 from ..groups.so import SO
 from ..groups.vector import ProductGroup
 from ..systems.base import Invariant, LieGroupSystem, Output, State
-from .algebra import GA, algebra, matrix_to_rotor, resolve
-from .exponential import _rotation_of_rotor3, rotor_exp_of_skew, simple_planes, so_exp_with_rotor
+from .algebra import GA, algebra, resolve
+from .exponential import _rotation_of_rotor3, matrix_to_rotor, rotor_exp_of_skew, simple_planes, so_exp_with_rotor
 
 __all__ = ["RotorForm", "SpinCover", "rotor_cay_of_skew", "rotor_form"]
 

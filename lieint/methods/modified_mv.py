@@ -15,7 +15,7 @@ the rigid body's up to a change of time and a rotation about Π, both functions 
 :func:`modified_coefficients`. They are checked here independently of that code: the local
 error of each degree, in 50-digit arithmetic against the Taylor series of the exact flow, falls
 like ``h^{2q+3}`` in both the momentum and the attitude for five ratios ``y/x`` — as many as
-the five coefficients of degree 4 in each series (``tests/test_modified_mv.py``).
+the five coefficients of degree 4 in each series (``tests/methods/test_modified_mv.py``).
 
 What the step keeps. Since x and y depend only on ``|Π|`` and H, and one MV step with
 constant moments Ĩ keeps ``|Π|`` and ``H̃ = S·H + D·|Π|²/2`` — hence H — the modified moments
@@ -26,7 +26,7 @@ full system (Π, R) (Hairer & Vilmart 2006, Table 2 and Theorem 4.3): each state
 MV map of a body that depends on the state (through H and ``|Π|``), which is no longer the map
 of one discrete Lagrangian. The defect ``MᵀJM − J`` of its Jacobian M in canonical coordinates
 is about the size of its local error (body (0.6, 0.8, 1), h = 0.3: 2.9e-3 at order 4, 4.3e-8
-at order 10; ``tests/test_modified_mv.py``). Only plain ``moser_veselov`` (S = 1, D = 0) is
+at order 10; ``tests/methods/test_modified_mv.py``). Only plain ``moser_veselov`` (S = 1, D = 0) is
 symplectic.
 
 In lieint's conventions (``A = −(BΩ + ΩB)``, the right action) the step is the

@@ -264,7 +264,7 @@ class MoserVeselovComposition(Method):
 
     The Moser–Veselov map is symmetric (its step with −h from ``(A_{k+1}, R_{k+1})`` is solved by
     ``ω_kᵀ`` and returns ``(A_k, R_k)``), so the symmetric compositions of
-    :func:`~lieint.methods.splitting.composition_coefficients` raise its order: ``"yoshida"``
+    :func:`~lieint.methods.composition.composition_coefficients` raise its order: ``"yoshida"``
     takes 3 (order 4) and 7 (order 6) Moser–Veselov steps per step. (Order 8 is not offered:
     its 21 substeps reach ``1.1 h`` in size, and the Moser–Veselov equation has no solution
     near the identity once ``h‖Ω‖`` approaches 1 for a flat body.) Each substep is a
@@ -285,13 +285,13 @@ class MoserVeselovComposition(Method):
     group_action = True
 
     def __post_init__(self):
-        from .splitting import composition_coefficients
+        from .composition import composition_coefficients
 
         composition_coefficients(self.order, self.composition)
 
     @property
     def coefficients(self) -> np.ndarray:
-        from .splitting import composition_coefficients
+        from .composition import composition_coefficients
 
         return composition_coefficients(self.order, self.composition)
 

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import importlib
 import pkgutil
+from pathlib import Path
 from typing import Any
 
 from .base import Method, MethodSpec
@@ -53,11 +54,12 @@ def _discover() -> None:
     global _discovered
     if _discovered:
         return
-    from .. import methods as package
-
-    for info in pkgutil.iter_modules(package.__path__):
+    # the method modules are found on disk, beside this one, and imported by name: the registry
+    # sits below them (they import it to register) and never imports the package itself
+    here = Path(__file__).resolve().parent
+    for info in pkgutil.iter_modules([str(here)]):
         if not info.name.startswith("_"):
-            importlib.import_module(f"{package.__name__}.{info.name}")
+            importlib.import_module(f"{__package__}.{info.name}")
     _discovered = True
 
 

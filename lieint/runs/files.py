@@ -20,7 +20,7 @@ import secrets
 import stat
 from pathlib import Path
 
-from .store import USER_BLOCK, StoreError
+from .errors import USER_BLOCK, StoreError, describe_kind
 
 __all__ = [
     "MARKER",
@@ -37,22 +37,6 @@ __all__ = [
 
 MARKER = b"lieint run file\nformat 1\n"
 _HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
-
-
-def describe_kind(st: os.stat_result) -> str:
-    """What a non-regular file is, in words."""
-    mode = st.st_mode
-    for test, name in (
-        (stat.S_ISDIR, "a directory"),
-        (stat.S_ISLNK, "a symbolic link"),
-        (stat.S_ISFIFO, "a FIFO (named pipe)"),
-        (stat.S_ISCHR, "a character device"),
-        (stat.S_ISBLK, "a block device"),
-        (stat.S_ISSOCK, "a socket"),
-    ):
-        if test(mode):
-            return name
-    return "a regular file" if stat.S_ISREG(mode) else "not a regular file"
 
 
 def _read_head(path: Path, size: int) -> bytes:

@@ -130,7 +130,7 @@ def _without_state(problem: str) -> str:
 
 def inspect_run(path, timeout: float = 4.0) -> RunInfo:
     """Inspect a run file within about ``timeout`` seconds (see the module docstring)."""
-    from .. import __version__
+    from .._version import __version__
     from ..text import printable
     from .store import attrs_digest
 

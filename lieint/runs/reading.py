@@ -81,7 +81,7 @@ def read_superblock(path) -> tuple[Superblock | None, str | None]:
     try:
         st = os.fstat(fd)
         if not stat.S_ISREG(st.st_mode):
-            from .files import describe_kind
+            from .errors import describe_kind
 
             return None, f"{str(path)!r} is {describe_kind(st)}, not a run file"
         size = st.st_size

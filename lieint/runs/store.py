@@ -22,7 +22,6 @@ when it is read. Nothing is ever pickled.
 
 from __future__ import annotations
 
-import errno
 import hashlib
 import json
 import os
@@ -30,6 +29,8 @@ import stat
 from pathlib import Path
 
 import numpy as np
+
+from .errors import USER_BLOCK, NoSpaceError, StoreError, is_no_space
 
 __all__ = ["Checkpoint", "NoSpaceError", "OutputFile", "StoreError", "attrs_digest"]
 
@@ -46,31 +47,6 @@ def hdf5_broken() -> bool:
     """True once a write failure left HDF5 objects that cannot be closed; a command-line process
     should then end with ``os._exit`` (HDF5's own exit handler would retry the failed writes)."""
     return bool(_BROKEN)
-
-
-#: bytes before the HDF5 superblock, left to the application: the run marker goes there
-USER_BLOCK = 512
-
-
-class StoreError(ValueError):
-    """An output or checkpoint that cannot be used; the message says which and why."""
-
-
-class NoSpaceError(StoreError):
-    """The disk is full or the file-size limit (``ulimit -f``) was reached while writing."""
-
-
-#: errno values of a full disk, an exceeded file-size limit or quota
-_NO_SPACE = {errno.ENOSPC, errno.EFBIG, errno.EDQUOT}
-_NO_SPACE_WORDS = ("no space left", "file too large", "disk quota", "errno = 28", "errno = 27", "errno = 122")
-
-
-def is_no_space(exc: BaseException) -> bool:
-    """True for an OSError of a full disk or file-size limit (h5py's errors carry it in the text)."""
-    if getattr(exc, "errno", None) in _NO_SPACE:
-        return True
-    text = str(exc).lower()
-    return any(w in text for w in _NO_SPACE_WORDS)
 
 
 def _plain_attr(value):
@@ -231,7 +207,7 @@ class OutputFile:
     def reopen(cls, path, rows: int) -> OutputFile:
         """Open an existing output for appending, truncated to ``rows`` rows (the checkpoint's)."""
         _regular_or_absent(Path(path), "output file")
-        from .superblock import clear_crash_flags  # imports StoreError from here
+        from .superblock import clear_crash_flags
 
         repaired = clear_crash_flags(path)
         out = cls._open_for_append(path, rows)

@@ -80,7 +80,7 @@ class StreamedRun:
     """
 
     def __init__(self, scene: Scene, out: Path):
-        from .. import __version__
+        from .._version import __version__
 
         self.version = __version__
         self.scene, self.out = scene, Path(out)

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import os
 
-from .store import StoreError
+from .errors import StoreError
 
 __all__ = ["clear_crash_flags", "lookup3", "superblock_offset"]
 

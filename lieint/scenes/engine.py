@@ -12,7 +12,7 @@ Only the effects the scene declares are simulated:
   ``orthogonality``, or the centre of a ball), the centre only if an output needs it
   (``center``, ``contact_path``, ``velocity``, or the energy of a ball on an incline);
 * a body given as ``system = "name"`` is built by that system's factory
-  (:mod:`lieint.systems.catalog`), from the scene's parameters;
+  (:mod:`lieint.catalog`), from the scene's parameters;
 * ``[body] orientation = "rotor"`` gives the rotor form of the system
   (:class:`lieint.ga.RotorForm`: R carried as a rotor of Spin(n)).
 
@@ -28,10 +28,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..catalog import make_system
 from ..ivp import integrate
 from ..solution import Solution
 from ..systems import ChaplyginBall, EulerTop, FreeBody, HeavyTop, RollingBall
-from ..systems.catalog import make_system
 from .schema import Scene, SceneError
 
 if sys.version_info >= (3, 11):
@@ -162,7 +162,7 @@ def scene_key_error(scene: Scene, exc: Exception) -> SceneError:
     import re
 
     from .reader import TableReader
-    from .schema import _TABLES
+    from .schema import TABLES
 
     text = str(exc)
     source = scene.source or "<scene>"
@@ -190,7 +190,7 @@ def scene_key_error(scene: Scene, exc: Exception) -> SceneError:
             data = tomllib.loads(scene.text)
         except (tomllib.TOMLDecodeError, RecursionError):  # pragma: no cover - it was parsed once
             data = {}
-        line = TableReader(data, scene.text, source, _TABLES).line_of(table, key)
+        line = TableReader(data, scene.text, source, TABLES).line_of(table, key)
     at = f" (line {line})" if line else ""
     return SceneError(f"{source}: [{table}] {key}{at}: {rest}")
 

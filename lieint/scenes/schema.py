@@ -18,7 +18,7 @@ A scene declares the body, the support (``fixed_point`` | ``rolling`` | ``free``
 
 A body given as ``system = "name"`` is built by that system's factory from the numeric
 ``parameters`` (a built-in system such as ``"heavy_top"``, or one another package installs under
-the entry-point group ``lieint.systems``, see :mod:`lieint.systems.catalog`); then ``[support]``
+the entry-point group ``lieint.systems``, see :mod:`lieint.catalog`); then ``[support]``
 and ``[forces]`` are not used and the ``[initial]`` keys go to ``system.initial_state``.
 
 Every number may be written as a string in a small safe grammar (``"pi/4"``), see
@@ -48,7 +48,7 @@ SUPPORTS = ("fixed_point", "rolling", "free")
 #: how a body carries its orientation: a rotation matrix, or a rotor of Spin(n) (lieint.ga)
 ORIENTATIONS = ("matrix", "rotor")
 
-_TABLES: dict[str, set[str]] = {
+TABLES: dict[str, set[str]] = {
     "scene": {"name", "description"},
     "body": {
         "mass_tensor",
@@ -157,7 +157,7 @@ class _Reader(TableReader):
     """The scene schema on top of the typed readers: one method per table."""
 
     def __init__(self, data: dict, text: str | None, source: str | None):
-        super().__init__(data, text, source or "<scene>", _TABLES)
+        super().__init__(data, text, source or "<scene>", TABLES)
 
     # -- the scene ---------------------------------------------------------------------
     def scene(self) -> Scene:
@@ -196,9 +196,9 @@ class _Reader(TableReader):
         return tuple(out)
 
     def _scene(self) -> Scene:
-        unknown = sorted(set(self.data) - set(_TABLES))
+        unknown = sorted(set(self.data) - set(TABLES))
         if unknown:
-            raise self.fail(unknown[0], None, f"unknown table; allowed tables are {sorted(_TABLES)}")
+            raise self.fail(unknown[0], None, f"unknown table; allowed tables are {sorted(TABLES)}")
         for name in _REQUIRED_TABLES:
             if name not in self.data:
                 raise SceneError(f"{self.source}: missing required table [{name}]")

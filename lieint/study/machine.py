@@ -65,7 +65,7 @@ def machine_info(threads: int | None = None) -> dict:
     import numpy
     import scipy
 
-    from .. import __version__
+    from .._version import __version__
 
     try:
         import numba

@@ -41,7 +41,7 @@ import numpy as np
 __all__ = ["EXACT_FLOOR", "RESOLVED", "Reference", "reference_for", "state_error"]
 
 #: relative accuracy assumed for the closed forms (round-off of the elliptic functions and the
-#: quadrature, measured against each other in tests/test_study.py)
+#: quadrature, measured against each other in tests/study/test_study.py)
 EXACT_FLOOR = 1e-13
 #: a measured error is resolved when it is at least this many times the reference's floor
 RESOLVED = 10.0

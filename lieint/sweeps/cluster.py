@@ -146,7 +146,7 @@ def check_versions(address: str, answer: dict) -> int:
     """Refuse a scheduler whose protocol packages or whose workers' lieint differ from this
     process's; returns the number of workers."""
     distributed = _distributed()
-    from .. import __version__
+    from .._version import __version__
 
     here = distributed.versions.get_versions()["packages"]
     theirs = answer.get("scheduler") or {}

@@ -27,7 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..scenes.schema import _TABLES
+from ..scenes.schema import TABLES
 
 __all__ = ["VARIABLE_TABLES", "SceneKey", "SweepError", "SweepKeyError", "parse_key", "parse_vary"]
 
@@ -118,8 +118,8 @@ def parse_key(text: str, data: dict) -> SceneKey:
     index = tuple(int(i) for i in re.findall(r"\[(\d+)\]", m.group("index")))
     key = SceneKey(text.strip(), path, index)
     table = path[0]
-    if table not in _TABLES:
-        raise SweepKeyError(f"sweep key {text!r}: unknown table {table!r}; the scene tables are {sorted(_TABLES)}")
+    if table not in TABLES:
+        raise SweepKeyError(f"sweep key {text!r}: unknown table {table!r}; the scene tables are {sorted(TABLES)}")
     if table not in VARIABLE_TABLES:
         raise SweepKeyError(
             f"sweep key {text!r}: the [{table}] table cannot be varied (every member shares the integrator, "
@@ -128,7 +128,7 @@ def parse_key(text: str, data: dict) -> SceneKey:
     if len(path) < 2:
         raise SweepKeyError(f"sweep key {text!r} names a table, not a number; add the key (e.g. '{table}.mass')")
     named = "system" in data.get("body", {})
-    allowed = _TABLES[table]
+    allowed = TABLES[table]
     if not (named and table == "initial") and path[1] not in allowed:
         raise SweepKeyError(
             f"sweep key {text!r}: unknown key {path[1]!r} of [{table}]; allowed keys are {sorted(allowed)}"

@@ -165,7 +165,7 @@ class SweepPlan:
     @cached_property
     def fingerprint(self) -> str:
         """SHA-256 of everything that determines the results (the store checks it on resume)."""
-        from .. import __version__
+        from .._version import __version__
 
         h = hashlib.sha256()
         spec = {
@@ -521,9 +521,9 @@ def plan_from_systems(
     stacked = {k: np.concatenate([y[k] for y in flat]) for k in first.fields}
     opts = {"h": h, "method": method, "coordinates": coordinates, "project": project, "save_every": save_every}
     _check_method(opts)
-    from ..ivp import _check_t_span
+    from ..ivp import check_t_span
 
-    t0, t1 = _check_t_span(t_span)
+    t0, t1 = check_t_span(t_span)
     for name in outputs:
         if name not in first.outputs and name not in first.invariants:
             raise SweepError(

@@ -244,7 +244,7 @@ class SweepStore:
         self.root = self._open()
 
     def _write_layout(self, where: Path) -> None:
-        from .. import __version__
+        from .._version import __version__
 
         plan = self.plan
         N, C = plan.nmembers, plan.nchunks

@@ -25,7 +25,7 @@ To add a system, subclass :class:`LieGroupSystem` and implement
 
 Generators and actions must be pure array functions (no hidden state), so that a compiled
 fast path can replace them. A system that another package installs under the entry-point group
-``lieint.systems`` can be named in a scene (see :mod:`lieint.systems.catalog`).
+``lieint.systems`` can be named in a scene (see :mod:`lieint.catalog`).
 """
 
 from __future__ import annotations
