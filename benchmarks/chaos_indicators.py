@@ -1,8 +1,9 @@
 """MEGNO and the largest Lyapunov exponent of integrable and chaotic tops at T = 2000 (and 4000).
 
-Integrable: the 3D free top, the Lagrange and Kovalevskaya tops, the 3D Chaplygin ball (MEGNO
-→ 2, the largest exponent → 0 like log(t)/t); chaotic: a generic heavy top at an energy where
-it is (MEGNO grows, the exponent stays). Every case is one call of ``lieint.megno`` /
+Integrable: the 3D free top, the 4D (Manakov) top, the Lagrange and Kovalevskaya tops, the 3D
+Chaplygin ball (MEGNO → 2, the largest exponent → 0 like log(t)/t); chaotic: a generic heavy
+top at an energy where it is (MEGNO grows, the exponent stays). Open: the 4D Chaplygin ball
+(a generic mass tensor), whose integrability the counting leaves undecided. Every case is one call of ``lieint.megno`` /
 ``lieint.lyapunov`` on the exact tangent map of the method (rkmk4, h as printed), so the
 numbers are reproducible: ``python benchmarks/chaos_indicators.py [--T 2000] [--h 0.05]
 [--only NAME] [--lyapunov] [--spectrum]``. Prints the load average (the cost column is a
@@ -28,8 +29,16 @@ def cases() -> dict:
     B = lieint.EulerTop.from_principal_moments([1.0, 1.5, 2.0]).B
     generic = lieint.HeavyTop(B, 1.0, [0.1, 0.05, 0.08], [0.0, 0.0, -9.81], orientation=False)
     ball = lieint.ChaplyginBall(np.diag([0.08, 0.12, 0.16]), 1.0, 1.0, orientation=False, track_center=False)
+    top4 = lieint.EulerTop(np.diag([0.6, 0.9, 1.2, 1.5]), orientation=False)
+    rng = np.random.default_rng(4)
+    Q, _ = np.linalg.qr(rng.normal(size=(4, 4)))
+    ball4 = lieint.ChaplyginBall(Q @ np.diag([0.06, 0.09, 0.12, 0.15]) @ Q.T, 1.0, 1.0, orientation=False,
+                                 track_center=False)  # fmt: skip
+    X = rng.normal(size=(4, 4))
     return {
         "free top 3D": (top, top.initial_state(angular_velocity=[1.0, 0.3, 0.2])),
+        "Manakov top 4D": (top4, top4.initial_state(Omega=0.5 * (X - X.T))),
+        "Chaplygin ball 4D (open)": (ball4, ball4.initial_state(Omega=0.5 * (X - X.T))),
         "free top 3D near the separatrix": (top, top.initial_state(angular_velocity=[0.3, 1.0, 0.4])),
         "Lagrange top": (lag, lag.initial_state(angular_velocity=[1.0, 0.5, 5.0])),
         "Kovalevskaya top": (kov, kov.initial_state(angular_velocity=[1.0, 0.5, 1.0])),
