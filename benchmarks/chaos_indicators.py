@@ -27,6 +27,7 @@ def cases() -> dict:
     lag = lieint.HeavyTop.lagrange(1.0, 0.5, mass=1.0, length=0.2, orientation=False)
     kov = lieint.HeavyTop.kovalevskaya(1.0, mass=1.0, length=0.1, orientation=False)
     B = lieint.EulerTop.from_principal_moments([1.0, 1.5, 2.0]).B
+    w = np.array([1.0, 2.0, 1.5])
     generic = lieint.HeavyTop(B, 1.0, [0.1, 0.05, 0.08], [0.0, 0.0, -9.81], orientation=False)
     ball = lieint.ChaplyginBall(np.diag([0.08, 0.12, 0.16]), 1.0, 1.0, orientation=False, track_center=False)
     top4 = lieint.EulerTop(np.diag([0.6, 0.9, 1.2, 1.5]), orientation=False)
@@ -43,7 +44,8 @@ def cases() -> dict:
         "Lagrange top": (lag, lag.initial_state(angular_velocity=[1.0, 0.5, 5.0])),
         "Kovalevskaya top": (kov, kov.initial_state(angular_velocity=[1.0, 0.5, 1.0])),
         "Chaplygin ball 3D": (ball, ball.initial_state(Omega=lieint.groups.bivectors.hat([0.3, 1.0, 0.4]))),
-        "generic heavy top": (generic, generic.initial_state(angular_velocity=[1.0, 2.0, 1.5])),
+        "generic heavy top": (generic, generic.initial_state(angular_velocity=2.0 * w / np.linalg.norm(w))),
+        "generic heavy top, energy 6.5": (generic, generic.initial_state(angular_velocity=w)),
     }
 
 
