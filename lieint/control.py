@@ -156,9 +156,10 @@ class StepSizeController:
         With ``sc = atol + rtol·|y₀|`` and RMS norms ``d₀ = ‖y₀/sc‖``, ``d₁ = ‖f₀/sc‖``
         (f the vector field of the state): ``h₀ = 0.01 d₀/d₁`` (1e-6 when either is below 1e-5),
         one explicit Euler step gives ``d₂ = ‖(f(y₀ + h₀f₀) − f₀)/sc‖/h₀``, and the step is
-        ``min(100 h₀, (0.01/max(d₁, d₂))^{1/(q+1)}, t₁ − t₀)``.
+        ``min(100 h₀, (0.01/max(d₁, d₂))^{1/(q+1)}, |t₁ − t₀|)`` — a size: the Euler step goes
+        towards ``t1``, backward in time when ``t1 < t0`` (the caller gives the step its sign).
         """
-        span = t1 - t0
+        span, direction = abs(t1 - t0), (1.0 if t1 >= t0 else -1.0)
         f0 = system.vector_field(t0, y0)
         names = list(y0)
         # every field flattened into one vector (in the order of y0): one scale, one norm per
@@ -185,7 +186,8 @@ class StepSizeController:
         h0 = 1e-6 if d0 < 1e-5 or d1 < 1e-5 else 0.01 * d0 / d1
         h0 = min(h0, span)
         with np.errstate(over="ignore", invalid="ignore"):
-            f1 = system.vector_field(t0 + h0, {k: y0[k] + h0 * f0[k] for k in y0})
+            step = direction * h0
+            f1 = system.vector_field(t0 + step, {k: y0[k] + step * f0[k] for k in y0})
             d2 = rms(_flat(f1, names) - flat_f0) / h0
         if not math.isfinite(d2):
             return h0

@@ -30,6 +30,7 @@ reuses it).
 
 from __future__ import annotations
 
+import functools
 from bisect import bisect_left, bisect_right
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -168,17 +169,9 @@ class LieHermite:
         for tj, vj, xij in earlier:
             theta = (float(tj) - self.t0) / h
             conditions += [(theta, 0, vj), (theta, 1, slope(vj, xij))]
-        m = len(conditions)
-        M = np.zeros((m, m))
-        for row, (theta, d, _) in enumerate(conditions):
-            powers = np.arange(m)
-            if d == 0:
-                M[row] = theta**powers
-            else:
-                M[row, 1:] = powers[1:] * theta ** (powers[1:] - 1)
-        self._coefficients = np.linalg.inv(M)  # polynomial coefficients per condition
+        self._coefficients = _hermite_coefficients(tuple((theta, d) for theta, d, _ in conditions))
         self._data = [(i, x) for i, (_, _, x) in enumerate(conditions) if x is not None]
-        self.degree = m - 1
+        self.degree = len(conditions) - 1
 
     def algebra(self, theta: float):
         """``u(θ)``."""
@@ -194,6 +187,25 @@ class LieHermite:
             w = _hermite(theta)[2]
             y = {k: v + w * self.mismatch[k] for k, v in y.items()}
         return y
+
+
+@functools.lru_cache(maxsize=256)
+def _hermite_coefficients(nodes: tuple[tuple[float, int], ...]) -> np.ndarray:
+    """The polynomial coefficients of the Hermite interpolant's basis, per condition: the inverse
+    of the matrix of the conditions ``(θ, derivative order)`` on ``1, θ, θ², …``. The same for
+    every step whose earlier nodes sit at the same θ (every step of a fixed grid), so computed
+    once (read only: the cached array is shared)."""
+    m = len(nodes)
+    M = np.zeros((m, m))
+    powers = np.arange(m)
+    for row, (theta, d) in enumerate(nodes):
+        if d == 0:
+            M[row] = theta**powers
+        else:
+            M[row, 1:] = powers[1:] * theta ** (powers[1:] - 1)
+    inverse = np.linalg.inv(M)
+    inverse.flags.writeable = False
+    return inverse
 
 
 class EmbeddedHermite:
@@ -219,7 +231,8 @@ class DenseOutput:
     """The continuous solution ``sol.sol(t)`` of a run: one interpolant per accepted step.
 
     Calling it with one time returns the state dict at that time; with an array of times
-    ``(m,)`` a dict of ``(m, *batch, ...)`` arrays. Times outside ``[t0, t_end]`` are refused.
+    ``(m,)`` a dict of ``(m, *batch, ...)`` arrays. Times outside the integrated span (from
+    ``t0`` to ``t_end``, which lies before ``t0`` for a run backward in time) are refused.
     The steps come one by one (:meth:`append`, the generic path) or as tables of steps
     (:meth:`extend`, a compiled run: each step's interpolant is built when first asked for).
 
@@ -237,45 +250,58 @@ class DenseOutput:
     def __init__(self, t0: float):
         self.t0 = float(t0)
         # segments of steps: ([step ends], [interpolants]) of the generic path, or a StepTable;
-        # `_last` holds each segment's last end, for the bisection
+        # `_last` holds each segment's last end, for the bisection. The bisections run on
+        # direction·t, increasing either way (direction −1: a run backward in time, set by the
+        # first step), so the step ends are kept as direction·t
         self._segments: list = []
         self._last: list[float] = []
+        self.direction = 1.0
+
+    def _key(self, t1: float) -> float:
+        """``direction·t1``, the first step setting the direction."""
+        if not self._segments and float(t1) < self.t0:
+            self.direction = -1.0
+        return self.direction * float(t1)
 
     def append(self, t1: float, piece: Callable[[float], dict]) -> None:
         """One step's interpolant, ending at ``t1``."""
+        key = self._key(t1)
         if not self._segments or isinstance(self._segments[-1], StepTable):
             self._segments.append(([], []))
-            self._last.append(float(t1))
+            self._last.append(key)
         ends, pieces = self._segments[-1]
-        ends.append(float(t1))
+        ends.append(key)
         pieces.append(piece)
-        self._last[-1] = float(t1)
+        self._last[-1] = key
 
     def extend(self, table: StepTable) -> None:
         """The steps of ``table`` (as far as its ``end``)."""
         if table.steps:
+            key = self._key(table.end)
             self._segments.append(table)
-            self._last.append(table.end)
+            self._last.append(key)
 
     @property
     def t_end(self) -> float:
-        return self._last[-1] if self._last else self.t0
+        return self.direction * self._last[-1] if self._last else self.t0
 
     @property
     def steps(self) -> int:
         return sum(len(seg[0]) if isinstance(seg, tuple) else seg.steps for seg in self._segments)
 
     def _one(self, t: float) -> dict:
-        if not self.t0 <= t <= self.t_end:
-            raise ValueError(f"`t` must lie in the integrated span [{self.t0}, {self.t_end}]; got {t!r}.")
+        key = self.direction * t
+        if not self.direction * self.t0 <= key <= self._last[-1]:
+            lo, hi = sorted((self.t0, self.t_end))
+            raise ValueError(f"`t` must lie in the integrated span [{lo}, {hi}]; got {t!r}.")
         # a time equal to a step's end belongs to that step (its interpolant ends there exactly)
-        k = min(bisect_left(self._last, t), len(self._segments) - 1)
+        k = min(bisect_left(self._last, key), len(self._segments) - 1)
         segment = self._segments[k]
         if isinstance(segment, StepTable):
             return segment(t)
         ends, pieces = segment
-        i = min(bisect_right(ends, t), len(pieces) - 1)
-        if i > 0 and ends[i - 1] == t:
+        i = min(bisect_right(ends, key), len(pieces) - 1)
+        if i > 0 and ends[i - 1] == key:
             i -= 1
         return pieces[i](t)
 
@@ -333,7 +359,7 @@ class StepTable:
     ``history`` and of the table for methods of order p > 4), or on the state arrays
     (:class:`EmbeddedHermite`). ``cayley``: the increments are Cayley coordinates of the step's
     element (its log is taken when the interpolant is built). ``end``: where the table stops
-    (a terminal event within its last step).
+    (a terminal event within its last step). The times decrease in a run backward in time.
     """
 
     def __init__(self, system, t, rows: dict, increments, *, cayley=False, extra_nodes=0, history=()):
@@ -344,6 +370,9 @@ class StepTable:
         self.history = list(history)  # (t_j, ξ_j, u_j) of the steps before the table
         self.steps = self.t.size - 1
         self.end = float(self.t[-1])
+        #: −1 when the steps go backward in time (the times decrease), else +1
+        self.direction = -1.0 if self.steps and self.t[-1] < self.t[0] else 1.0
+        self._negated: np.ndarray | None = None  # −t, for the bisection of a backward table
         self.nfev = 0
         self._field: dict[int, object] = {}
         self._pieces: dict[int, object] = {}
@@ -393,7 +422,12 @@ class StepTable:
 
     def step_of(self, t: float) -> int:
         """The step whose interval holds t (a time equal to a step's end belongs to that step)."""
-        j = int(np.searchsorted(self.t, t, side="left")) - 1
+        if self.direction > 0:
+            j = int(np.searchsorted(self.t, t, side="left")) - 1
+        else:  # decreasing times: the bisection on −t (negated once per table)
+            if self._negated is None or self._negated.size != self.t.size:
+                self._negated = -self.t
+            j = int(np.searchsorted(self._negated, -t, side="left")) - 1
         return min(max(j, 0), self.steps - 1)
 
     def __call__(self, t: float) -> dict:

@@ -23,6 +23,7 @@ as one that is not.
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass
 
@@ -102,9 +103,11 @@ class Driver:
     system : LieGroupSystem
     method : Method
     t_span : (float, float)
+        ``(t0, t1)``; ``t1 < t0`` integrates backward in time (every step is then negative:
+        ``direction`` is −1).
     h : float, optional
-        Step of fixed-step methods (required for them); first trial step of adaptive ones;
-        for scipy's solvers, the grid of save times.
+        Step size (positive; its sign follows ``t_span``) of fixed-step methods (required for
+        them); first trial step of adaptive ones; for scipy's solvers, the grid of save times.
     rtol, atol : float
         Tolerances of adaptive methods.
     project : bool
@@ -113,6 +116,8 @@ class Driver:
         Save every k-th step (and the last one).
     t_eval : ndarray, optional
         Save times of scipy's solvers.
+    max_step : float, optional
+        The largest step of lieint's adaptive methods (scipy's ``max_step``; None: no bound).
     backend : {"auto", "numpy", "numba"}
     observer : StepObserver, optional
         Dense output, events and ``t_eval`` rows of lieint's methods (:mod:`lieint.observe`);
@@ -131,13 +136,17 @@ class Driver:
         project: bool = False,
         save_every: int = 1,
         t_eval=None,
+        max_step: float | None = None,
         backend: str = "auto",
         observer=None,
     ):
         self.system, self.method = system, method
         self.observer = observer if observer is not None and observer.active else None
         self.t0, self.t1 = float(t_span[0]), float(t_span[1])
+        #: +1 forward in time, −1 backward (``t1 < t0``): the sign of every step
+        self.direction = 1.0 if self.t1 >= self.t0 else -1.0
         self.h, self.rtol, self.atol = h, rtol, atol
+        self.max_step = math.inf if max_step is None else float(max_step)
         self.project, self.save_every, self.backend_request = bool(project), int(save_every), backend
         method.check_system(system)
         if method.self_controlled:
@@ -145,7 +154,7 @@ class Driver:
             if t_eval is not None:
                 self.save_times = np.asarray(t_eval, dtype=float)
             elif h is not None:
-                plan = Plan.make(self.t0, self.t1, h)
+                plan = Plan.make(self.t0, self.t1, self.direction * h)
                 self.save_times = plan.times(plan.save_steps(self.save_every))
             else:
                 self.save_times = None
@@ -156,7 +165,7 @@ class Driver:
             if h is None:
                 raise ValueError(f"`h` (the step size) is required for the fixed-step method {method.name!r}.")
             self.kind = "fixed"
-            self.plan = Plan.make(self.t0, self.t1, h)
+            self.plan = Plan.make(self.t0, self.t1, self.direction * h)
         self.loop = None
 
     # -- the run -----------------------------------------------------------------------------
@@ -184,7 +193,11 @@ class Driver:
             return True
         if self.kind == "fixed":
             return carry.k >= self.plan.nsteps
-        return carry.t >= self.t1
+        return not self.before_end(carry.t)
+
+    def before_end(self, t: float) -> bool:
+        """Whether ``t`` lies before ``t1`` in the run's direction (the run goes on from there)."""
+        return t < self.t1 if self.direction > 0 else t > self.t1
 
     def advance(self, carry: Carry, max_steps: int | None = None) -> Segment:
         """Take at most ``max_steps`` accepted steps (all that remain by default)."""
@@ -257,7 +270,7 @@ class Driver:
                 "LIEINT_MAX_MEMORY",
                 float(size),
                 lambda: (
-                    f"the memory for the {rows} rows saved with `h` = {self.plan.h:g}, "
+                    f"the memory for the {rows} rows saved with `h` = {abs(self.plan.h):g}, "
                     f"`save_every` = {self.save_every} (bytes)"
                 ),
                 "raise save_every, or stream the run to a file (lieint run --out, lieint.runs.run)",

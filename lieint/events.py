@@ -103,8 +103,10 @@ class EventLog:
         self.values = [ev(t0, y0) for ev in self.events]
 
     def step(self, t0: float, t1: float, y1: dict, interpolant, new=None) -> tuple[float, dict] | None:
-        """Record the events in ``(t0, t1]``; return ``(t, y)`` of a terminal one, else None
-        (``new``: the events' values at ``(t1, y1)`` when known)."""
+        """Record the events in ``(t0, t1]`` (``[t1, t0)`` for a step backward in time: a
+        crossing's direction is read in the run's order, from ``t0`` to ``t1``, as scipy's);
+        return ``(t, y)`` of a terminal one, else None (``new``: the events' values at
+        ``(t1, y1)`` when known)."""
         from scipy.optimize import brentq
 
         new = [ev(t1, y1) for ev in self.events] if new is None else list(new)
@@ -114,13 +116,21 @@ class EventLog:
             if not ((up and ev.direction >= 0) or (down and ev.direction <= 0)):
                 continue
 
-            def g(t, ev=ev):
+            def g(t, ev=ev, a=a, b=b):
+                # Brent's method asks for the bracket's ends first: their values are known (the
+                # interpolant passes through the step's ends), so they are not computed again
+                if t == t0:
+                    return a
+                if t == t1:
+                    return b
                 return ev(t, interpolant(t))
 
-            t_event = t1 if b == 0 else brentq(g, t0, t1, xtol=EVENT_XTOL, rtol=4 * np.finfo(float).eps)
+            lo, hi = (t0, t1) if t1 >= t0 else (t1, t0)
+            t_event = t1 if b == 0 else brentq(g, lo, hi, xtol=EVENT_XTOL, rtol=4 * np.finfo(float).eps)
             found.append((t_event, i))
         self.values = new
-        for t_event, i in sorted(found):
+        way = 1.0 if t1 >= t0 else -1.0  # the events in the order the run meets them
+        for t_event, i in sorted(found, key=lambda found: (way * found[0], found[1])):
             y_event = y1 if t_event == t1 else interpolant(t_event)
             self.times[i].append(t_event)
             self.states[i].append(y_event)

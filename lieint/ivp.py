@@ -47,6 +47,7 @@ def integrate(
     atol: float = 1e-10,
     t_eval: ArrayLike | None = None,
     first_step: float | None = None,
+    max_step: float | None = None,
     backend: str = "auto",
     dense_output: bool = False,
     events: EventFunction | Sequence[EventFunction] | None = None,
@@ -66,10 +67,12 @@ def integrate(
         Initial state from ``system.initial_state(...)``; leading batch dimensions integrate
         as one ensemble.
     t_span : (float, float)
-        ``(t0, t1)`` with ``t1 > t0``.
+        ``(t0, t1)``, either way in time as in scipy: ``t1 < t0`` integrates backward, with
+        every method (each step is then negative; ``y0`` is the state at ``t0``).
     h : float, optional
-        Step size of fixed-step methods (required for them). The steps are ``t_k = t0 + k h``;
-        a last, shorter step lands exactly on ``t1`` when ``(t1 − t0)/h`` is not an integer.
+        Step size (positive, also backward) of fixed-step methods (required for them). The
+        steps are ``t_k = t0 + k h`` (``t0 − k h`` backward); a last, shorter step lands exactly
+        on ``t1`` when ``|t1 − t0|/h`` is not an integer.
         For lieint's adaptive methods the first trial step (the same as ``first_step``); for
         scipy's methods the grid of save times (``t0 + k h``, with ``save_every``).
     method : str or Method, default "rkmk4"
@@ -98,15 +101,22 @@ def integrate(
         digits. lieint's adaptive methods measure the error on the state as scipy does,
         ``|y − ŷ| / (atol + rtol·|y|)`` in the RMS norm over every component.
     t_eval : array_like, optional
-        Times at which to save the solution: strictly increasing, inside ``[t0, t1]`` (they
-        need not start at ``t0`` nor end at ``t1``; the run still goes to ``t1`` unless a
-        terminal event stops it, as in scipy). Every method: lieint's methods save them from
+        Times at which to save the solution, inside the span, sorted the way the run goes:
+        strictly increasing, or strictly decreasing when ``t1 < t0`` (as in scipy; they need
+        not start at ``t0`` nor end at ``t1``; the run still goes to ``t1`` unless a terminal
+        event stops it). Every method: lieint's methods save them from
         the dense output on the group (:mod:`lieint.dense`), scipy's from their own. Default:
         the grid of ``h`` and ``save_every``, else every ``save_every``-th accepted step.
     first_step : float, optional
         scipy's name for the first trial step of an adaptive method (lieint's adaptive methods:
         the same as ``h``, give one of them; scipy's: passed to the solver). Default: estimated
         from the vector field at ``y0``. Refused for fixed-step methods (they take ``h``).
+    max_step : float, optional
+        scipy's largest step size for an adaptive method: no trial step (the first included)
+        is longer, lieint's pairs and scipy's solvers alike (passed to the solver). Use it when
+        the tolerance lets the steps grow across what the run must resolve, such as the flips
+        of a top near its middle axis. Default (or ``inf``, scipy's default): no bound. Refused
+        for fixed-step methods (their step is ``h``).
     backend : {"auto", "numpy", "numba"}, default "auto"
         "auto" runs the compiled engine where the system and the method declare compiled forms
         (RKMK in exponential coordinates with truncated dexp⁻¹ or in Cayley coordinates, its
@@ -121,7 +131,9 @@ def integrate(
     events : callable or list of callables, optional
         Event functions ``g(t, y)`` with scipy's ``terminal`` and ``direction`` attributes,
         located on the dense output to 1e-12 in time (:mod:`lieint.events`); the result has
-        ``t_events`` and ``y_events``.
+        ``t_events`` and ``y_events``. As in scipy, a crossing's direction is read in the
+        order the run goes: backward in time, ``direction > 0`` selects the crossings where
+        ``g`` rises as t decreases.
 
     Returns
     -------
@@ -150,17 +162,18 @@ def integrate(
     ========================  =============================================================
     ``fun``                   ``system`` (a :class:`~lieint.LieGroupSystem`: equations, group,
                               invariants), not a function
-    ``t_span``                ``t_span`` (forward only: ``t1 > t0``)
+    ``t_span``                ``t_span`` (either way: ``t1 < t0`` integrates backward, every
+                              method)
     ``y0`` (a vector)         ``y0`` (a state dict from ``system.initial_state``)
     ``method="RK45"``         ``method="RK45"`` or ``"scipy:RK45"``; lieint's methods by name
-    ``t_eval``                ``t_eval`` (the same rules)
+    ``t_eval``                ``t_eval`` (the same rules: inside the span, decreasing backward)
     ``dense_output``          ``dense_output`` (``sol.sol(t)`` returns a state dict)
     ``events``                ``events`` (``g(t, y)`` of a state dict; ``terminal``,
-                              ``direction``)
+                              ``direction`` read in the run's order, also backward)
     ``rtol``, ``atol``        ``rtol``, ``atol`` (scalars; defaults 1e-8, 1e-10)
     ``first_step``            ``first_step`` (or ``h``) for adaptive methods
     (none)                    ``h``: the step of fixed-step methods
-    ``max_step``              (none)
+    ``max_step``              ``max_step`` for adaptive methods (lieint's and scipy's)
     ``OdeResult.t``           ``sol.t``
     ``OdeResult.y``           ``sol.y`` (the same layout, :attr:`Solution.y`); by field:
                               ``sol.states``
@@ -191,6 +204,14 @@ def integrate(
     >>> t, y = sol.t, sol.y
     >>> y.shape  # 9 entries of A, then 9 of R, at 3 times
     (18, 3)
+
+    Backward in time, from the last state saved (at t = 7.5) back to t = 0, no step longer
+    than 0.1:
+
+    >>> y_end = {name: rows[-1] for name, rows in sol.states.items()}
+    >>> back = lieint.integrate(top, y_end, (7.5, 0.0), method="rkmk45", rtol=1e-9, max_step=0.1)
+    >>> float(back.t[-1]), bool(abs(back.t[1] - back.t[0]) <= 0.1)
+    (0.0, True)
     """
     if not isinstance(system, LieGroupSystem):
         raise TypeError(_not_a_system(system))
@@ -202,7 +223,7 @@ def integrate(
         )
     stepper = get_method(method, coordinates=coordinates, **_options(method, dexpinv_degree))
     y = system.validate_state(y0, "y0")
-    t0, t1 = check_t_span(t_span)
+    t0, t1 = check_t_span(t_span, backward=True)
     if isinstance(save_every, bool) or not isinstance(save_every, (int, np.integer)) or save_every < 1:
         raise ValueError(f"`save_every` must be a positive integer; got {save_every!r}.")
     if not isinstance(project, (bool, np.bool_)):
@@ -210,6 +231,11 @@ def integrate(
     if backend not in ("auto", "numpy", "numba"):
         raise ValueError(f"`backend` must be one of ['auto', 'numpy', 'numba']; got {backend!r}.")
     if h is not None:
+        if isinstance(h, (int, float, np.integer, np.floating)) and not isinstance(h, (bool, np.bool_)) and h < 0:
+            raise ValueError(
+                f"`h` must be a positive finite number; got {h!r}. The step size is positive either way in time: "
+                f"to integrate backward give t_span = (t0, t1) with t1 < t0, e.g. t_span=({t1}, {t0})."
+            )
         h = check_finite_positive(h, "h")
     if stepper.adaptive or stepper.self_controlled:
         for name, tol in (("rtol", rtol), ("atol", atol)):
@@ -222,6 +248,14 @@ def integrate(
         atol = check_finite_positive(atol, "atol")
         if first_step is not None:
             h, stepper = _first_step(first_step, h, stepper, t0, t1)
+        if max_step is not None:
+            max_step, stepper = _max_step(max_step, stepper)
+    elif max_step is not None:
+        raise ValueError(
+            f"`max_step` applies to adaptive methods, which choose their steps; {stepper.name!r} takes fixed "
+            f"steps of the size `h` you give (got max_step = {max_step!r}): drop max_step, or choose an adaptive "
+            "method (method='rkmk45', 'rkmk853', scipy's 'RK45', 'DOP853', …)."
+        )
     elif first_step is not None:
         raise ValueError(
             f"`first_step` applies to adaptive methods; {stepper.name!r} takes fixed steps: give `h` instead "
@@ -237,9 +271,9 @@ def integrate(
     # terminal event's run with the event's row: t0 is added in front, and the rows not at a
     # time of t_eval are dropped afterwards (lieint's methods save t_eval in the observer)
     t_eval_driver = t_eval
-    if t_eval is not None and stepper.self_controlled and t_eval[0] > t0:
+    if t_eval is not None and stepper.self_controlled and t_eval[0] != t0:
         t_eval_driver = np.concatenate([[t0], t_eval])
-    observer = _observer(system, stepper, t0, t_eval, dense_output, events, project)
+    observer = _observer(system, stepper, (t0, t1), t_eval, dense_output, events, project)
     driver = Driver(
         system,
         stepper,
@@ -250,6 +284,7 @@ def integrate(
         project=bool(project),
         save_every=int(save_every),
         t_eval=t_eval_driver,
+        max_step=max_step if not stepper.self_controlled else None,
         backend=backend,
         observer=observer,
     )
@@ -310,8 +345,11 @@ def _first_step(first_step, h, stepper, t0: float, t1: float):
     """``first_step`` checked, as the driver's ``h`` (lieint's adaptive methods) or in the scipy
     solver (whose ``h`` is the save grid); returns ``(h, stepper)``."""
     first_step = check_finite_positive(first_step, "first_step")
-    if first_step > t1 - t0:
-        raise ValueError(f"`first_step` = {first_step:g} must not exceed the span t1 - t0 = {t1 - t0:g} (as in scipy).")
+    if first_step > abs(t1 - t0):
+        span = "t1 - t0" if t1 > t0 else "|t1 - t0|"
+        raise ValueError(
+            f"`first_step` = {first_step:g} must not exceed the span {span} = {abs(t1 - t0):g} (as in scipy)."
+        )
     if stepper.self_controlled:
         if not hasattr(stepper, "first_step"):
             raise ValueError(f"`first_step` does not apply to the method object {stepper.name!r}.")
@@ -322,6 +360,25 @@ def _first_step(first_step, h, stepper, t0: float, t1: float):
             f"method {stepper.name!r}; give one of them."
         )
     return first_step, stepper
+
+
+def _max_step(max_step, stepper):
+    """``max_step`` checked (a positive number; ``inf``, scipy's default, sets no bound): for
+    lieint's adaptive methods the driver's bound, for scipy's passed to the solver; returns
+    ``(max_step, stepper)`` (None when there is no bound)."""
+    expected = "a positive number, the largest step size (inf, scipy's default, for no bound)"
+    if isinstance(max_step, (bool, np.bool_)) or not isinstance(max_step, (int, float, np.integer, np.floating)):
+        raise TypeError(f"`max_step` must be {expected}; got {max_step!r}.")
+    max_step = float(max_step)
+    if math.isnan(max_step) or max_step <= 0:
+        raise ValueError(f"`max_step` must be {expected}; got {max_step!r}.")
+    if math.isinf(max_step):  # scipy's default: no bound
+        return None, stepper
+    if stepper.self_controlled:
+        if not hasattr(stepper, "max_step"):
+            raise ValueError(f"`max_step` does not apply to the method object {stepper.name!r}.")
+        return None, dataclasses.replace(stepper, max_step=max_step)
+    return max_step, stepper
 
 
 def _h_required(system, stepper, y: dict, t0: float) -> str:
@@ -347,16 +404,18 @@ def _h_required(system, stepper, y: dict, t0: float) -> str:
     return message
 
 
-def _observer(system, stepper, t0: float, t_eval, dense_output, events, project) -> StepObserver | None:
+def _observer(system, stepper, t_span, t_eval, dense_output, events, project) -> StepObserver | None:
     """The step observer of dense output, events and ``t_eval`` rows; None when nothing watches
     the steps (the driver would drop an inactive observer: building one costs microseconds)."""
     if stepper.self_controlled:
         t_eval = None  # scipy's solvers save t_eval through their own dense output
     if not dense_output and events is None and t_eval is None:
         return None
+    t0, t1 = t_span
     return StepObserver(
         system,
         t0,
+        direction=1.0 if t1 >= t0 else -1.0,
         t_eval=t_eval,
         dense_output=bool(dense_output),
         events=events,
@@ -374,17 +433,22 @@ def _options(method, dexpinv_degree) -> dict:
 
 
 def _check_t_eval(t_eval, t0: float, t1: float) -> np.ndarray:
-    """``t_eval`` as a float array: strictly increasing times inside ``[t0, t1]`` (scipy's rules)."""
+    """``t_eval`` as a float array: times inside the span, strictly increasing when ``t1 > t0``
+    and strictly decreasing when ``t1 < t0`` (scipy's rules)."""
     try:
         t_save = np.asarray(t_eval, dtype=float)
     except (TypeError, ValueError):
         raise ValueError(f"`t_eval` must be a 1-D array of times; got {type(t_eval).__name__}.") from None
     if t_save.ndim != 1 or t_save.size < 1 or not np.all(np.isfinite(t_save)):
         raise ValueError(f"`t_eval` must be a 1-D array of at least one finite time; got shape {t_save.shape}.")
-    if np.any(np.diff(t_save) <= 0):
-        k = int(np.argmax(np.diff(t_save) <= 0))
-        raise ValueError(f"`t_eval` must increase strictly; got t_eval[{k}] = {t_save[k]} followed by {t_save[k + 1]}.")
-    if t_save[0] < t0 or t_save[-1] > t1:
+    forward = t1 > t0
+    steps = np.diff(t_save) if forward else -np.diff(t_save)
+    if np.any(steps <= 0):
+        k = int(np.argmax(steps <= 0))
+        way = "increase strictly" if forward else "decrease strictly (t1 < t0: a run backward in time)"
+        raise ValueError(f"`t_eval` must {way}; got t_eval[{k}] = {t_save[k]} followed by {t_save[k + 1]}.")
+    lo, hi = min(t0, t1), max(t0, t1)
+    if t_save.min() < lo or t_save.max() > hi:
         raise ValueError(f"`t_eval` must lie inside t_span = ({t0}, {t1}); got times from {t_save[0]} to {t_save[-1]}.")
     return t_save
 
@@ -459,13 +523,16 @@ def _finite_max(rho) -> float:
     return float(np.maximum.reduce(np.where(np.isfinite(rho), rho, 0.0), axis=None, initial=0.0))
 
 
-def check_t_span(t_span) -> tuple[float, float]:
+def check_t_span(t_span, backward: bool = False) -> tuple[float, float]:
+    """``(t0, t1)`` as floats: finite, ``t1 != t0``; ``t1 > t0`` unless ``backward`` allows either way."""
     try:
         t0, t1 = (float(v) for v in t_span)
     except (TypeError, ValueError):
         raise ValueError(f"`t_span` must be a pair (t0, t1) of numbers; got {t_span!r}.") from None
     if not (math.isfinite(t0) and math.isfinite(t1)):
         raise ValueError(f"`t_span` must be finite; got {t_span!r}.")
-    if not t1 > t0:
+    if backward and t1 == t0:
+        raise ValueError(f"`t_span` = (t0, t1) must have t1 != t0 (nonempty, either way in time); got {t_span!r}.")
+    if not backward and not t1 > t0:
         raise ValueError(f"`t_span` = (t0, t1) must have t1 > t0 (nonempty, forward in time); got {t_span!r}.")
     return t0, t1

@@ -125,18 +125,18 @@ class _FixedLoop(_GenericRows):
                 except np.linalg.LinAlgError as exc:  # a linear solve met a non-finite stage
                     failure = (
                         f"Step {k + 1} (t = {tk:.6g}) failed in a linear solve ({exc}): the stages became "
-                        f"non-finite, the step `h` = {plan.h:g} is far too large for this motion. Reduce `h`."
+                        f"non-finite, the step `h` = {abs(plan.h):g} is far too large for this motion. Reduce `h`."
                     )
                     break
                 carry.nfev += result.nfev
                 try:
                     y_new = system.project(result.y) if d.project else result.y
                 except np.linalg.LinAlgError:  # the SVD of a non-finite R
-                    failure = _nonfinite(k + 1, plan.time(k + 1), f"Reduce the step `h` = {plan.h:g}")
+                    failure = _nonfinite(k + 1, plan.time(k + 1), f"Reduce the step `h` = {abs(plan.h):g}")
                     break
                 saving = slot < saves.size and saves[slot] == k + 1
                 if (saving or (k + 1) % _FINITE_CHECK_EVERY == 0) and not _all_finite(y_new):
-                    failure = _nonfinite(k + 1, plan.time(k + 1), f"Reduce the step `h` = {plan.h:g}")
+                    failure = _nonfinite(k + 1, plan.time(k + 1), f"Reduce the step `h` = {abs(plan.h):g}")
                     break
                 y_prev, y, mstate = y, y_new, result.state
                 carry.k = k + 1
@@ -216,7 +216,7 @@ class _KernelLoop(_CompiledRows):
             saves = saves[: max(bad - s, 0)]
             done = int(saves[-1]) if saves.size else carry.k
             # the run stops here (a failed run is not resumed: the failure would recur)
-            failure = _nonfinite(done, plan.time(done), f"Reduce the step `h` = {plan.h:g}", until=k_to)
+            failure = _nonfinite(done, plan.time(done), f"Reduce the step `h` = {abs(plan.h):g}", until=k_to)
         carry.nfev += self.kernel.stages * (done - carry.k)
         t_start = carry.t
         carry.k, carry.t = done, plan.time(done)
@@ -246,20 +246,24 @@ class _KernelLoop(_CompiledRows):
         while carry.k < k_end:
             k_from, k_to = carry.k, min(k_end, carry.k + chunk)
             chunk = min(2 * chunk, 8192)
-            start = kernel.user_state(carry.state)
-            # every step is kept: the saved rows are among them (no second copy, no second conversion)
+            # every step is kept, the starting state first: the saved rows are among them (one
+            # conversion, and no copy but the final join)
             new, _, (kept_Y, kept_U) = kernel.advance(carry.state, k_from, k_to, plan, nothing, d.project, keep=True)
-            steps = kernel.user_rows(kept_Y)
+            rows = kernel.user_rows(kept_Y)
+            start, steps = {k: v[0] for k, v in rows.items()}, {k: v[1:] for k, v in rows.items()}
             good = _finite_rows(steps)
             if good < k_to - k_from:  # the run stops before the first non-finite state
                 done = k_from + good
-                failure = _nonfinite(done + 1, plan.time(done + 1), f"Reduce the step `h` = {plan.h:g}")
+                failure = _nonfinite(done + 1, plan.time(done + 1), f"Reduce the step `h` = {abs(plan.h):g}")
                 steps = {k: v[:good] for k, v in steps.items()}
+                rows = {k: v[: good + 1] for k, v in rows.items()}
                 kept_U, k_to = kept_U[:good], done
                 new = kernel.internal(_last(steps, start))
             saves = plan.saves_between(d.save_every, k_from, k_to)
-            states = {k: v[saves - k_from - 1] for k, v in steps.items()}
-            rows = {k: np.concatenate([start[k][None], v]) for k, v in steps.items()}
+            if saves.size == k_to - k_from:  # every step saved: the rows after the start, no copy
+                states = {k: v[1:] for k, v in rows.items()}
+            else:
+                states = {k: v[saves - k_from] for k, v in rows.items()}
             table = d.observer.table(
                 plan.times(np.arange(k_from, k_to + 1)), rows, self._increments(kept_U), kernel.tableau.cayley
             )
@@ -297,7 +301,8 @@ class _AdaptiveLoop(_GenericRows):
     def start(self, y0: dict) -> Carry:
         d = self.d
         h = d.h if d.h is not None else d.controller.initial_step(d.system, d.t0, y0, d.t1, d.method.error_order)
-        return Carry(0, d.t0, dict(y0), min(h, d.t1 - d.t0), d.method.init(d.system, d.t0, y0, h))
+        h = _first_trial(d, h)
+        return Carry(0, d.t0, dict(y0), h, d.method.init(d.system, d.t0, y0, h))
 
     def advance(self, carry: Carry, max_steps: int | None) -> Segment:
         d = self.d
@@ -308,8 +313,11 @@ class _AdaptiveLoop(_GenericRows):
         taken, failure = 0, None
         budget = _row_budget(d, y)
         rejected = False  # the current step was rejected at least once (scipy: no growth then)
-        while t < d.t1 and (max_steps is None or taken < max_steps):
-            h = min(h, d.t1 - t)
+        forward, h_max = d.direction > 0, d.max_step
+        while d.before_end(t) and (max_steps is None or taken < max_steps):
+            if abs(h) > h_max:  # scipy's max_step: no trial step is longer
+                h = math.copysign(h_max, h)
+            h = min(h, d.t1 - t) if forward else max(h, d.t1 - t)  # the last step lands on t1
             try:
                 with np.errstate(over="ignore", invalid="ignore"):
                     result = method.step(system, t, y, h, mstate)
@@ -321,12 +329,12 @@ class _AdaptiveLoop(_GenericRows):
                 carry.nrejected += 1
                 rejected = True
                 h *= ctrl.factor(err, q)
-                if h < self.h_min:
+                if abs(h) < self.h_min:
                     failure = self._too_small(t)
                     break
                 continue
             t_prev, y_prev = t, y
-            t = d.t1 if d.t1 - (t + h) <= self.h_min else t + h
+            t = d.t1 if d.direction * (d.t1 - (t + h)) <= self.h_min else t + h
             y = system.project(result.y) if d.project else result.y
             mstate = result.state
             carry.k += 1
@@ -383,7 +391,7 @@ class _AdaptiveKernelLoop(_CompiledRows, _AdaptiveLoop):
         else:  # the first trial step with the engine's compiled vector field (two evaluations
             # of the generic one cost 40–85 µs of an adaptive call on the heavy top and the balls)
             h = self.kernel.initial_step(y0, d.t0, d.t1, d.controller, d.method.error_order)
-        return Carry(0, d.t0, state, min(h, d.t1 - d.t0), None)
+        return Carry(0, d.t0, state, _first_trial(d, h), None)
 
     def advance(self, carry: Carry, max_steps: int | None) -> Segment:
         d = self.d
@@ -392,13 +400,13 @@ class _AdaptiveKernelLoop(_CompiledRows, _AdaptiveLoop):
             return self._observed(carry, left)
         times, parts, failure = [], [], None
         budget, held = _row_budget(d, self.user_state(carry)), 0
-        while carry.t < d.t1 and left > 0:
+        while d.before_end(carry.t) and left > 0:
             # at most the accepted steps whose rows still fit under the memory limit, and one
             # row more, which the budget refuses: the kernel's buffer never outgrows the limit
             room = (budget.rows - held + 1) * d.save_every
             state, (t, h, k), (acc, rej, nfev), t_saved, saved, small = self.kernel.advance_adaptive(
                 carry.state, carry.t, d.t1, carry.h, carry.k, min(left, room), d.save_every, d.project, d.controller,
-                self.h_min,
+                self.h_min, d.max_step,
             )  # fmt: skip
             carry.state, carry.t, carry.h, carry.k = state, t, h, k
             carry.nrejected += rej
@@ -421,11 +429,11 @@ class _AdaptiveKernelLoop(_CompiledRows, _AdaptiveLoop):
         times, parts, failure = [], [], None
         budget, held = _row_budget(d, self.user_state(carry)), 0
         chunk = 256
-        while carry.t < d.t1 and left > 0:
+        while d.before_end(carry.t) and left > 0:
             start, t_start, k_start = self.user_state(carry), carry.t, carry.k
             state, (t, h, k), (acc, rej, nfev), t_steps, steps, small, (_, kept_U) = kernel.advance_adaptive(
                 carry.state, carry.t, d.t1, carry.h, carry.k, min(left, chunk), 1, d.project, d.controller,
-                self.h_min, keep=True,
+                self.h_min, d.max_step, keep=True,
             )  # fmt: skip
             chunk = min(2 * chunk, 8192)
             carry.state, carry.t, carry.h, carry.k = state, t, h, k
@@ -472,6 +480,10 @@ class ScipyLoop:
         solver, layout = d.method.start(d.system, d.t0, y0, d.t1, d.rtol, d.atol, first_step=None)
         self.layout = layout
         self.next_save = 1  # index into save_times (0 is t0)
+        # the save times as direction·t, increasing either way (decreasing times backward), for
+        # the bisection of each step
+        st = d.save_times
+        self.save_keys = None if st is None else (st if d.direction > 0 else -st)
         return Carry(0, d.t0, {"solver": solver}, None)
 
     def first_row(self, carry: Carry) -> Segment:
@@ -514,7 +526,7 @@ class ScipyLoop:
                     rows.append(self._row(solver.y.copy()))
                 continue
             st = d.save_times
-            stop = int(np.searchsorted(st, t_reach, side="right"))
+            stop = int(np.searchsorted(self.save_keys, d.direction * t_reach, side="right"))
             if stop > self.next_save:
                 dense = solver.dense_output()
                 budget.hold(len(rows) + stop - self.next_save)
@@ -536,6 +548,12 @@ class ScipyLoop:
 
 
 # -- helpers ---------------------------------------------------------------------------------------
+
+
+def _first_trial(d: Driver, h: float) -> float:
+    """The first trial step of an adaptive run from its size ``h`` (given, or scipy's estimate):
+    at most ``max_step`` and the span, signed by the run's direction."""
+    return d.direction * min(h, d.max_step, abs(d.t1 - d.t0))
 
 
 def _row_budget(d: Driver, like: dict) -> RowBudget:
@@ -562,7 +580,7 @@ def _stopped(d: Driver, carry: Carry, segment: Segment) -> Segment:
     if d.kind != "scipy" and not isinstance(d.loop, _CompiledRows):  # a compiled loop set its own
         carry.state = y_stop
     carry.t = t_stop
-    keep = segment.t < t_stop
+    keep = d.direction * segment.t < d.direction * t_stop  # the rows before the event, either way in time
     return Segment(
         np.append(segment.t[keep], t_stop),
         {k: np.concatenate([v[keep], np.asarray(y_stop[k])[None]]) for k, v in segment.states.items()},

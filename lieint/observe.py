@@ -35,9 +35,9 @@ class StepObserver:
     system : LieGroupSystem
     t0 : float
     t_eval : ndarray, optional
-        Strictly increasing times in ``[t0, t1]`` at which to save the state (from the
-        interpolants; ``t0`` itself is saved from the initial state); they need not start at
-        ``t0`` nor end at ``t1``.
+        Times in the span at which to save the state (from the interpolants; ``t0`` itself is
+        saved from the initial state), strictly increasing (strictly decreasing for a run
+        backward in time); they need not start at ``t0`` nor end at ``t1``.
     dense_output : bool
         Keep every interpolant (``sol.sol``).
     events : callable or list of callables, optional
@@ -48,6 +48,8 @@ class StepObserver:
         The method's order p: Lie-group interpolants then also match the last one (p = 5, 6)
         or two (p ≥ 7) earlier step ends, so that the dense output has order min(p, 8)
         (cubic, quintic, degree 7; the first steps of a run have fewer earlier ends).
+    direction : float, default 1.0
+        +1 for a run forward in time, −1 backward (``t1 < t0``: the ``t_eval`` times decrease).
     group_action : {False, True, "fields"}
         How the method moves the state. True: by the group action, so a step that reports no
         :class:`~lieint.dense.Increment` gets one from the system's
@@ -69,8 +71,10 @@ class StepObserver:
         project=False,
         order=None,
         group_action=False,
+        direction: float = 1.0,
     ):
         self.system, self.t0 = system, float(t0)
+        self.direction = -1.0 if direction < 0 else 1.0
         self.group_action = group_action
         self.extra_nodes = 0 if not order or order <= 4 else 1 if order <= 6 else 2
         self.history: list[tuple] = []  # (t_j, ξ_j, u_j) of the last steps, newest last
@@ -136,8 +140,8 @@ class StepObserver:
 
     def _save_table(self, table, stop) -> None:
         """The ``t_eval`` rows within the table (as far as its end)."""
-        te, t_end = self.t_eval, table.end
-        while self.next_eval < te.size and te[self.next_eval] <= t_end:
+        te, t_end, way = self.t_eval, table.end, self.direction
+        while self.next_eval < te.size and way * te[self.next_eval] <= way * t_end:
             s = float(te[self.next_eval])
             y = stop[1] if stop is not None and s == stop[0] else table(s)
             self.rows.append(self.system.project(y) if self.project else y)
@@ -146,8 +150,8 @@ class StepObserver:
     def _save_until(self, t_end: float, y_end: dict, interpolant, t1: float) -> None:
         if self.t_eval is None:
             return
-        te = self.t_eval
-        while self.next_eval < te.size and te[self.next_eval] <= t_end:
+        te, way = self.t_eval, self.direction
+        while self.next_eval < te.size and way * te[self.next_eval] <= way * t_end:
             s = float(te[self.next_eval])
             y = y_end if s == t_end else interpolant(s)
             self.rows.append(self.system.project(y) if self.project else y)

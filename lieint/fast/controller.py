@@ -62,7 +62,10 @@ def step_factor(err, q, safety, fmin, fmax, after_rejection):
 
 @njit(cache=True)
 def advanced_time(t, h, t1, h_min):
-    """The time after an accepted step of size h from t: ``t1`` itself within ``h_min``."""
+    """The time after an accepted step h from t (negative backward in time): ``t1`` itself
+    within ``h_min``."""
+    if h < 0.0:
+        return t1 if (t + h) - t1 <= h_min else t + h
     return t1 if t1 - (t + h) <= h_min else t + h
 
 

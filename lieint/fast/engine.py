@@ -528,7 +528,7 @@ class Engine:
         """Steps ``k_from < k ≤ k_to``: the state after them, the user's rows after the steps in
         ``save_steps`` (``with_start``: the starting state's row first) and, with ``keep``, every
         step's flat state and increment (``(k_to − k_from, N, d)``, ``(…, N, du)``) for dense
-        output and events."""
+        output and events (the flat states with the starting one first, ``(k_to − k_from + 1, N, d)``)."""
         Y0 = internal["Y"]
         N, d = Y0.shape
         save_steps = np.ascontiguousarray(save_steps, dtype=np.int64)
@@ -541,10 +541,13 @@ class Engine:
         norm2 = np.empty(N)
         evals = np.empty(N, dtype=np.int64)
         steps = k_to - k_from if keep else 0
-        kept_Y = np.empty((steps, N, d))
+        # the kept states with the starting one first (row 0): the observer's table of steps
+        # needs both ends of every step, and gets them in one conversion, without a copy
+        kept_Y = np.empty((steps + 1, N, d))
+        kept_Y[0] = Y0
         kept_U = np.empty((steps, N, self.du))  # the steps write their increments: its length always
         grid = (float(plan.h), float(plan.last_step), int(k_from), int(k_to), int(plan.nsteps), bool(project))
-        outs = (out[s:], fin, status, norm2, evals, kept_Y, kept_U)
+        outs = (out[s:], fin, status, norm2, evals, kept_Y[1:], kept_U)
         ctx, par, tab = self.layout.context(), self.layout.params, self.tableau
         fixed = self.loops.fixed
         threads = min(self.threads, N)
@@ -588,17 +591,19 @@ class Engine:
 
     # -- the controller ----------------------------------------------------------------------
     def initial_step(self, y: dict, t0: float, t1: float, controller, error_order: int) -> float:
-        """The first trial step (:meth:`lieint.control.StepSizeController.initial_step`) with the
-        form's compiled vector field, the norms on the user's fields."""
+        """The first trial step's size (:meth:`lieint.control.StepSizeController.initial_step`) with
+        the form's compiled vector field, the norms on the user's fields (its Euler step goes
+        towards ``t1``: backward in time when ``t1 < t0``)."""
         Yu = self.layout.user_flat(y, self.N)
         tolerances = (float(controller.rtol), float(controller.atol))
         ctx, par, span = self.layout.context(), self.layout.params, float(t1 - t0)
         return float(self.loops.first_trial_step(ctx, Yu, par, self.tableau, tolerances, span, int(error_order)))
 
     def advance_adaptive(self, internal: dict, t, t1, h, k, max_accept, save_every, project, controller, h_min,
-                         keep=False):  # fmt: skip
-        """Accepted steps from ``(t, h)`` at step ``k`` until ``t1``, ``max_accept`` accepted
-        steps or a buffer of rows (:func:`row_capacity`).
+                         h_max=math.inf, keep=False):  # fmt: skip
+        """Accepted steps from ``(t, h)`` at step ``k`` until ``t1`` (backward in time when ``h`` is
+        negative), ``max_accept`` accepted steps or a buffer of rows (:func:`row_capacity`); no
+        trial step longer than ``h_max`` (scipy's ``max_step``).
 
         Returns the new internal state, ``(t, h, k)``, the accepted, rejected and evaluation
         counts, the saved times and user states, whether the step size fell below ``h_min`` and,
@@ -610,7 +615,7 @@ class Engine:
         out_U = np.empty((cap if keep else 0, N, self.du))
         control = (
             float(controller.rtol), float(controller.atol), float(controller.safety), float(controller.factor_min),
-            float(controller.factor_max), float(h_min), float(N * self.layout.count),
+            float(controller.factor_max), float(h_min), float(N * self.layout.count), float(h_max),
         )  # fmt: skip
         clock = (
             float(t), float(t1), float(h), int(k), int(min(max_accept, np.iinfo(np.int64).max)), int(save_every),

@@ -159,7 +159,9 @@ def adaptive(ctx, Y, par, meth, pair, control, clock, out_t, out_Y, out_U):
     ``pair`` is ``(b_hat, b_low, has_low, q)``: the embedded weights (DOP853's third-order
     ones in ``b_low`` when ``has_low``) and the error order q; ``control`` is ``(rtol, atol,
     safety, f_min, f_max, h_min, count)`` with ``count`` the components of the user's state
-    over the batch; ``clock`` is ``(t, t1, h, k, max_accept, save_every, project)``. A trial
+    over the batch, then ``h_max`` (scipy's ``max_step``: no trial step is longer; ``inf`` for no
+    bound); ``clock`` is ``(t, t1, h, k, max_accept, save_every, project)``, with ``h`` negative
+    for a run backward in time (``t1 < t``). A trial
     step computes ``y₁`` and ``ŷ`` (and DOP853's second estimate) of every body from the same
     stages; ``err`` is scipy's RMS norm of the scaled differences over every component
     (:mod:`lieint.fast.controller`); ``err ≥ 1`` (or not finite, or a stage beyond the dexp⁻¹
@@ -173,8 +175,9 @@ def adaptive(ctx, Y, par, meth, pair, control, clock, out_t, out_Y, out_U):
     ``(t, h)`` between accepted steps, so a run split into calls takes the steps of one call.
     """
     b_hat, b_low, has_low, q = pair
-    rtol, atol, safety, fmin, fmax, h_min, count = control
+    rtol, atol, safety, fmin, fmax, h_min, count, h_max = control
     t, t1, h, k, max_accept, save_every, projecting = clock
+    direction = 1.0 if h >= 0.0 else -1.0  # every step has the sign of the first
     fx = prepare(ctx)
     N, d = Y.shape
     scr = scratch(fx, meth, par, d)
@@ -194,8 +197,11 @@ def adaptive(ctx, Y, par, meth, pair, control, clock, out_t, out_Y, out_U):
     status = 0
     stages = 0
     after_rejection = False
-    while t < t1 and accepted < max_accept and rows < cap:
-        h = min(h, t1 - t)
+    while direction * (t1 - t) > 0.0 and accepted < max_accept and rows < cap:
+        if abs(h) > h_max:
+            h = direction * h_max
+        if direction * h > direction * (t1 - t):  # the last step lands on t1
+            h = t1 - t
         ok = True
         s5 = 0.0
         s3 = 0.0
@@ -218,7 +224,7 @@ def adaptive(ctx, Y, par, meth, pair, control, clock, out_t, out_Y, out_U):
             rejected += 1
             after_rejection = True
             h *= step_factor(err, q, safety, fmin, fmax, False)
-            if h < h_min:
+            if abs(h) < h_min:
                 status = 1
                 break
             continue
@@ -247,8 +253,11 @@ def first_trial_step(ctx, Yu, par, meth, tolerances, span, error_order):
     user's flat layout, with the form's compiled vector field:
     :meth:`lieint.control.StepSizeController.initial_step` (the same norms over every component
     of every body, in the user's frame) without its two evaluations in Python. ``tolerances``
-    is ``(rtol, atol)``; ``d`` of the form's own layout is not needed here."""
+    is ``(rtol, atol)``; ``span`` is ``t1 − t0``, negative backward in time (the Euler step goes
+    towards t1; the size returned is positive); ``d`` of the form's own layout is not needed here."""
     rtol, atol = tolerances
+    direction = 1.0 if span >= 0.0 else -1.0
+    span = abs(span)
     fx = prepare(ctx)
     N, du = Yu.shape
     scr = scratch(fx, meth, par, du)
@@ -258,6 +267,6 @@ def first_trial_step(ctx, Yu, par, meth, tolerances, span, error_order):
     h0, d1 = first_guess(Yu, F0, rtol, atol, span)
     for m in range(N):
         for i in range(du):
-            Y1[m, i] = Yu[m, i] + h0 * F0[m, i]
+            Y1[m, i] = Yu[m, i] + direction * h0 * F0[m, i]
         user_field(fx, Y1[m], par, F1[m], scr)
     return initial_step_from(h0, d1, Yu, F0, F1, rtol, atol, span, error_order)

@@ -64,10 +64,13 @@ class ScipyMethod(Method):
         One of ``SCIPY_SOLVERS`` ("RK45", "DOP853", "Radau", "LSODA", …).
     first_step : float, optional
         The solver's first step (scipy's ``first_step``; default: scipy's estimate).
+    max_step : float, optional
+        The solver's largest step (scipy's ``max_step``; default: no bound).
     """
 
     solver: str
     first_step: float | None = None
+    max_step: float | None = None
 
     self_controlled = True
 
@@ -95,6 +98,8 @@ class ScipyMethod(Method):
         cls = getattr(_ivp, self.solver)
         first_step = self.first_step if first_step is None else first_step
         options = {} if first_step is None else {"first_step": first_step}
+        if self.max_step is not None:
+            options["max_step"] = self.max_step
         return cls(rhs, t0, layout.pack(y0), t1, rtol=rtol, atol=atol, **options), layout
 
     def step(self, system, t, y, h, state):

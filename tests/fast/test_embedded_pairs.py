@@ -73,6 +73,7 @@ def test_compiled_adaptive_matches_the_generic_controller(rng, method, orientati
 
 @pytest.mark.parametrize("n", [3, 4])
 @pytest.mark.parametrize("method", ["rkmk45", "rkmk853"])
+@pytest.mark.slow
 def test_segments_give_the_same_bits_as_one_call(rng, method, n):
     if n == 3:
         top, y0 = top_and_state(rng, True, 1)

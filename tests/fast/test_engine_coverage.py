@@ -61,6 +61,7 @@ def _front_ends(system, y0, t1):
 
 
 @pytest.mark.parametrize("label", sorted(SYSTEMS))
+@pytest.mark.slow
 def test_every_method_and_front_end_runs_compiled_or_says_why(label):
     system = SYSTEMS[label]
     y0 = initial(system, np.random.default_rng(2))
@@ -86,6 +87,7 @@ def test_every_method_and_front_end_runs_compiled_or_says_why(label):
                 assert any(reason in sol.stats.backend_reason for reason in DECLARED), where
 
 
+@pytest.mark.slow
 def test_a_compiled_run_with_events_dense_output_and_t_eval_is_the_generic_one():
     """The engine's events, dense output and t_eval rows against the generic path's, for a
     fixed-step and an adaptive method, in exponential and Cayley coordinates, on the 3D top

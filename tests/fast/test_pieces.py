@@ -62,6 +62,7 @@ def test_every_builtin_system_on_so_or_se_declares_a_compiled_form():
 
 
 @pytest.mark.parametrize("n,name", CASES)
+@pytest.mark.slow
 def test_compiled_and_generic_agree_for_every_method(n, name):
     """Every fixed-step compiled method, with and without projection, to 1e-12 relative to the
     state's size (RKMK in exp coordinates: the same stages, exp and dexp⁻¹ by other formulas)."""
@@ -225,6 +226,7 @@ class _Spinner(lieint.LieGroupSystem):
         return PiecesForm(self.pieces, np.concatenate([[3.0], _OMEGA0.ravel()]), 3, False, 0, self.fields)
 
 
+@pytest.mark.slow
 def test_a_system_outside_the_package_opts_in_with_its_own_pieces():
     """The generic loop steps any system that declares compiled pieces: here a spinning body
     whose angular velocity is fixed, ``Ṙ = RΩ₀`` on SO(3), against ``R(t) = R₀ exp(tΩ₀)``, with
@@ -250,6 +252,7 @@ def test_a_system_outside_the_package_opts_in_with_its_own_pieces():
         np.testing.assert_allclose(run.states["R"], ref.states["R"], rtol=0, atol=1e-13)
 
 
+@pytest.mark.slow
 def test_pieces_with_the_wrong_arguments_or_scratch_are_refused_clearly():
     """Pieces written for other arguments (without the scratch vector ``work``, say) are refused
     with the signature they must take, not a numba traceback from inside the loop; a scratch
@@ -270,6 +273,7 @@ def test_pieces_with_the_wrong_arguments_or_scratch_are_refused_clearly():
 
 
 @pytest.mark.parametrize("n,name", CASES)
+@pytest.mark.slow
 def test_the_compiled_first_trial_step_is_the_generic_one(n, name):
     """The adaptive kernel's first trial step (the compiled vector field, twice) is the generic
     controller's to round-off, for every pair's error order, ordinary and absurd tolerances (a
@@ -302,6 +306,7 @@ def test_the_compiled_first_trial_step_is_the_generic_one(n, name):
 
 
 @pytest.mark.parametrize("n,name", CASES)
+@pytest.mark.slow
 def test_compiled_adaptive_pairs_take_the_generic_paths_steps(n, name):
     """Every embedded pair (rkmk23, rkmk45, rkmk853) takes the generic controller's steps —
     the same accepted and rejected steps and evaluations, at the same times — and ends at the
@@ -329,6 +334,7 @@ def test_compiled_adaptive_pairs_take_the_generic_paths_steps(n, name):
 
 
 @pytest.mark.parametrize("n", [4, 6])
+@pytest.mark.slow
 def test_the_adaptive_pairs_of_the_n_dimensional_top_run_compiled(n):
     """The Euler top for n ≥ 4 runs its fixed steps and its adaptive pairs in its own kernels
     (:mod:`lieint.fast.topn_adaptive`, in the principal frame, the error measured in the user's),
@@ -354,6 +360,7 @@ def test_the_adaptive_pairs_of_the_n_dimensional_top_run_compiled(n):
 
 
 @pytest.mark.parametrize("n", [3, 4, 6])
+@pytest.mark.slow
 def test_cayley_coordinates_run_compiled_on_the_euler_top(n):
     """The 3D top's kernels have no Cayley form: its Cayley runs (fixed and adaptive) go
     through the generic kernel; the n-D top's kernels (n ≥ 4) step Cayley coordinates

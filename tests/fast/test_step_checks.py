@@ -61,6 +61,7 @@ def test_a_generator_set_on_the_instance_is_what_runs(n):
 
 
 @pytest.mark.parametrize(("n", "scale"), [(3, 1.0), (3, 8.0), (4, 8.0)])
+@pytest.mark.slow
 def test_projection_after_a_coarse_classical_step_ends_on_the_group_like_the_generic_path(n, scale):
     # rk4 at h = 0.5 on a fast top leaves R with singular values up to ~2.3: one Newton–Schulz
     # step from there diverged (R ~ 1e121 reported as a finished run) or blew up to NaN

@@ -22,6 +22,7 @@ def well_conditioned_top(rng, diagonal=True):
 @pytest.mark.parametrize("method", COMPILED)
 @pytest.mark.parametrize("project", [False, True])
 @pytest.mark.parametrize("diagonal", [True, False])
+@pytest.mark.slow
 def test_fast_path_matches_the_generic_path(rng, method, project, diagonal):
     top = well_conditioned_top(rng, diagonal)
     y0 = top.initial_state(angular_velocity=rng.normal(size=(3, 3)), R=random_rotation(rng, 3, (3,)))
@@ -36,6 +37,7 @@ def test_fast_path_matches_the_generic_path(rng, method, project, diagonal):
     assert fast.nsteps == ref.nsteps and fast.nfev == ref.nfev
 
 
+@pytest.mark.slow
 def test_auto_uses_the_kernel_only_where_it_applies(rng):
     top = well_conditioned_top(rng)
     y0 = top.initial_state(angular_velocity=[0.3, 1.0, 0.4])
@@ -65,6 +67,7 @@ def test_fast_path_top_without_orientation_and_a_partial_last_step(rng):
     np.testing.assert_allclose(a.states["A"], b.states["A"], atol=1e-14)
 
 
+@pytest.mark.slow
 def test_fast_path_keeps_the_invariants(rng):
     top = well_conditioned_top(rng)
     y0 = top.initial_state(angular_velocity=rng.normal(size=(100, 3)))

@@ -39,6 +39,7 @@ def top(n, rng, diagonal):
     "method,coordinates", [(name, None) for name in COMPILED] + [(name, "cayley") for name in CAYLEY]
 )
 @pytest.mark.parametrize("n", [4, 5, 6, 8, 9])  # 9: past the unrolled products, BLAS behind them
+@pytest.mark.slow
 def test_topn_matches_the_generic_path(rng, method, coordinates, n):
     B = top(n, rng, diagonal=n % 2 == 0)
     project = n in (5, 8)

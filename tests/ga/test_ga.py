@@ -14,6 +14,7 @@ NS = [2, 3, 4, 5, 6]
 
 
 @pytest.mark.parametrize("n", NS)
+@pytest.mark.slow
 def test_sign_convention_against_clifford_itself(rng, n):
     """docs/theory.md §1: the matrix of ω acts as x ↦ ½(ωx − xω), and exp(tω/2) moves x ↦ R x R̃
     with d/dt = ω × x. Computed with clifford's own operators, not lieint's product table."""

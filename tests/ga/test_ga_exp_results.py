@@ -38,6 +38,7 @@ def _mp_rotor_exp(B: np.ndarray, alg) -> np.ndarray:
 
 
 @pytest.mark.parametrize("n", [4, 5, 6])
+@pytest.mark.slow
 def test_exp_matches_a_50_digit_series(rng, n):
     """The rotor coefficients themselves, against an independent high-precision series."""
     alg = ga.algebra(n)

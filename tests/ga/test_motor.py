@@ -68,6 +68,7 @@ def test_motor_cayley_and_normalisation(rng):
 
 
 @pytest.mark.parametrize("gravity", [None, [0.0, 0.0, -9.81]])
+@pytest.mark.slow
 def test_motor_body_agrees_with_free_body(gravity):
     """Rotation to round-off (the same stages); the centre to the truncation error of the screw
     motion (FreeBody moves the centre exactly in space)."""

@@ -38,6 +38,7 @@ CASES = _cases()
 
 
 @pytest.mark.parametrize("name", list(CASES))
+@pytest.mark.slow
 def test_rotor_form_gives_the_matrix_numbers(name):
     """2000 RKMK4 steps: R of the rotor equals the matrix path's R, every other field agrees, the
     Casimirs and the energy behave alike, and the rotor stays on Spin(n)."""

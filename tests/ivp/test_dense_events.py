@@ -83,6 +83,7 @@ def test_dense_output_of_steps_that_turn_the_body_by_radians_follows_the_steps()
 
 
 @pytest.mark.parametrize("method", lieint.method_names())
+@pytest.mark.slow
 def test_t_eval_works_for_every_method(method):
     t_eval = np.linspace(0.0, 1.0, 7)
     try:

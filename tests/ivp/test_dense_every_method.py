@@ -63,6 +63,7 @@ def defect(R):
 
 
 @pytest.mark.parametrize("name", [n for n in TOP_METHODS if on_group(n)])
+@pytest.mark.slow
 def test_dense_states_lie_on_the_group(rng, name):
     """‖RᵀR − I‖ ≤ 1e-14 at 10⁴ random times, and never more than 1e-15 above the round-off
     drift the steps at either end carry themselves (over longer runs the steps' own drift,
@@ -97,6 +98,7 @@ def dense_order(order):
 
 
 @pytest.mark.parametrize("name", [n for n in TOP_METHODS if is_fixed(n)])
+@pytest.mark.slow
 def test_dense_error_between_steps_has_the_expected_order(name):
     order = SPECS[name].order
     hs = [0.4, 0.2, 0.1] if order is not None and order >= 8 else [0.1, 0.05, 0.025]
@@ -138,6 +140,7 @@ def first_flip(name, h):
 
 
 @pytest.mark.parametrize("name", TOP_METHODS)
+@pytest.mark.slow
 def test_first_flip_of_the_dzhanibekov_top_with_every_method(name):
     """Fixed steps: the event time converges (at h = 0.04 and 0.02) and errs by at most about the
     change between the two (Richardson: |e(h)| ≈ |t(h) − t(h/2)| / (1 − 2⁻ᵖ)); adaptive runs at

@@ -203,6 +203,7 @@ EXPECTED = {
 
 
 @pytest.mark.parametrize("case", sorted(EXPECTED))
+@pytest.mark.slow
 def test_each_bomb_is_refused_quickly_with_a_clear_message(refusals, case):
     result = refusals[case]
     assert result["seconds"] < 5, result
@@ -254,6 +255,7 @@ def _steps_chosen_by_error_control():
 
 
 @pytest.mark.parametrize(("name", "coordinates", "backend"), _steps_chosen_by_error_control())
+@pytest.mark.slow
 def test_an_adaptive_run_never_holds_more_rows_than_the_memory_limit(monkeypatch, name, coordinates, backend):
     # tolerances below round-off drive the steps down without end, every one saved: the run is
     # refused at the limit instead of exhausting the machine (24 GB were reached before)

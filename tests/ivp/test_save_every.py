@@ -93,6 +93,7 @@ def test_compiled_path_streamed_in_segments(tmp_path, reference, every):
     ids=["generic-cf4", "lie-kernel-rkmk4", "lie-kernel-rk4", "compiled-ensemble-lanes", "compiled-4d-top"],
 )
 @pytest.mark.parametrize("every", [1, 7, 1000])
+@pytest.mark.slow
 def test_every_back_end_streamed(tmp_path, every, extra, backend):
     """The generic path (commutator-free methods have no compiled form), the generic compiled kernel
     (a 4D heavy top), the SIMD lanes of ensembles and the compiled n-dimensional top (a 4D free

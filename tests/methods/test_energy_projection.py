@@ -171,6 +171,7 @@ PAIRS = [("rkmk23", "scipy:RK23", 1e-5), ("rkmk45", "scipy:RK45", 1e-6), ("rkmk8
 
 @pytest.mark.parametrize(("w0", "T"), CASES, ids=["generic", "separatrix"])
 @pytest.mark.parametrize(("lie", "classical", "rtol"), PAIRS, ids=[p[0] for p in PAIRS])
+@pytest.mark.slow
 def test_with_the_energy_kept_the_global_error_per_rtol_is_within_2x_of_scipys_pair(lie, classical, rtol, w0, T):
     """The issue's measurement on the state both pairs integrate (A): the plain Lie pair errs
     3–10⁴× more per rtol than scipy's pair of the same orders; with the energy kept, at most 2×."""

@@ -63,6 +63,7 @@ SYSTEMS = {"top3": (TOP3, Y3, 5.0), "top4": (TOP4, Y4, 3.0), "heavy": (HEAVY, YH
 
 
 @pytest.mark.parametrize(("method", "body", "order", "ns"), ORDER_CASES)
+@pytest.mark.slow
 def test_fitted_orders(method, body, order, ns):
     system, y0, T = SYSTEMS[body]
     slope, errs = fitted_order(method, system, y0, T, ns)
@@ -77,6 +78,7 @@ def test_every_split_and_composition_has_its_order(split, composition):
     assert abs(slope - 4) <= 0.1, (slope, errs)
 
 
+@pytest.mark.slow
 def test_heavy_top_splitting_with_the_exact_free_flow():
     for order in (2, 4):
         method = lieint.get_method(f"splitting{order}", free="exact")

@@ -19,6 +19,7 @@ EXAMPLES = sorted((Path(__file__).resolve().parents[2] / "docs" / "examples").gl
 
 
 @pytest.mark.parametrize("path", EXAMPLES, ids=[p.stem for p in EXAMPLES])
+@pytest.mark.slow
 def test_example_runs(path, monkeypatch, capsys):
     if os.environ.get("LIEINT_EXAMPLES_RUN_BY_DOCS") == "1":
         pytest.skip("the CI's Sphinx build runs every example (abort_on_example_error)")

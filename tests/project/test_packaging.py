@@ -80,6 +80,7 @@ def test_the_wheel_carries_py_typed(tmp_path):
     assert "lieint/scenes/examples/dzhanibekov.toml" in names
 
 
+@pytest.mark.slow
 def test_integrating_needs_no_extra():
     result = run_without(
         ["clifford", "matplotlib", "dask", "distributed", "zarr", "xarray"],

@@ -136,6 +136,7 @@ def reference(tmp_path_factory):
     [([], []), ([], ["--resume"]), ([], ["--overwrite"]), (["--overwrite"], ["--overwrite"])],
     ids=["run+run", "run+resume", "run+overwrite", "overwrite+overwrite"],
 )
+@pytest.mark.slow
 def test_a_second_writer_is_refused_at_once_and_the_first_finishes_intact(tmp_path, reference, first, second):
     scene = scene_file(tmp_path)
     out = tmp_path / "run.h5"
@@ -155,6 +156,7 @@ def test_a_second_writer_is_refused_at_once_and_the_first_finishes_intact(tmp_pa
     assert not Path(str(out) + ".lock").exists()  # the lock goes with the run
 
 
+@pytest.mark.slow
 def test_the_lock_of_a_killed_writer_is_released(tmp_path, reference):
     scene = scene_file(tmp_path)
     out = tmp_path / "run.h5"
@@ -205,6 +207,7 @@ def test_info_names_the_live_writer(tmp_path):
 # -- what --overwrite may replace, and links ---------------------------------------------------------
 
 
+@pytest.mark.slow
 def test_overwrite_refuses_what_is_not_a_lieint_run_and_leaves_it_untouched(tmp_path):
     scene = scene_file(tmp_path, t_end=0.1)
     fifo = tmp_path / "fifo"
@@ -241,6 +244,7 @@ def test_overwrite_refuses_what_is_not_a_lieint_run_and_leaves_it_untouched(tmp_
     assert cli(["run", str(scene), "--out", str(out), "--quiet", "--overwrite"], tmp_path).returncode == 0
 
 
+@pytest.mark.slow
 def test_links_planted_beside_a_run_are_never_followed(tmp_path, reference):
     scene = scene_file(tmp_path)
     out = tmp_path / "run.h5"
@@ -283,6 +287,7 @@ def _limit_file_size(nbytes):
     return apply
 
 
+@pytest.mark.slow
 def test_file_size_limit_gives_one_clear_message_and_the_run_resumes(tmp_path, reference):
     scene = scene_file(tmp_path)
     out = tmp_path / "run.h5"
@@ -305,6 +310,7 @@ def test_file_size_limit_gives_one_clear_message_and_the_run_resumes(tmp_path, r
     assert_identical(read_all(out), reference)
 
 
+@pytest.mark.slow
 def test_a_write_failing_inside_hdf5_is_reported_once_and_the_run_resumes(tmp_path, reference):
     """As if another process filled the disk between lieint's room check and its write."""
     scene = scene_file(tmp_path)
@@ -371,6 +377,7 @@ def test_info_of_an_intact_file(finished):
     assert seconds < 5
 
 
+@pytest.mark.slow
 def test_damage_at_known_places_is_reported_with_where(tmp_path, finished):
     data = bytearray(finished.read_bytes())
     with h5py.File(finished, "r") as f:

@@ -85,6 +85,7 @@ def reference(tmp_path_factory):
     return read_all(tmp / "ref.h5")
 
 
+@pytest.mark.slow
 def test_uninterrupted_run_writes_plain_hdf5(reference):
     data, attrs = reference
     assert attrs["status"] == "complete" and attrs["steps_done"] == attrs["planned_steps"] == 25_000
@@ -96,6 +97,7 @@ def test_uninterrupted_run_writes_plain_hdf5(reference):
     assert data["states/A"].shape == (m, 4, 4) and data["invariants/manakov"].shape == (m, 2)
 
 
+@pytest.mark.slow
 def test_kill_9_then_resume_is_bit_for_bit(tmp_path, reference):
     scene = scene_file(tmp_path)
     out = tmp_path / "run.h5"
@@ -119,6 +121,7 @@ def test_kill_9_then_resume_is_bit_for_bit(tmp_path, reference):
     assert not Path(str(out) + ".checkpoint").exists()
 
 
+@pytest.mark.slow
 def test_ctrl_c_stops_cleanly_and_resumes(tmp_path, reference):
     scene = scene_file(tmp_path)
     out = tmp_path / "run.h5"
@@ -191,6 +194,7 @@ def test_monitor_and_plain_progress_lines(tmp_path):
     assert "step 1000/1000 (100.0%)" in text and "steps/s" in text and "ETA" in text
 
 
+@pytest.mark.slow
 def test_disk_full_keeps_what_was_written_and_resumes(tmp_path, monkeypatch, reference):
     from lieint.runs import store
 
@@ -234,6 +238,7 @@ def test_unwritable_and_corrupt_outputs(tmp_path):
         plot_run(out)
 
 
+@pytest.mark.slow
 def test_memory_stays_flat(tmp_path):
     """Peak Python memory does not grow with the length of the run (4× the rows, same peak)."""
     peaks, written = [], []

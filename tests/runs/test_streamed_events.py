@@ -51,6 +51,7 @@ def test_a_streamed_run_records_the_flips_as_in_memory(tmp_path):
 
 
 @pytest.mark.parametrize("method", ["rkmk4", "rkmk6", "rkmk853", "splitting4", "scipy:DOP853"])
+@pytest.mark.slow
 def test_resumed_runs_record_the_same_events_bit_for_bit(tmp_path, method):
     """Fixed steps (cubic and quintic interpolants: the latter carries an earlier step across
     the checkpoint), adaptive steps (two earlier steps), a method without an increment, and

@@ -107,6 +107,7 @@ def run_cli(args, site, cwd):
     )
 
 
+@pytest.mark.slow
 def test_an_installed_system_runs_from_a_scene_streamed_and_plotted(plugin_path, tmp_path):
     (tmp_path / "rotor.toml").write_text(SCENE)
     done = run_cli(["run", "rotor.toml"], plugin_path, tmp_path)

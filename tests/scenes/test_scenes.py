@@ -222,6 +222,7 @@ def test_cli_run_and_scenes(tmp_path, capsys):
 ESCAPES = "\\u001b[2J\\u001b]0;pwned\\u0007\\nforged line"  # clear screen, window title, a forged line
 
 
+@pytest.mark.slow
 def test_a_scene_name_with_escape_codes_prints_escaped(tmp_path):
     """``lieint run``, ``lieint info`` and ``lieint plot`` of a scene whose name and description
     hold terminal control codes: no control character reaches stdout or stderr."""

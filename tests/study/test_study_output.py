@@ -208,6 +208,7 @@ def test_the_overview_shows_about_eight_representative_series(study):
     assert any(label.startswith("scipy:DOP853") for label in labels)
 
 
+@pytest.mark.slow
 def test_legend_title_and_notes_lie_inside_the_figure_and_apart(study, tmp_path):
     fig = _draw(study, [r for r in study.rows if r.family in ("rk", "scipy", "rkmk-embedded")][:400], "many series")
     fig.canvas.draw()

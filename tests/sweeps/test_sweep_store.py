@@ -101,6 +101,7 @@ def snapshot(path: Path) -> dict:
 
 
 @pytest.mark.parametrize("second", [[], ["--resume"], ["--overwrite"]], ids=["sweep", "resume", "overwrite"])
+@pytest.mark.slow
 def test_a_second_writer_is_refused_at_once_and_the_first_finishes_intact(tmp_path, reference, second):
     path = scene(tmp_path, t_end="20.0")  # about a second a chunk: long enough to be met live
     out = tmp_path / "s.zarr"
@@ -142,6 +143,7 @@ def _read(path: Path) -> str:
 # -- --overwrite replaces only a lieint sweep store ------------------------------------------------------
 
 
+@pytest.mark.slow
 def test_overwrite_refuses_what_is_not_a_lieint_sweep_store_and_leaves_it_untouched(tmp_path, reference):
     path = scene(tmp_path)
     thesis = tmp_path / "thesis"
@@ -196,6 +198,7 @@ def _chunk_file(store: Path, name: str, chunk: int) -> Path:
     return store / name / arr.metadata.encode_chunk_key((chunk,) + (0,) * (arr.ndim - 1))
 
 
+@pytest.mark.slow
 def test_deleted_truncated_and_garbage_chunks_are_named_never_read_and_recomputed(tmp_path, reference):
     path = scene(tmp_path)
     out = tmp_path / "s.zarr"
@@ -317,6 +320,7 @@ def _limit_file_size(size):
     return apply
 
 
+@pytest.mark.slow
 def test_the_file_size_limit_ends_with_one_message_and_the_sweep_resumes(tmp_path):
     """ulimit -f below the file of the state's chunk (every row saved, one chunk of six members)
     but above every other file: the kernel refuses the write (EFBIG), the sweep ends with one
@@ -354,6 +358,7 @@ def _unshare_works() -> bool:
 
 
 @pytest.mark.skipif(not _unshare_works(), reason="needs user and mount namespaces (unshare -rm) for a small tmpfs")
+@pytest.mark.slow
 def test_a_full_tmpfs_ends_with_one_message_and_the_sweep_resumes(tmp_path, reference):
     """A real full disk: a 120 kB tmpfs in a private mount namespace; the store is copied out
     after a resume on the same tmpfs made larger."""
@@ -385,6 +390,7 @@ cp -r {mnt}/s.zarr {keep}
 # -- Ctrl-C ---------------------------------------------------------------------------------------------
 
 
+@pytest.mark.slow
 def test_ctrl_c_stops_with_one_line_and_resumes(tmp_path, reference):
     path = scene(tmp_path, t_end="2.0")
     out = tmp_path / "s.zarr"

@@ -77,6 +77,7 @@ def reference(tmp_path_factory):
     return xr.open_zarr(out)
 
 
+@pytest.mark.slow
 def test_distributed_equals_the_one_process_ensemble_bit_for_bit(client, tmp_path):
     """A compiled ensemble (SIMD lanes, 64 members a chunk) against one integrate call on all 192."""
     out = tmp_path / "top.zarr"
@@ -106,6 +107,7 @@ def _mismatch(swept, here) -> str:
     )
 
 
+@pytest.mark.slow
 def test_a_worker_killed_mid_sweep_changes_nothing(client, tmp_path, reference):
     out = tmp_path / "killed.zarr"
     before = client.run(os.getpid)
@@ -224,6 +226,7 @@ def _server(mode: str):
         ("tcp://127.0.0.1", "tcp://HOST:PORT"),
     ],
 )
+@pytest.mark.slow
 def test_a_scheduler_that_cannot_be_used_is_refused_in_one_line_and_nothing_is_created(tmp_path, address, expected):
     if address in ("silent", "garbage", "http"):
         address = f"tcp://127.0.0.1:{_server(address)}"

@@ -71,6 +71,7 @@ def test_the_exact_solution_against_an_independent_reference(moments):
         ("DOP853", {"rtol": 1e-11, "atol": 1e-13}, 1e-8, 1e-9, False),
     ],
 )
+@pytest.mark.slow
 def test_methods_keep_the_invariants_and_follow_the_exact_motion(moments, method, kw, tol, energy, geometric):
     top = lieint.EulerTop.from_principal_moments(moments)
     y0 = top.initial_state(angular_velocity=W0)

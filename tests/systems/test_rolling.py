@@ -16,6 +16,7 @@ def incline_gravity(n, theta, g=9.81):
 
 
 @pytest.mark.parametrize("n", [2, 3, 4, 5])
+@pytest.mark.slow
 def test_uniform_solid_ball_on_an_incline_accelerates_at_n_plus_2_over_n_plus_4_g_sin_theta(n):
     M, r, theta = 2.0, 0.5, 0.3
     ball = lieint.RollingBall(

@@ -179,6 +179,7 @@ def fixed_steps(method, system, y0, T, n):
 
 
 @pytest.mark.parametrize("name", METHODS)
+@pytest.mark.slow
 def test_every_method_reaches_its_order(name):
     spec, method = SPECS[name], lieint.get_method(name)
     for problem in ORDER_PROBLEMS:
@@ -228,6 +229,7 @@ def test_every_method_reaches_its_order(name):
 
 @pytest.mark.parametrize("system_name", list(SYSTEM_CASES))
 @pytest.mark.parametrize("name", METHODS)
+@pytest.mark.slow
 def test_every_method_integrates_every_builtin_system(name, system_name):
     system, y0 = build(system_name)
     method = lieint.get_method(name)
@@ -334,6 +336,7 @@ def first_applicable_system(name) -> str | None:
 
 
 @pytest.mark.parametrize("name", METHODS)
+@pytest.mark.slow
 def test_every_method_runs_a_scene_streamed_and_resumed(name, tmp_path, capsys):
     # long enough for an adaptive method to take several steps before the stop
     system_name = first_applicable_system(name)
@@ -356,6 +359,7 @@ def test_every_method_runs_a_scene_streamed_and_resumed(name, tmp_path, capsys):
 
 
 @pytest.mark.parametrize("system_name", list(SYSTEM_CASES))
+@pytest.mark.slow
 def test_every_builtin_system_runs_from_a_scene_and_plots(system_name, tmp_path):
     scene = write_scene(tmp_path, system_name, "rkmk4")
     out = tmp_path / "run.h5"
