@@ -48,6 +48,7 @@ def generic_heavy_top():
     return top, top.initial_state(angular_velocity=2.0 * w / np.linalg.norm(w))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", sorted(_integrable()))
 def test_megno_of_integrable_motion_tends_to_two(name):
     system, y0 = _integrable()[name]
@@ -57,6 +58,7 @@ def test_megno_of_integrable_motion_tends_to_two(name):
     assert abs(float(m.mean) - 2.0) <= abs(half - 2.0) + 1e-3, (half, float(m.mean))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", sorted(_integrable()))
 def test_largest_exponent_of_integrable_motion_falls_like_log_t_over_t(name):
     system, y0 = _integrable()[name]
@@ -67,6 +69,7 @@ def test_largest_exponent_of_integrable_motion_falls_like_log_t_over_t(name):
     assert abs(growth - np.log(2.0)) < 1.0, growth
 
 
+@pytest.mark.slow
 def test_generic_heavy_top_is_chaotic():
     system, y0 = generic_heavy_top()
     m = lieint.megno(system, y0, (0.0, T), h=H, save_every=100)

@@ -20,6 +20,7 @@ from lieint.tangent import TangentStepper, chart_of
 CASES = [(n, label) for n in (3, 4) for label in systems(n)]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(("n", "label"), CASES)
 def test_one_step_of_every_method_matches_central_differences(n, label):
     """Every registered method with a tangent map, every built-in body, n = 3 and 4: the
@@ -62,6 +63,7 @@ WHOLE_RUNS = [
 ]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(("label", "name", "coordinates"), WHOLE_RUNS)
 def test_whole_run_jacobian_matches_central_differences(label, name, coordinates):
     """The whole Jacobian ∂y(T)/∂y₀ over 200 steps (T = 4, h = 0.02), 1e-6 relative."""
