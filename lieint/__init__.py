@@ -18,8 +18,10 @@ the one driving loop, :class:`Solution`) → front ends (``ivp.integrate``, ``sc
 ``study``, ``cli``).
 """
 
-from . import analysis, rotations
+from . import analysis, rotations, tangent
 from ._version import __version__
+from .analysis.chaos import lyapunov, megno
+from .analysis.sections import poincare
 from .driver import Stats
 from .groups import SE, SO, DexpinvRangeError
 from .ivp import LieStepWarning, integrate
@@ -32,6 +34,7 @@ from .systems.atoms import AtomsBody
 from .systems.euler_top_exact import euler_top_flip_times
 from .systems.particles import CentralForceParticle, ConstantForceParticle, SurfaceParticle
 from .systems.prescribed import PrescribedRotation
+from .tangent import tangent_flow
 
 __all__ = [
     "SE",
@@ -56,8 +59,13 @@ __all__ = [
     "euler_top_flip_times",
     "get_method",
     "integrate",
+    "lyapunov",
+    "megno",
     "method_names",
+    "poincare",
     "rotations",
     "run",
     "sweep",
+    "tangent",
+    "tangent_flow",
 ]

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 
 from ._arguments import positive_float, positive_int
@@ -137,6 +138,21 @@ def _build_parser() -> argparse.ArgumentParser:
         "--integrals", choices=("momentum", "manakov"), default="momentum", help="which first integrals to count"
     )
     analyze.add_argument("--json", action="store_true", help="print JSON instead of the equation's form")
+    analyze.add_argument(
+        "--lyapunov",
+        action="store_true",
+        help="also integrate the scene and print its Lyapunov spectrum (exact tangent map of its method and step)",
+    )
+    analyze.add_argument(
+        "--megno", action="store_true", help="also integrate the scene and print its MEGNO (2: regular; grows: chaotic)"
+    )
+    analyze.add_argument(
+        "--t-end",
+        type=float,
+        default=None,
+        metavar="T",
+        help="end of the run for --lyapunov/--megno (default: the scene's)",
+    )
     _add_sweep_parser(sub)
     return parser
 
@@ -487,7 +503,7 @@ def _analyze(args) -> int:
     import json
     from pathlib import Path
 
-    from .analysis.scene import analysis_json, analyze_scene, format_analysis
+    from .analysis.scene import analysis_json, analyze_scene, format_analysis, scene_indicators
     from .scenes import SceneError, embedded_scenes, load_scene
 
     try:
@@ -501,6 +517,14 @@ def _analyze(args) -> int:
                 )
             scene = known[args.scene]
         result = analyze_scene(scene, integrals=args.integrals)
+        if args.t_end is not None and not (args.lyapunov or args.megno):
+            raise ValueError("--t-end applies to --lyapunov and --megno only")
+        if args.t_end is not None and not (math.isfinite(args.t_end) and args.t_end > scene.t_start):
+            raise ValueError(
+                f"--t-end must be a finite time after the scene's t_start = {scene.t_start:g}; got {args.t_end:g}"
+            )
+        if args.lyapunov or args.megno:
+            result["indicators"] = scene_indicators(scene, lyapunov=args.lyapunov, megno=args.megno, t_end=args.t_end)
     except (SceneError, ValueError) as exc:
         _error("analyze", exc)
         return 2

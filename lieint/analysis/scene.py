@@ -8,7 +8,7 @@ import numpy as np
 from .holonomy import constraint_of, is_holonomic
 from .integrability import integrability_count
 
-__all__ = ["analyze", "analyze_scene"]
+__all__ = ["analyze", "analyze_scene", "scene_indicators"]
 
 
 def analyze(system, state: dict, *, integrals: str = "momentum") -> dict:
@@ -42,6 +42,74 @@ def analyze_scene(scene, *, integrals: str = "momentum") -> dict:
     return result
 
 
+def scene_indicators(scene, *, lyapunov: bool = False, megno: bool = False, t_end: float | None = None) -> dict:
+    """Chaos indicators of a scene's motion on the exact tangent map of its method and step.
+
+    Parameters
+    ----------
+    scene : Scene
+        The scene; its [integrator] gives the method, its coordinates, the step and the span.
+    lyapunov, megno : bool
+        Which indicators to compute (:func:`lieint.lyapunov`: the whole spectrum;
+        :func:`lieint.megno`).
+    t_end : float, optional
+        The end of the run instead of the scene's ``t_end`` (the indicators converge slowly).
+
+    Returns
+    -------
+    dict
+        ``"lyapunov"``: exponents per member (list of lists) and ``"pairing"`` (max |λ_i + λ_{k+1-i}|),
+        ``"megno"``: ⟨Y⟩ per member, with ``"t_end"``, ``"h"``, ``"method"``, ``"backend_reason"``.
+
+    Raises
+    ------
+    ValueError
+        The scene's method has no tangent map.
+
+    Notes
+    -----
+    The run takes fixed steps of the scene's ``step``, an embedded pair its propagated solution
+    (the tangent map of an adaptive run needs its accepted steps, :func:`lieint.tangent_flow`).
+    """
+    from ..scenes.engine import build_system
+    from .chaos import lyapunov as lyapunov_of
+    from .chaos import megno as megno_of
+
+    system, y0 = build_system(scene)
+    t1 = scene.t_end if t_end is None else float(t_end)
+    out: dict = {"t_end": t1, "h": scene.step, "method": scene.method}
+    span, common = (scene.t_start, t1), {"method": scene.method, "coordinates": scene.coordinates}
+    if lyapunov:
+        spec = lyapunov_of(system, y0, span, scene.step, **common)
+        out["lyapunov"] = np.atleast_2d(spec.exponents).tolist()
+        out["pairing"] = np.atleast_1d(spec.pairing_defect()).tolist()
+        out["labels"] = spec.chart.labels()
+        out["backend_reason"] = spec.backend_reason
+    if megno:
+        m = megno_of(
+            system, y0, span, scene.step, save_every=max(1, int((t1 - scene.t_start) / scene.step) // 100), **common
+        )
+        out["megno"] = np.atleast_1d(m.mean).tolist()
+        out["backend_reason"] = m.backend_reason
+    return out
+
+
+def format_indicators(result: dict) -> str:
+    """The printed form of :func:`scene_indicators`."""
+    lines = [f"chaos indicators: {result['method']}, h = {result['h']:g}, t_end = {result['t_end']:g} "
+             f"fixed steps (exact tangent map; {result['backend_reason']})"]  # fmt: skip
+    if "megno" in result:
+        values = ", ".join(f"{v:.3f}" for v in result["megno"])
+        lines.append(f"MEGNO <Y> = {values}  (-> 2 regular/quasi-periodic, grows like lambda t/2 if chaotic)")
+    if "lyapunov" in result:
+        for i, (exps, pair) in enumerate(zip(result["lyapunov"], result["pairing"], strict=True)):
+            member = f"member {i}: " if len(result["lyapunov"]) > 1 else ""
+            lines.append(
+                f"Lyapunov exponents {member}" + " ".join(f"{v:.4g}" for v in exps) + f"  (pairs sum to {pair:.1e})"
+            )
+    return "\n".join(lines)
+
+
 def format_analysis(result: dict) -> str:
     """The printed form of :func:`analyze_scene`."""
     lines = [f"{result['scene']} — {result['system']}"]
@@ -53,6 +121,8 @@ def format_analysis(result: dict) -> str:
         lines.append(result["holonomy"].report())
     else:
         lines.append(f"holonomy: not available ({result['holonomy_error']})")
+    if "indicators" in result:
+        lines.append(format_indicators(result["indicators"]))
     return "\n".join(lines)
 
 
@@ -65,4 +135,4 @@ def analysis_json(result: dict) -> dict:
         "count_error": result["count_error"],
         "holonomy": None if result["holonomy"] is None else result["holonomy"].to_dict(),
         "holonomy_error": result["holonomy_error"],
-    }
+    } | ({"indicators": result["indicators"]} if "indicators" in result else {})

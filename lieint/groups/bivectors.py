@@ -29,6 +29,13 @@ __all__ = [
 ]
 
 
+def _floats(x) -> np.ndarray:
+    """``x`` as a float array, a complex one kept complex: the complex-step derivatives of
+    :mod:`lieint.tangent` carry complex states through every function of the groups."""
+    x = np.asarray(x)
+    return x.astype(np.result_type(x.dtype, np.float64), copy=False)
+
+
 def bivector_dimension(n: int) -> int:
     """``dim so(n) = n (n − 1) / 2``."""
     return n * (n - 1) // 2
@@ -36,8 +43,8 @@ def bivector_dimension(n: int) -> int:
 
 def wedge(u: np.ndarray, v: np.ndarray) -> np.ndarray:
     """Wedge product of vectors, ``u ∧ v = u vᵀ − v uᵀ`` (shape ``(..., n, n)``)."""
-    u = np.asarray(u, dtype=float)
-    v = np.asarray(v, dtype=float)
+    u = _floats(u)
+    v = _floats(v)
     outer = u[..., :, None] * v[..., None, :]
     return outer - np.swapaxes(outer, -1, -2)
 
@@ -60,10 +67,10 @@ def skew_part(X: np.ndarray) -> np.ndarray:
 
 def hat(w: np.ndarray) -> np.ndarray:
     """n = 3 hat map: ``(..., 3) → (..., 3, 3)`` with ``hat(w) @ x = w × x``."""
-    w = np.asarray(w, dtype=float)
+    w = _floats(w)
     if w.shape[-1:] != (3,):
         raise ValueError(f"`w` must have shape (..., 3); got shape {w.shape}.")
-    out = np.zeros(w.shape[:-1] + (3, 3))
+    out = np.zeros(w.shape[:-1] + (3, 3), dtype=w.dtype)
     out[..., 0, 1], out[..., 0, 2] = -w[..., 2], w[..., 1]
     out[..., 1, 0], out[..., 1, 2] = w[..., 2], -w[..., 0]
     out[..., 2, 0], out[..., 2, 1] = -w[..., 1], w[..., 0]
@@ -72,7 +79,7 @@ def hat(w: np.ndarray) -> np.ndarray:
 
 def vee(X: np.ndarray) -> np.ndarray:
     """Inverse of :func:`hat`: ``(..., 3, 3) → (..., 3)`` (uses the skew part)."""
-    X = np.asarray(X, dtype=float)
+    X = _floats(X)
     if X.shape[-2:] != (3, 3):
         raise ValueError(f"`X` must have shape (..., 3, 3); got shape {X.shape}.")
     return 0.5 * np.stack(
@@ -86,7 +93,7 @@ def bivector_coordinates(X: np.ndarray) -> np.ndarray:
 
     Returns shape ``(..., n(n−1)/2)``: entries ``X[i, j]`` for ``i < j``.
     """
-    X = np.asarray(X, dtype=float)
+    X = _floats(X)
     n = X.shape[-1]
     i, j = np.triu_indices(n, k=1)
     return X[..., i, j]
@@ -94,12 +101,12 @@ def bivector_coordinates(X: np.ndarray) -> np.ndarray:
 
 def from_bivector_coordinates(c: np.ndarray, n: int) -> np.ndarray:
     """Skew ``(..., n, n)`` matrix from coordinates on ``e_i ∧ e_j`` (``i < j``)."""
-    c = np.asarray(c, dtype=float)
+    c = _floats(c)
     d = bivector_dimension(n)
     if c.shape[-1:] != (d,):
         raise ValueError(f"`c` must have shape (..., {d}) for n = {n} (n(n-1)/2 coordinates); got shape {c.shape}.")
     i, j = np.triu_indices(n, k=1)
-    out = np.zeros(c.shape[:-1] + (n, n))
+    out = np.zeros(c.shape[:-1] + (n, n), dtype=c.dtype)
     out[..., i, j] = c
     out[..., j, i] = -c
     return out

@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from .base import MatrixLieGroup
-from .bivectors import bivector_dimension, vee
+from .bivectors import _floats, bivector_dimension
 from .so import SO, onto_rotations, project_to_so, so3_angle_squared, so3_exp, so3_log, so_ad_spectral_radius
 
 __all__ = ["SE", "se_join", "se_split"]
@@ -21,11 +21,10 @@ def se_join(rotation: np.ndarray, translation: np.ndarray, *, algebra: bool = Fa
 
     ``algebra=True`` builds ``[[Ω, V], [0, 0]]``; otherwise ``[[Q, v], [0, 1]]``.
     """
-    rotation = np.asarray(rotation, dtype=float)
-    translation = np.asarray(translation, dtype=float)
+    rotation, translation = _floats(rotation), _floats(translation)
     n = rotation.shape[-1]
     batch = np.broadcast_shapes(rotation.shape[:-2], translation.shape[:-1])
-    out = np.zeros(batch + (n + 1, n + 1))
+    out = np.zeros(batch + (n + 1, n + 1), dtype=np.result_type(rotation, translation))
     out[..., :n, :n] = rotation
     out[..., :n, n] = translation
     if not algebra:
@@ -41,7 +40,8 @@ def se_split(g: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def _se3_left_jacobian(X: np.ndarray) -> np.ndarray:
     """``V = Σ_k Ωᵏ/(k+1)! = I + ((1 − cos θ)/θ²) Ω + ((θ − sin θ)/θ³) Ω²`` on so(3)."""
-    theta = np.linalg.norm(vee(X), axis=-1)[..., None, None]
+    # θ = √(θ²), not a norm: analytic in X, so complex-step derivatives pass through it
+    theta = np.sqrt(so3_angle_squared(X))[..., None, None]
     small = theta < 1e-3
     t2 = theta * theta
     safe = np.where(small, 1.0, theta)

@@ -90,7 +90,7 @@ def _coords(X: np.ndarray) -> np.ndarray:
 
 def _skew(c: np.ndarray, n: int) -> np.ndarray:
     i, j = _pairs(n)
-    out = np.zeros(c.shape[:-1] + (n, n))
+    out = np.zeros(c.shape[:-1] + (n, n), dtype=c.dtype)  # complex kept (lieint.tangent)
     out[..., i, j] = c
     out[..., j, i] = -c
     return out

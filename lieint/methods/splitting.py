@@ -183,7 +183,7 @@ class _Pieces:
         a = A[..., i, j] if self.diagonal else (self.P.T @ A @ self.P)[..., i, j]
         theta = -tau * a / (self.b[i] + self.b[j])  # τ Ω_ij
         c, s = np.cos(theta), np.sin(theta)
-        Q = np.broadcast_to(np.eye(self.n), A.shape).copy()
+        Q = np.broadcast_to(np.eye(self.n, dtype=theta.dtype), A.shape).copy()  # complex kept (lieint.tangent)
         Q[..., i, i] = c
         Q[..., j, j] = c
         Q[..., i, j] = s  # exp(θ e_i∧e_j): the (i, j) entry of e_i∧e_j is +1
@@ -196,7 +196,7 @@ class _Pieces:
         if not self.heavy:
             return Q
         n = self.n
-        g = np.zeros(Q.shape[:-2] + (n + 1, n + 1))
+        g = np.zeros(Q.shape[:-2] + (n + 1, n + 1), dtype=Q.dtype)
         g[..., :n, :n] = Q
         g[..., n, n] = 1.0
         return g

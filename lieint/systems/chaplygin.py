@@ -24,7 +24,7 @@ from ..groups.bivectors import inner, skew_part
 from ..groups.se import SE
 from ..groups.so import SO
 from .base import Invariant, LieGroupSystem, Output, State
-from .mass import eigh_or_nan, solve_lyapunov_sym
+from .mass import solve_lyapunov
 from .rigid import casimir_invariant, momentum_outputs, pose_invariants
 from .rolling_ball import RollingPose, check_ball, rolling_initial_kinematics
 
@@ -145,8 +145,7 @@ class ChaplyginBall(RollingPose, LieGroupSystem):
         ndarray, shape (..., n, n)
             Ω (NaN for a member whose ``B_K`` is not finite).
         """
-        b, P = eigh_or_nan(self.contact_mass_tensor(Gamma))
-        return solve_lyapunov_sym(b, P, -A)
+        return solve_lyapunov(self.contact_mass_tensor(Gamma), -A)
 
     def energy(self, y: State) -> np.ndarray:
         """``T = ¼ tr(Ω A_K) = −¼⟨Ω, A_K⟩`` (gravity does no work: the centre stays at height r).

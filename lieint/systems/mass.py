@@ -16,6 +16,7 @@ __all__ = [
     "check_mass_tensor",
     "is_mass_distribution",
     "moments_tensor",
+    "solve_lyapunov",
     "solve_lyapunov_sym",
 ]
 
@@ -166,3 +167,25 @@ def solve_lyapunov_sym(b: np.ndarray, P: np.ndarray, C: np.ndarray) -> np.ndarra
     pair = pair + np.eye(n)  # diagonal: (2 b_i + 1), harmless since C̃_ii = 0
     X = P @ ((Pt @ C @ P) / pair) @ Pt
     return 0.5 * (X - np.swapaxes(X, -1, -2))  # exactly skew (see EulerTop.angular_velocity)
+
+
+def solve_lyapunov(B: np.ndarray, C: np.ndarray) -> np.ndarray:
+    """Solve ``B X + X B = C`` for symmetric positive definite B and skew C (batched).
+
+    Real arrays in B's eigenbasis (:func:`eigh_or_nan`, :func:`solve_lyapunov_sym`). Complex
+    ones (the complex-step derivatives of :mod:`lieint.tangent`) by one dense solve of the
+    ``n² × n²`` system ``(B ⊗ I + I ⊗ B) vec X = vec C``: the eigendecomposition of a complex
+    matrix is the Hermitian one, not analytic in B, and would lose the derivative.
+    """
+    if not (np.iscomplexobj(B) or np.iscomplexobj(C)):
+        b, P = eigh_or_nan(B)
+        return solve_lyapunov_sym(b, P, C)
+    n = B.shape[-1]
+    eye = np.eye(n)
+    # (B X + X B)_ij = Σ_kl (B_ik δ_jl + δ_ik B_lj) X_kl
+    L = np.einsum("...ik,jl->...ijkl", B, eye) + np.einsum("ik,...lj->...ijkl", eye, B)
+    batch = np.broadcast_shapes(L.shape[:-4], C.shape[:-2])
+    L = np.broadcast_to(L, batch + L.shape[-4:]).reshape(batch + (n * n, n * n))
+    rhs = np.broadcast_to(C, batch + C.shape[-2:]).reshape(batch + (n * n, 1))
+    X = np.linalg.solve(L, rhs).reshape(batch + (n, n))
+    return 0.5 * (X - np.swapaxes(X, -1, -2))

@@ -37,7 +37,7 @@ from ..groups.se import SE, se_join, se_split
 from ..groups.so import SO, project_to_so
 from ..groups.vector import ProductGroup, VectorSpace
 from .base import Invariant, LieGroupSystem, Output, State
-from .mass import check_mass_tensor, eigh_or_nan, solve_lyapunov_sym
+from .mass import check_mass_tensor, solve_lyapunov
 from .rigid import orientation_output, pose_invariants
 
 #: what the compiled declaration stands for (see :meth:`LieGroupSystem.dynamics_as`)
@@ -327,8 +327,7 @@ class RollingBall(RollingPose, LieGroupSystem):
         force = Om2k if G is None else G + Om2k
         lever = k + self.center_of_mass if self._offset else k
         C = BK @ Om2 - Om2 @ BK - self.mass * wedge(lever, force)
-        b, P = eigh_or_nan(BK)
-        return solve_lyapunov_sym(b, P, C)
+        return solve_lyapunov(BK, C)
 
     def kinetic_energy(self, y: State) -> np.ndarray:
         """``T = −½ tr(Ω B_K Ω) = ½⟨Ω, B_K Ω⟩``.

@@ -42,6 +42,7 @@ LAYERS = [
     ),
     ("integrate", ["lieint.ivp", "lieint.warmup"]),
     ("scenes", ["lieint.scenes", "lieint.catalog"]),
+    ("tangent flow", ["lieint.tangent"]),
     ("analysis", ["lieint.analysis"]),
     ("front ends", ["lieint.runs", "lieint.sweeps", "lieint.study"]),
     ("command line", ["lieint._arguments", "lieint.compare", "lieint.cli", "lieint.__main__", "lieint"]),
