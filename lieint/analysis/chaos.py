@@ -39,11 +39,11 @@ class LyapunovSpectrum:
 
     Attributes
     ----------
-    exponents : ndarray, shape (*b, k)
+    exponents : ndarray, shape (..., k)
         The k largest exponents at the end of the run, in decreasing order (1/time).
     t : ndarray, shape (m,)
         The times of the history (every re-orthonormalisation).
-    history : ndarray, shape (m, *b, k)
+    history : ndarray, shape (m, ..., k)
         The exponents as estimated up to each time of ``t``.
     y : dict of ndarray
         The final state.
@@ -71,7 +71,7 @@ class LyapunovSpectrum:
 
         Returns
         -------
-        ndarray, shape (*b,)
+        ndarray, shape (...)
             The largest sum of paired exponents (meaningful when k is the whole dimension).
         """
         return np.max(np.abs(self.exponents + self.exponents[..., ::-1]), axis=-1)
@@ -83,15 +83,15 @@ class Megno:
 
     Attributes
     ----------
-    mean : ndarray, shape (*b,)
+    mean : ndarray, shape (...)
         ``⟨Y⟩`` at the end of the run (→ 2 quasi-periodic, grows like ``λt/2`` chaotic).
     t : ndarray, shape (m,)
         The times of the history (every step, or every ``save_every``-th).
-    y_history : ndarray, shape (m, *b)
+    y_history : ndarray, shape (m, ...)
         ``Y(t)``.
-    mean_history : ndarray, shape (m, *b)
+    mean_history : ndarray, shape (m, ...)
         ``⟨Y⟩(t)``.
-    lyapunov : ndarray, shape (*b,)
+    lyapunov : ndarray, shape (...)
         The largest exponent estimated from the same vector, ``log|δ(T)|/T``.
     y : dict of ndarray
         The final state.

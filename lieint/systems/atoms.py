@@ -145,7 +145,7 @@ class AtomsBody(LieGroupSystem):
 
         Returns
         -------
-        ndarray, shape (..., |S|)
+        ndarray, shape ``(..., |S|)``
             σ on each pair of :attr:`pairs`.
         """
         P = self.pairs

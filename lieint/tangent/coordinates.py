@@ -82,7 +82,7 @@ class TangentChart:
         ----------
         y : dict of ndarray
             A state of batch shape ``b``.
-        v : ndarray, shape (k, *b, dim)
+        v : ndarray, shape (k, ..., dim)
             k tangent vectors at each body of ``y``.
         scale : float or complex
             The step along them (``1j·ε`` for the complex step).
@@ -121,7 +121,7 @@ class TangentChart:
 
         Returns
         -------
-        ndarray, shape (k, *b, dim)
+        ndarray, shape (k, ..., dim)
             ``vee(Rᵀ dR)`` for rotations, the upper triangle for momenta, the entries else.
         """
         parts = []

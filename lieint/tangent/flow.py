@@ -132,7 +132,7 @@ class TangentStepper:
         ----------
         y : dict of ndarray
             A real state of batch shape ``b``.
-        vectors : ndarray, shape (k, *b, dim)
+        vectors : ndarray, shape (k, ..., dim)
             Tangent vectors (chart coordinates; shape ``(k, dim)`` broadcasts over bodies).
 
         Returns
@@ -164,7 +164,7 @@ class TangentStepper:
         -------
         y : dict of ndarray
             The real state (of the first copy; every copy's real part is the same run).
-        vectors : ndarray, shape (k, *b, dim)
+        vectors : ndarray, shape (k, ..., dim)
             The tangent vectors carried by the copies.
         """
         y = {name: np.ascontiguousarray(z[name][0].real) for name in self.chart.names}
@@ -245,7 +245,7 @@ class TangentFlow:
         The final time.
     y : dict of ndarray
         The final state (the method's run, as :func:`lieint.integrate` computes it).
-    vectors : ndarray, shape (k, *b, dim)
+    vectors : ndarray, shape (k, ..., dim)
         ``DΦ(y₀) v_j`` for each initial tangent vector ``v_j``; with the default (every unit
         vector) ``vectors[j]`` is the j-th column of the Jacobian ``∂y(T)/∂y₀``.
     chart : TangentChart
@@ -298,7 +298,7 @@ def tangent_flow(
         The method (see :data:`lieint.tangent.flow.REFUSED` for those without a tangent map here).
     coordinates : {"exp", "cayley"}, optional
         The coordinate map of a Lie-group method.
-    vectors : array_like, shape (k, dim) or (k, *b, dim), optional
+    vectors : array_like, shape (k, dim) or (k, ..., dim), optional
         Initial tangent vectors in the chart's coordinates (:func:`chart_of`); default every
         unit vector (the whole Jacobian).
     steps : array_like of float, optional

@@ -1,0 +1,138 @@
+"""The sweep client (``lieint sweep`` in a subprocess) SIGKILLed at ten random instants, then
+``--resume``: the store equals an uninterrupted one and no worker outlives its client (its own
+file, the suite's longest test: the test runner's processes share the work better)."""
+
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+
+zarr = pytest.importorskip("zarr")
+distributed = pytest.importorskip("distributed")
+xr = pytest.importorskip("xarray")
+
+import lieint  # noqa: E402
+
+# a heavy top runs on the generic (numpy) path: chunks of about half a second each
+HEAVY = """
+[scene]
+name = "heavy"
+[body]
+principal_moments = [1.0, 1.0, 0.5]
+mass = 1.0
+center_of_mass = [0.0, 0.0, 0.3]
+[support]
+type = "fixed_point"
+[forces]
+gravity = { magnitude = 9.81, incline = 0.0 }
+[initial]
+angular_velocity = [0.5, 0.0, 10.0]
+[integrator]
+method = "rkmk4"
+step = 0.002
+t_end = T_END
+save_every = 50
+[output]
+quantities = ["energy", "casimirs"]
+"""
+
+VARY = {"forces.gravity.incline": np.linspace(0.0, 0.7, 8)}
+
+
+def _same(a, b):
+    names = [v for v in a.data_vars if not v.startswith("chunk_")]
+    assert names and set(names) == {v for v in b.data_vars if not v.startswith("chunk_")}
+    for name in names:
+        assert np.array_equal(a[name].values, b[name].values, equal_nan=False), name
+
+
+# -- the client killed at random instants: nothing lost, nothing left running ---------------------------
+
+
+def _session(sid: int) -> list[int]:
+    """Live processes of the session ``sid`` (the killed client's workers would be there)."""
+    alive = []
+    for entry in os.listdir("/proc"):
+        if not entry.isdigit():
+            continue
+        try:
+            with open(f"/proc/{entry}/stat") as fh:
+                fields = fh.read().rsplit(")", 1)[1].split()
+        except OSError:
+            continue
+        if fields[0] != "Z" and int(fields[3]) == sid:  # state, ppid, pgrp, session
+            alive.append(int(entry))
+    return alive
+
+
+# a 4D top stepped by a commutator-free method: the generic path (no compiled kernel), so that its
+# chunks take long enough (about a second each) for kills to land between commits
+GENERIC_4D = """
+[scene]
+name = "4D top, generic path"
+[body]
+mass_tensor = [[0.5, 0, 0, 0], [0, 1.0, 0, 0], [0, 0, 1.7, 0], [0, 0, 0, 2.3]]
+[support]
+type = "fixed_point"
+[initial]
+omega = [[0.0, -0.3, 0.5, -0.2], [0.3, 0.0, -0.4, 0.6], [-0.5, 0.4, 0.0, -0.1], [0.2, -0.6, 0.1, 0.0]]
+[integrator]
+method = "cf4"
+step = 0.002
+t_end = 1.5
+project = true
+save_every = 10
+[output]
+quantities = ["energy", "casimirs"]
+"""
+
+
+@pytest.mark.slow
+def test_ten_kills_of_the_client_then_resume_give_the_uninterrupted_store_and_leave_no_worker(tmp_path):
+    """``lieint sweep --workers 2`` (a LocalCluster of two worker processes) SIGKILLed at 10
+    random instants of its run, each time resumed: the final store equals an uninterrupted one
+    bit for bit, no worker process outlives its client by 10 s, and a normal end prints nothing
+    on stderr (no warnings from distributed)."""
+    scene = tmp_path / "top4.toml"
+    scene.write_text(GENERIC_4D, encoding="utf-8")
+    cmd = [sys.executable, "-m", "lieint", "sweep", str(scene), "--vary", "initial.omega[0][1]=-0.6:0.6:12",
+           "--chunk", "1", "--workers", "2", "--quiet", "--out"]  # fmt: skip
+    tic = time.monotonic()
+    whole = subprocess.run([*cmd, str(tmp_path / "whole.zarr")], capture_output=True, text=True, timeout=600)
+    duration = time.monotonic() - tic
+    assert whole.returncode == 0, whole.stderr
+    assert whole.stderr == "", whole.stderr  # no warnings from distributed on a normal end
+    out = tmp_path / "s.zarr"
+    rng = np.random.default_rng(2026)
+    committed_before = []
+    for attempt in range(10):
+        committed_before.append(_committed(out))
+        args = [*cmd, str(out)] + (["--resume"] if out.exists() else [])
+        proc = subprocess.Popen(args, start_new_session=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        time.sleep(float(rng.uniform(0.2, 1.1)) * duration)  # anywhere in its run: starting, computing, committing
+        if proc.poll() is not None:
+            continue  # it finished first: the next attempt resumes a complete store
+        os.kill(proc.pid, signal.SIGKILL)  # the client only: its workers must end by themselves
+        proc.wait(timeout=30)
+        deadline = time.monotonic() + 10
+        while _session(proc.pid) and time.monotonic() < deadline:
+            time.sleep(0.05)
+        left = _session(proc.pid)
+        for pid in left:  # leave the machine clean whatever the outcome
+            os.kill(pid, signal.SIGKILL)
+        assert not left, f"attempt {attempt}: worker processes {left} outlived their client by 10 s"
+    done = subprocess.run([*cmd, str(out), "--resume"], capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0 and done.stderr == "", done.stderr
+    _same(lieint.sweeps.open_sweep(out), lieint.sweeps.open_sweep(tmp_path / "whole.zarr"))
+    assert any(0 < c < 12 for c in committed_before), f"no resume met a partly committed store: {committed_before}"
+
+
+def _committed(out) -> int:
+    try:
+        return int(np.sum(zarr.open_array(str(out / "chunk_committed"), mode="r")[...]))
+    except Exception:
+        return 0
