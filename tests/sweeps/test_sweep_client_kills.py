@@ -94,7 +94,8 @@ quantities = ["energy", "casimirs"]
 @pytest.mark.slow
 def test_ten_kills_of_the_client_then_resume_give_the_uninterrupted_store_and_leave_no_worker(tmp_path):
     """``lieint sweep --workers 2`` (a LocalCluster of two worker processes) SIGKILLed at 10
-    random instants of its run, each time resumed: the final store equals an uninterrupted one
+    random instants of its run (half at a random fraction of its duration, half a random time
+    after a random number of further commits), each time resumed: the final store equals an uninterrupted one
     bit for bit, no worker process outlives its client by 10 s, and a normal end prints nothing
     on stderr (no warnings from distributed)."""
     scene = tmp_path / "top4.toml"
@@ -110,10 +111,22 @@ def test_ten_kills_of_the_client_then_resume_give_the_uninterrupted_store_and_le
     rng = np.random.default_rng(2026)
     committed_before = []
     for attempt in range(10):
-        committed_before.append(_committed(out))
+        committed = _committed(out)
+        committed_before.append(committed)
         args = [*cmd, str(out)] + (["--resume"] if out.exists() else [])
         proc = subprocess.Popen(args, start_new_session=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-        time.sleep(float(rng.uniform(0.2, 1.1)) * duration)  # anywhere in its run: starting, computing, committing
+        if attempt % 2 == 0 or committed >= 11:
+            # anywhere in its run: starting, computing, committing
+            time.sleep(float(rng.uniform(0.2, 1.1)) * duration)
+        else:
+            # a random instant after a random number of further commits: a time fraction alone
+            # lands before the first commit or after the last one when the machine's speed
+            # changes between runs, and the kills must also meet a store partly committed
+            target = int(rng.integers(committed + 1, 12))
+            deadline = time.monotonic() + 2 * duration
+            while _committed(out) < target and proc.poll() is None and time.monotonic() < deadline:
+                time.sleep(0.02)
+            time.sleep(float(rng.uniform(0.0, 0.5)) * duration / 12)
         if proc.poll() is not None:
             continue  # it finished first: the next attempt resumes a complete store
         os.kill(proc.pid, signal.SIGKILL)  # the client only: its workers must end by themselves
