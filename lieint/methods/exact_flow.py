@@ -106,6 +106,19 @@ class ExactFlow(Method):
         K = free_top_increment_minus_identity(system.inertia, y["A"], h)
         return StepResult(act_near_identity(system, K, y), None, 1, None)
 
+    def compiled(self):
+        """The compiled engine's form: the short step in double-double arithmetic for the 3D top
+        (:mod:`lieint.fast.top3_exact`; a long step there is cut into short ones)."""
+        if not self.steps_as(ExactFlow, ("step", "check_system")):
+            return None
+        from ..fast.forms import MapForm
+
+        return MapForm("exact_flow", COMPILED_EXACT_FLOW)
+
+
+#: where the exact flow has compiled stage code: system form (class name) -> module
+COMPILED_EXACT_FLOW = {"Top3Form": "lieint.fast.top3_exact"}
+
 
 def _build(coordinates: str | None = None) -> ExactFlow:
     return ExactFlow()
