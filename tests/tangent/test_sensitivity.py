@@ -1,0 +1,104 @@
+"""Parameter sensitivities ∂y(T)/∂θ against central finite differences of whole runs.
+
+The truth rebuilds each body through its public constructor with a perturbed parameter and
+runs :func:`lieint.integrate` (compiled) from the same initial state (Γ = Rᵀg following g, a
+ball's centre following r), differenced centrally with the step chosen by a sweep
+(``tangent_cases.parameter_difference``): it shares no code with :mod:`lieint.tangent`.
+1e-6 relative per column, and the sweep's own uncertainty below it.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from tangent_cases import parameter_bodies, parameter_difference
+
+import lieint
+
+RUN = {"t_span": (0.0, 1.0), "h": 0.05}
+
+
+def _body(label):
+    build, params, keywords = parameter_bodies()[label]
+    system = build(**params)
+    return system, system.initial_state(**keywords)
+
+
+def _check(label, method, names, coordinates=None):
+    system, y0 = _body(label)
+    got = lieint.sensitivity(
+        system, y0, h=RUN["h"], t_span=RUN["t_span"], method=method, parameters=names, coordinates=coordinates
+    )
+    for name in names:
+        truth, uncertainty = parameter_difference(label, name, method=method, coordinates=coordinates, **RUN)
+        mine = got.of(name)
+        overall = np.max(np.abs(got.jacobian))
+        for c in range(truth.shape[-1]):
+            scale = np.max(np.abs(truth[:, c]))
+            floor = 1e-10 * overall  # a parameter the motion does not feel (a free body's mass) has a zero column
+            assert uncertainty[c] < 1e-7 * scale + floor, (label, name, c, uncertainty[c], scale)
+            assert np.max(np.abs(mine[:, c] - truth[:, c])) < 1e-6 * scale + floor, (label, name, c)
+
+
+@pytest.mark.parametrize("label", list(parameter_bodies()))
+def test_every_parameter_of_every_body_matches_central_differences(label):
+    """rkmk4, 20 steps: every parameter each built-in body offers, every component."""
+    system, _ = _body(label)
+    _check(label, "rkmk4", list(system.parameter_values()))
+
+
+@pytest.mark.parametrize(
+    ("label", "method", "names", "coordinates"),
+    [
+        ("euler_top", "moser_veselov", ["B"], None),
+        ("heavy_top", "lie_midpoint", ["center_of_mass", "gravity"], None),
+        ("chaplygin_ball", "rkmk4", ["radius"], "cayley"),
+        ("heavy_top", "splitting2", ["mass", "center_of_mass"], None),
+    ],
+)
+def test_other_methods_match_central_differences(label, method, names, coordinates):
+    """The Moser–Veselov map (a Newton solve in B), the midpoint's fixed point, Cayley
+    coordinates, a splitting (its gravity kick)."""
+    _check(label, method, names, coordinates)
+
+
+def test_a_splitting_refuses_the_mass_tensor_by_name():
+    """A splitting rotates about the principal axes of B, which the complex step cannot turn."""
+    system, y0 = _body("heavy_top")
+    with pytest.raises(ValueError, match=r"`method` 'splitting2' rotates about the principal axes.*mass_tensor\[0,0\]"):
+        lieint.sensitivity(system, y0, (0.0, 0.1), h=0.05, method="splitting2", parameters=["mass", "mass_tensor"])
+
+
+def test_bad_parameters_are_refused_by_name():
+    system, y0 = _body("heavy_top")
+    span = (0.0, 0.1)
+    with pytest.raises(ValueError, match=r"`parameters` names 'radius'.*HeavyTop.*\['mass_tensor', 'mass'"):
+        lieint.sensitivity(system, y0, span, h=0.05, parameters=["radius"])
+    with pytest.raises(TypeError, match=r"`parameters` must be a list of names .* got 3"):
+        lieint.sensitivity(system, y0, span, h=0.05, parameters=[3])
+    with pytest.raises(TypeError, match=r"`parameters` must be a list of parameter names; got float"):
+        lieint.sensitivity(system, y0, span, h=0.05, parameters=2.5)
+    with pytest.raises(ValueError, match=r"`parameters` must name at least one"):
+        lieint.sensitivity(system, y0, span, h=0.05, parameters=[])
+    with pytest.raises(ValueError, match=r"names a parameter twice"):
+        lieint.sensitivity(system, y0, span, h=0.05, parameters=["mass", "mass"])
+    with pytest.raises(ValueError, match=r"`method` 'exact_flow' has no tangent map"):
+        lieint.sensitivity(
+            lieint.EulerTop(np.diag([1.0, 2.0, 3.0])), {"A": y0["A"], "R": y0["R"]}, span, h=0.05, method="exact_flow"
+        )
+    ball = lieint.ChaplyginBall(np.diag([0.1, 0.15, 0.2]), 1.0, 1.0)
+    with pytest.raises(ValueError, match=r"'normal'.*cannot offer.*Γ = Rᵀν"):
+        lieint.sensitivity(ball, ball.initial_state(angular_velocity=[1, 0, 0]), span, h=0.05, parameters=["normal"])
+    flat = lieint.RollingBall(np.diag([0.1, 0.15, 0.2]), 1.0, 1.0, gravity=[0, 0, -9.81])
+    with pytest.raises(ValueError, match=r"'gravity'.*cannot offer.*along the plane's normal"):
+        lieint.sensitivity(flat, flat.initial_state(angular_velocity=[1, 0, 0]), span, h=0.05, parameters="gravity")
+    no_attitude = lieint.HeavyTop(np.diag([1.0, 1.4, 1.9]), 1.0, [0, 0, 0.2], [0, 0, -9.81], orientation=False)
+    with pytest.raises(ValueError, match=r"'gravity'.*without the attitude R"):
+        lieint.sensitivity(
+            no_attitude, no_attitude.initial_state(angular_velocity=[1, 0, 0]), span, h=0.05, parameters=["gravity"]
+        )
+    atoms = lieint.AtomsBody([1.0, 1.0, 1.0, 1.0], np.vstack([np.eye(3), -np.ones((1, 3))]))
+    with pytest.raises(ValueError, match=r"AtomsBody offers no numeric parameters"):
+        lieint.sensitivity(atoms, atoms.initial_state(angular_velocity=[1, 0, 0]), span, h=0.05)
+    with pytest.raises(ValueError, match=r"`name` must be one of the parameters of this result \['mass'\]"):
+        lieint.sensitivity(system, y0, span, h=0.05, parameters=["mass"]).of("gravity")
