@@ -104,9 +104,11 @@ def _chosen(system: LieGroupSystem, parameters) -> list[str]:
     offered = system.parameter_values()
     refused = system.parameter_refusals()
     if not offered:
+        why = "; ".join(sorted(set(refused.values())))
         raise ValueError(
-            f"`system` {type(system).__name__} offers no numeric parameters to differentiate by "
-            "(lieint.tangent_flow differentiates with respect to the initial state)."
+            f"`system` {type(system).__name__} offers no numeric parameters to differentiate by"
+            + (f" ({why})" if why else "")
+            + "; lieint.tangent_flow differentiates with respect to the initial state."
         )
     if parameters is None:
         return list(offered)

@@ -102,3 +102,21 @@ def test_bad_parameters_are_refused_by_name():
         lieint.sensitivity(atoms, atoms.initial_state(angular_velocity=[1, 0, 0]), span, h=0.05)
     with pytest.raises(ValueError, match=r"`name` must be one of the parameters of this result \['mass'\]"):
         lieint.sensitivity(system, y0, span, h=0.05, parameters=["mass"]).of("gravity")
+
+
+def test_a_batch_of_bodies_gives_each_body_its_own_columns_and_a_stack_is_refused():
+    system, y0 = _body("heavy_top")
+    w = [[0.6, -0.4, 0.9], [0.1, 0.8, -0.3]]
+    batch = system.initial_state(angular_velocity=w)
+    both = lieint.sensitivity(system, batch, (0.0, 0.5), h=0.05, parameters=["gravity"])
+    assert both.jacobian.shape == (2, 9, 3)
+    for i, wi in enumerate(w):
+        one = lieint.sensitivity(system, system.initial_state(angular_velocity=wi), (0.0, 0.5), h=0.05,
+                                 parameters=["gravity"])  # fmt: skip
+        assert np.allclose(both.jacobian[i], one.jacobian, rtol=1e-12, atol=1e-14)
+    from lieint.systems.stacked import stack_systems
+
+    other = lieint.HeavyTop(np.diag([1.0, 1.4, 1.9]), 2.0, [0.0, 0.0, 0.1], [0.0, 0.0, -9.81])
+    stack = stack_systems([system, other], [1, 1])
+    with pytest.raises(ValueError, match=r"offers no numeric parameters .*one value per member"):
+        lieint.sensitivity(stack, {k: np.stack([v, v]) for k, v in y0.items()}, (0.0, 0.1), h=0.05)
