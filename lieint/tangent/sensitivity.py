@@ -10,7 +10,9 @@ map with respect to the parameter, as :func:`lieint.tangent_flow` is with respec
 
 Components: a scalar is one; a vector its entries; a mass tensor (symmetric) its upper
 triangle ``(i, j)``, ``i ≤ j``, the off-diagonal ones moving ``B_ij`` and ``B_ji`` together
-(the derivative along ``E_ij + E_ji``). The initial state is held as given, except the fields a
+(the derivative along ``E_ij + E_ji``). A 3D body with a diagonal mass tensor also offers
+``moments``, its principal moments ``I_k = b_i + b_j`` in the order of the axes: since
+``b_i = (I_j + I_k − I_i)/2``, the moment ``I_k`` moves B along ``diag(½ − δ_ik)``. The initial state is held as given, except the fields a
 parameter defines through the pose: ``Γ = Rᵀg`` (heavy top) and ``G = Rᵀg`` (a ball on an
 incline) follow g for the same attitude, and a ball's centre stays at the height r.
 """
@@ -27,7 +29,7 @@ from ..systems.base import LieGroupSystem
 from .coordinates import TangentChart
 from .flow import BACKEND_REASON, COMPLEX_STEP, TangentStepper, family_of, run_steps, step_schedule
 
-__all__ = ["Sensitivity", "sensitivity"]
+__all__ = ["Sensitivity", "offered_parameters", "sensitivity"]
 
 #: method families that read the principal axes of B (a perturbed non-diagonal B has none analytic)
 _AXES_FAMILIES = ("splitting",)
@@ -99,10 +101,45 @@ def _components(name: str, value: np.ndarray) -> list[tuple[str, np.ndarray]]:
     return out
 
 
+def _tensor_name(values: dict) -> str | None:
+    """The name of the system's mass tensor parameter, if it has one."""
+    return next((name for name in ("B", "mass_tensor") if name in values), None)
+
+
+def offered_parameters(system: LieGroupSystem) -> tuple[dict[str, np.ndarray], dict[str, str]]:
+    """What ``system`` offers to :func:`sensitivity` (its own parameters, and ``moments`` for a
+    diagonal 3D mass tensor), and what it refuses with why.
+
+    Parameters
+    ----------
+    system : LieGroupSystem
+        The system.
+
+    Returns
+    -------
+    offered : dict of ndarray
+        name → value.
+    refused : dict of str
+        name → why not.
+    """
+    offered = system.parameter_values()
+    refused = dict(system.parameter_refusals())
+    tensor = _tensor_name(offered)
+    if tensor is not None and offered[tensor].shape == (3, 3):
+        B = offered[tensor]
+        if np.all(B == np.diag(np.diag(B))):
+            offered["moments"] = np.diag(B).sum() - np.diag(B)
+        else:
+            refused["moments"] = (
+                f"its mass tensor {tensor!r} is not diagonal, so its principal axes are an eigendecomposition; "
+                f"differentiate with respect to {tensor!r} instead"
+            )
+    return offered, refused
+
+
 def _chosen(system: LieGroupSystem, parameters) -> list[str]:
     """The parameter names asked for, checked against what the system offers."""
-    offered = system.parameter_values()
-    refused = system.parameter_refusals()
+    offered, refused = offered_parameters(system)
     if not offered:
         why = "; ".join(sorted(set(refused.values())))
         raise ValueError(
@@ -153,8 +190,9 @@ def sensitivity(
     Parameters
     ----------
     system : LieGroupSystem
-        The system (:meth:`LieGroupSystem.parameter_values` lists what it offers: the mass
-        tensor ``B``/``mass_tensor``, ``mass``, ``center_of_mass``, ``gravity``, ``radius``).
+        The system (:func:`offered_parameters` lists what it offers: the mass tensor
+        ``B``/``mass_tensor``, ``moments`` (3D, diagonal tensor), ``mass``, ``center_of_mass``,
+        ``gravity``, ``radius``).
     y0 : dict of array_like
         The initial state (any batch of bodies), held fixed as given except the fields a
         parameter defines through the pose (see the module docstring).
@@ -200,12 +238,15 @@ def sensitivity(
     real_stepper = TangentStepper(system, method, coordinates)  # refuses methods without a tangent map
     y = system.validate_state(y0)
     t0, t1, starts, sizes = step_schedule(t_span, h, steps)
-    values = system.parameter_values()
+    values, _ = offered_parameters(system)
     labels, columns, y1 = [], [], None
     scale = 1j * COMPLEX_STEP
     for name in names:
         for label, direction in _components(name, values[name]):
-            moved, z0 = system.with_parameter_step(name, direction, scale, y)
+            target = name
+            if name == "moments":  # I_k moves B along diag(½ − δ_ik)
+                target, direction = _tensor_name(values), np.diag(0.5 - direction)
+            moved, z0 = system.with_parameter_step(target, direction, scale, y)
             _refuse_axes(moved, real_stepper, label)
             stepper = TangentStepper(moved, real_stepper.method)
             z = {k: np.asarray(v, dtype=complex)[None] for k, v in z0.items()}
