@@ -12,9 +12,11 @@ Components: a scalar is one; a vector its entries; a mass tensor (symmetric) its
 triangle ``(i, j)``, ``i ≤ j``, the off-diagonal ones moving ``B_ij`` and ``B_ji`` together
 (the derivative along ``E_ij + E_ji``). A 3D body with a diagonal mass tensor also offers
 ``moments``, its principal moments ``I_k = b_i + b_j`` in the order of the axes: since
-``b_i = (I_j + I_k − I_i)/2``, the moment ``I_k`` moves B along ``diag(½ − δ_ik)``. The initial state is held as given, except the fields a
-parameter defines through the pose: ``Γ = Rᵀg`` (heavy top) and ``G = Rᵀg`` (a ball on an
-incline) follow g for the same attitude, and a ball's centre stays at the height r.
+``b_i = (I_j + I_k − I_i)/2``, the moment ``I_k`` moves B along ``diag(½ − δ_ik)``.
+
+The initial state is held as given, except the fields a parameter defines through the pose:
+``Γ = Rᵀg`` (heavy top) and ``G = Rᵀg`` (a ball on an incline) follow g for the same attitude,
+and a ball's centre stays at the height r.
 """
 
 from __future__ import annotations
