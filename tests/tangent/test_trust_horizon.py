@@ -46,6 +46,16 @@ def test_the_separatrix_run_is_trusted_until_its_h_and_h4_runs_part():
     assert sol.drift("energy") < 1e-5  # what the monitor says: 6e-7 while the state errs by 1e-3
 
 
+def test_a_second_order_splitting_is_trusted_until_its_runs_part():
+    """splitting2 (order 2, so step doubling's factor 4/3) on the same top at h = 0.02: its
+    h and h/4 runs part by 1e-3 at t ≈ 4.8."""
+    top = lieint.EulerTop.from_principal_moments([1.0, 2.0, 3.0])
+    y0 = top.initial_state(angular_velocity=near_separatrix(1e-3))
+    truth, _ = parting(top, y0, 8.0, 0.02, "splitting2", 1e-3)
+    run = lieint.trust_horizon(top, y0, (0.0, 8.0), h=0.02, method="splitting2", tolerance=1e-3, stop=True)
+    assert 0.5 * truth <= run.horizon <= 2.0 * truth, (run.horizon, truth)
+
+
 def test_a_batch_reports_one_horizon_per_body_and_stop_ends_the_run():
     top = lieint.EulerTop.from_principal_moments([1.0, 2.0, 3.0])
     y0 = top.initial_state(angular_velocity=[near_separatrix(1e-3), [1.0, 0.3, 0.2]])
