@@ -1,10 +1,11 @@
 """The trust horizon of free-top runs near the separatrix against the time their h and h/4 runs part.
 
 For the 3D free top (moments 1, 2, 3) at relative distances δ from the separatrix, a method at
-step h (rkmk4; Moser–Veselov, splitting2, the midpoint rule): ``lieint.trust_horizon`` (local errors by step doubling, carried by the exact tangent
-map) reports when the estimated global error exceeds the tolerance; the truth is the first grid
-time at which two ``lieint.integrate`` runs at h and h/4 differ by more than it (largest entry
-of A or R). Also the cost of the estimate against a plain run on the same (generic numpy) path.
+step h (rkmk4; Moser–Veselov, splitting2, the midpoint rule): ``lieint.trust_horizon`` (local
+errors by step doubling, carried by the exact tangent map) reports when the estimated global
+error exceeds the tolerance; the truth is the first grid time at which two ``lieint.integrate``
+runs at h and h/4 differ by more than it (largest entry of A or R). Also the cost of the
+estimate against a plain run on the same (generic numpy) path.
 ``python benchmarks/trust_horizon.py [--tol 1e-3]``. Prints the load average.
 """
 
