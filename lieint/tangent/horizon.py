@@ -1,7 +1,7 @@
 """How far a run can be trusted: its global error estimated by propagating local errors.
 
 The global error of a one-step method is the sum of its local errors, each carried to the end
-by the tangent map of the steps after it (Lady Windermere's fan, Hairer, Nørsett & Wanner I.3):
+by the tangent map of the steps after it (Lady Windermere's fan, Hairer, Nørsett & Wanner 1993, §II.3):
 ``e_N ≈ Σ_k DΦ_{N←k+1} l_k``, i.e. ``E_{k+1} = DΦ_h(y_k) E_k + l_k`` with ``E_0 = 0``. Here
 
 * ``l_k``, the local error of the step, is estimated by step doubling (Richardson): with ``p``
