@@ -14,7 +14,8 @@ System forms:
 * :class:`PiecesForm` — any system on ``SO(n)`` or ``SE(n)`` times ``Rᵐ`` that supplies compiled
   *pieces* (generator, action, vector field, projection: :mod:`lieint.fast.pieces`), the
   built-in heavy top, free body and balls among them (:data:`BUILTIN_PIECES`), and any system
-  outside the package that declares its own.
+  outside the package that declares its own; the 3D heavy top's also names
+  :class:`HeavyTop3Form`, its ensembles in SIMD lanes.
 
 Method forms: :class:`RKMKForm` (explicit Runge–Kutta–Munthe-Kaas in exponential or Cayley
 coordinates, fixed-step or an embedded pair), :class:`ClassicalForm` (classical explicit RK
@@ -33,6 +34,7 @@ import numpy as np
 __all__ = [
     "BUILTIN_PIECES",
     "ClassicalForm",
+    "HeavyTop3Form",
     "LazyPieces",
     "MapForm",
     "PiecesForm",
@@ -178,6 +180,8 @@ class PiecesForm:
     abelian: int
     fields: dict
     group: str = ""
+    #: the same system as a form for ensembles in SIMD lanes (:class:`HeavyTop3Form`), or None
+    lanes: Any = field(default=None, repr=False)
 
     def __post_init__(self):
         if not self.group:
@@ -194,6 +198,20 @@ class Top3Form:
     P: np.ndarray
     orientation: bool
     generic: PiecesForm | None = field(default=None, repr=False)
+
+
+@dataclass(frozen=True, eq=False)
+class HeavyTop3Form:
+    """The 3D heavy top for ensembles in SIMD lanes (:mod:`lieint.fast.heavy_lanes`): the principal
+    moments and frame P (columns) of its top, ``M X_G`` in the body frame, ``|g|``, whether the
+    state carries the attitude R. Declared as :attr:`PiecesForm.lanes` of the heavy top's pieces,
+    which step everything else (one body, adaptive steps, Cayley coordinates, classical RK)."""
+
+    moments: np.ndarray
+    P: np.ndarray
+    MXG: np.ndarray
+    gravity: float
+    orientation: bool
 
 
 @dataclass(frozen=True, eq=False)
