@@ -136,6 +136,55 @@ def _combine(u, K, weights, row, hk, m, L):
 
 
 @njit(cache=True, inline="always")
+def _dexpinv_pass(u, K, tt, coeffs, st, L):
+    """``K[st] ← Σ_d c_d ad_{−u}^d K[st]`` (dexp⁻¹ of se(3) truncated at the method's degree),
+    ``ad_{−u}(x, y) = (x × u_w, y × u_w + x × u_v)``; ``tt`` holds the current term."""
+    for dd in range(INCREMENT_ROWS):
+        for l in range(L):
+            tt[dd, l] = K[st, dd, l]
+    for deg in range(1, coeffs.shape[0]):
+        cf = coeffs[deg]
+        for l in range(L):
+            x0, x1, x2 = tt[0, l], tt[1, l], tt[2, l]
+            w0, w1, w2 = u[0, l], u[1, l], u[2, l]
+            n0, n1, n2 = _cross(x0, x1, x2, w0, w1, w2)
+            a0, a1, a2 = _cross(tt[3, l], tt[4, l], tt[5, l], w0, w1, w2)
+            b0, b1, b2 = _cross(x0, x1, x2, u[3, l], u[4, l], u[5, l])
+            tt[0, l], tt[1, l], tt[2, l] = n0, n1, n2
+            tt[3, l], tt[4, l], tt[5, l] = a0 + b0, a1 + b1, a2 + b2
+        if cf != 0.0:
+            for dd in range(INCREMENT_ROWS):
+                for l in range(L):
+                    K[st, dd, l] = fma(cf, tt[dd, l], K[st, dd, l])
+
+
+@njit(cache=True, inline="always")
+def _step_coefficients(u, ca, cb, cc, ch, sh, L):
+    """The rotation coefficients of the step's increment and ``cos(θ/2)``, ``sin(θ/2)/θ``."""
+    _coefficients(u, ca, cb, cc, L)
+    for l in range(L):
+        ch[l], sh[l] = _half_angle(_norm2_of(u, l))
+    for l in range(L):
+        t2 = _norm2_of(u, l)
+        if t2 >= 1e-2:
+            th = np.sqrt(t2)
+            ch[l], sh[l] = np.cos(0.5 * th), np.sin(0.5 * th) / th
+
+
+@njit(cache=True, inline="always")
+def _turn_quaternions(u, qb, ch, sh, L):
+    """``q ← q ⊗ (cos(θ/2), sin(θ/2) u_w/θ)`` of every lane (``R ← R exp(û_w)``)."""
+    for l in range(L):
+        c, t = ch[l], sh[l]
+        w0, w1, w2 = t * u[0, l], t * u[1, l], t * u[2, l]
+        q0, q1, q2, q3 = qb[0, l], qb[1, l], qb[2, l], qb[3, l]
+        qb[0, l] = fma(-q3, w2, fma(-q2, w1, fma(-q1, w0, q0 * c)))
+        qb[1, l] = fma(-q3, w1, fma(q2, w2, fma(q1, c, q0 * w0)))
+        qb[2, l] = fma(q3, w0, fma(q2, c, fma(-q1, w2, q0 * w1)))
+        qb[3, l] = fma(q3, c, fma(-q2, w0, fma(q1, w1, q0 * w2)))
+
+
+@njit(cache=True, inline="always")
 def _views(y, row):
     """Π (3, row), q (4, row) and Γ (3, row) of a block's flat state."""
     return y[: 3 * row].reshape((3, row)), y[3 * row : 7 * row].reshape((4, row)), y[7 * row :].reshape((3, row))
@@ -186,7 +235,6 @@ def block_step(fx, y, par, meth, h, y1, inc, aux, scr):
         y1[i] = y[i]
     P, qb, G = _views(y1, row)
     s = b.shape[1]
-    degree = coeffs.shape[0] - 1
     for st in range(s):
         if not _combine(u, K, A, st, h, st, L):
             _generator_into(P, Iinv, MX, K, st, L)
@@ -201,24 +249,7 @@ def block_step(fx, y, par, meth, h, y1, inc, aux, scr):
         for dd in range(3):
             for l in range(L):
                 K[st, 3 + dd, l] = MX[dd]
-        # dexp⁻¹: k ← Σ_d c_d ad_{−u}^d ξ, ad_{−u}(x, y) = (x × u_w, y × u_w + x × u_v)
-        for dd in range(INCREMENT_ROWS):
-            for l in range(L):
-                tt[dd, l] = K[st, dd, l]
-        for deg in range(1, degree + 1):
-            cf = coeffs[deg]
-            for l in range(L):
-                x0, x1, x2 = tt[0, l], tt[1, l], tt[2, l]
-                w0, w1, w2 = u[0, l], u[1, l], u[2, l]
-                n0, n1, n2 = _cross(x0, x1, x2, w0, w1, w2)
-                a0, a1, a2 = _cross(tt[3, l], tt[4, l], tt[5, l], w0, w1, w2)
-                b0, b1, b2 = _cross(x0, x1, x2, u[3, l], u[4, l], u[5, l])
-                tt[0, l], tt[1, l], tt[2, l] = n0, n1, n2
-                tt[3, l], tt[4, l], tt[5, l] = a0 + b0, a1 + b1, a2 + b2
-            if cf != 0.0:
-                for dd in range(INCREMENT_ROWS):
-                    for l in range(L):
-                        K[st, dd, l] = fma(cf, tt[dd, l], K[st, dd, l])
+        _dexpinv_pass(u, K, tt, coeffs, st, L)
     largest = 0.0
     for l in range(L):
         w2 = K[0, 0, l] * K[0, 0, l] + K[0, 1, l] * K[0, 1, l] + K[0, 2, l] * K[0, 2, l]
@@ -226,27 +257,13 @@ def block_step(fx, y, par, meth, h, y1, inc, aux, scr):
     aux[0] = largest
     # U = h Σ b_j K_j; (Π, Γ) ← exp(U)·(Π, Γ); q ← q ⊗ exp(Û_w)
     _combine(u, K, b, 0, h, s, L)
-    _coefficients(u, ca, cb, cc, L)
-    for l in range(L):
-        ch[l], sh[l] = _half_angle(_norm2_of(u, l))
-    for l in range(L):
-        t2 = _norm2_of(u, l)
-        if t2 >= 1e-2:
-            th = np.sqrt(t2)
-            ch[l], sh[l] = np.cos(0.5 * th), np.sin(0.5 * th) / th
+    _step_coefficients(u, ca, cb, cc, ch, sh, L)
     for l in range(L):
         p0, p1, p2 = _moved_momentum(u, P, G, ca[l], cb[l], cc[l], l)
         g0, g1, g2 = _rotated_back(u[0, l], u[1, l], u[2, l], G[0, l], G[1, l], G[2, l], ca[l], cb[l])
         P[0, l], P[1, l], P[2, l] = p0, p1, p2
         G[0, l], G[1, l], G[2, l] = g0, g1, g2
-    for l in range(L):
-        c, t = ch[l], sh[l]
-        w0, w1, w2 = t * u[0, l], t * u[1, l], t * u[2, l]
-        q0, q1, q2, q3 = qb[0, l], qb[1, l], qb[2, l], qb[3, l]
-        qb[0, l] = fma(-q3, w2, fma(-q2, w1, fma(-q1, w0, q0 * c)))
-        qb[1, l] = fma(-q3, w1, fma(q2, w2, fma(q1, c, q0 * w0)))
-        qb[2, l] = fma(q3, w0, fma(q2, c, fma(-q1, w2, q0 * w1)))
-        qb[3, l] = fma(q3, c, fma(-q2, w0, fma(q1, w1, q0 * w2)))
+    _turn_quaternions(u, qb, ch, sh, L)
     if inc.shape[0] >= INCREMENT_ROWS * row:
         for dd in range(INCREMENT_ROWS):
             for l in range(row):
