@@ -335,7 +335,7 @@ class _TopNLayout(_Layout):
             A = 0.5 * (A - np.swapaxes(A, -1, -2))  # exactly skew (the identity on a skew A)
         else:
             A, R = to_principal(A, R, self.P)
-        Y = np.empty((N, self.d))
+        Y = np.empty((N, n * n + self.r * self.r))  # the fields (an energy pair's level is added after)
         Y[:, : n * n] = A.reshape(N, n * n)
         if self.orientation:
             Y[:, n * n :] = R.reshape(N, n * n)
@@ -370,6 +370,30 @@ class _TopNLayout(_Layout):
         if not self.identity_frame:
             u = self.P @ u @ self.P.T
         return u.reshape(U.shape[:-2] + batch + (n, n))
+
+
+class _TopNEnergyLayout(_TopNLayout):
+    """The n-D top under an energy-keeping pair: ``(Ã, R̃)``, then the level H₀ every accepted
+    step ends on (:mod:`lieint.fast.topn_energy`)."""
+
+    module = "lieint.fast.topn_energy"
+
+    def __init__(self, form: TopNForm, system):
+        super().__init__(form)
+        self.system = system
+        self.fields_size = self.d
+        self.d = self.fields_size + 1  # count stays the fields' components: the level is no user's
+
+    def family(self, method) -> str:
+        return "rkmk_energy"
+
+    def start(self, y: dict, N: int) -> np.ndarray:
+        # H₀ as the generic path takes it (the system's own energy): the level both paths aim at
+        level = np.asarray(self.system.invariants["energy"](0.0, y), dtype=float).reshape(N, 1)
+        return np.concatenate([super().start(y, N), level], axis=1)
+
+    def user(self, Y: np.ndarray, batch: tuple) -> dict:
+        return super().user(Y[..., : self.fields_size], batch)
 
 
 class _PiecesLayout(_Layout):
@@ -431,6 +455,94 @@ class _PiecesLayout(_Layout):
         v = U[..., n * n : n * n + nv].reshape(lead + (nv,))
         a = U[..., n * n + nv :].reshape(lead + (self.m,))
         return _algebra_element(self.system.group, W, v, a)
+
+
+class _PiecesEnergyLayout(_PiecesLayout):
+    """A system through compiled pieces under an energy-keeping pair: its fields, then the level
+    H₀ every accepted step ends on (:mod:`lieint.fast.generic_energy`); the context carries the
+    orbit's basis and the group elements of its central differences."""
+
+    module = "lieint.fast.generic_energy"
+
+    def __init__(self, form: PiecesForm, system, needs_field: bool = True, needs_projection: bool = True):
+        super().__init__(form, system, needs_field, needs_projection)
+        self.fields_size = self.d
+        self.d = self.fields_size + 1  # count stays the fields' components: the level is no user's
+        self.orbit = _orbit_numbers(system.group, self.n, self.nv, self.m)
+
+    def family(self, method) -> str:
+        return "rkmk_energy_uncounted" if super().family(method) == "rkmk_uncounted" else "rkmk_energy"
+
+    def context(self):
+        bundle = self.pieces.bundle_for(self.needs_field, self.needs_projection, energy=True)
+        dims = np.array([self.n, self.nv, self.m, self.work], dtype=np.int64)
+        return (bundle, dims, *self.orbit)
+
+    def start(self, y: dict, N: int) -> np.ndarray:
+        # H₀ as the generic path takes it (the system's own energy): the level both paths aim at
+        level = np.asarray(self.system.invariants["energy"](0.0, y), dtype=float).reshape(N, 1)
+        return np.concatenate([super().start(y, N), level], axis=1)
+
+    def user(self, Y: np.ndarray, batch: tuple) -> dict:
+        return super().user(Y[..., : self.fields_size], batch)
+
+    def user_flat(self, y: dict, N: int) -> np.ndarray:
+        return np.ascontiguousarray(super().start(y, N))
+
+
+def _skew_basis(n: int) -> np.ndarray:
+    """``E_kj − E_jk`` for j < k (the generic path's basis of so(n), in its order)."""
+    pairs = [(j, k) for j in range(n) for k in range(j + 1, n)]
+    out = np.zeros((len(pairs), n, n))
+    for i, (j, k) in enumerate(pairs):
+        out[i, j, k], out[i, k, j] = -1.0, 1.0
+    return out
+
+
+def _orbit_numbers(group, n: int, nv: int, m: int) -> tuple:
+    """The basis of the algebra of ``SO(n)/SE(n) × Rᵐ`` as the compiled pieces lay it out,
+    ``(W, v, a)`` per element (the generic path's basis and order: the rotations, the
+    translations, each vector factor's unit vectors or, for a factor of skew matrices, its skew
+    basis), and the group elements ``exp(±ε e_i)`` as ``(Q, t, a)``, stacked ``(2, dim, …)``."""
+    from ..groups.vector import ProductGroup
+    from .generic_energy import EPSILON
+
+    factors = group.factors[1:] if isinstance(group, ProductGroup) else ()
+    rotations = _skew_basis(n)
+    parts = []  # the vector factor's basis elements, flat in a
+    start = 0
+    for factor in factors:
+        size = int(np.prod(factor.shape))
+        if getattr(factor, "antisymmetric", False):
+            k = factor.shape[0]
+            block = _skew_basis(k).reshape(-1, size)
+        else:
+            block = np.eye(size)
+        for row in block:
+            element = np.zeros(m)
+            element[start : start + size] = row
+            parts.append(element)
+        start += size
+    if start != m:
+        raise TypeError(f"the compiled pieces' vector factor has {m} entries; the group {group!r} has {start}")
+    dim = len(rotations) + nv + len(parts)
+    W, v, a = np.zeros((dim, n, n)), np.zeros((dim, nv)), np.zeros((dim, m))
+    W[: len(rotations)] = rotations
+    for i in range(nv):
+        v[len(rotations) + i, i] = 1.0
+    for i, element in enumerate(parts):
+        a[len(rotations) + nv + i] = element
+    # exp(±ε e_i): a plane rotation, a unit translation (φ₁(0) = I), a vector's shift
+    Q = np.broadcast_to(np.eye(n), (2, dim, n, n)).copy()
+    c, sn = np.cos(EPSILON), np.sin(EPSILON)
+    for i in range(len(rotations)):
+        j, k = np.argwhere(rotations[i] == 1.0)[0][::-1]  # e_i = E_kj − E_jk
+        for sign, side in ((1.0, 0), (-1.0, 1)):
+            Q[side, i, j, j] = Q[side, i, k, k] = c
+            Q[side, i, k, j], Q[side, i, j, k] = sign * sn, -sign * sn
+    t = np.stack([EPSILON * v, -EPSILON * v])
+    shift = np.stack([EPSILON * a, -EPSILON * a])
+    return W, v, a, Q, np.ascontiguousarray(t), np.ascontiguousarray(shift)
 
 
 def _algebra_element(group, W, v, a):
@@ -707,11 +819,10 @@ def engine_for(system, method, y0, adaptive: bool = False, project: bool = True)
     if adaptive and not (meth.family == "rkmk" and meth.pair):
         return None, f"{method.name!r} has no compiled adaptive form (compiled: RKMK embedded pairs)"
     keeps_energy = getattr(meth, "keeps_energy", False)
-    if keeps_energy and not (isinstance(form, Top3Form) and meth.coordinates == "exp" and adaptive):
-        return None, (
-            f"{method.name!r} runs compiled on the 3D Euler top in exponential coordinates only "
-            f"(here: {_label(system)}, {meth.coordinates} coordinates)"
-        )
+    if keeps_energy:
+        reason = _energy_reason(form, meth, system, adaptive)
+        if reason:
+            return None, f"{method.name!r} {reason}"
     batch = system.batch_shape(y0)
     if 0 in batch:
         return None, "the ensemble is empty"
@@ -727,7 +838,9 @@ def engine_for(system, method, y0, adaptive: bool = False, project: bool = True)
         else:
             layout = _Top3LanesLayout(form, N) if lanes else _Top3Layout(form)
     elif isinstance(form, TopNForm):
-        layout = _TopNLayout(form)
+        layout = _TopNEnergyLayout(form, system) if keeps_energy else _TopNLayout(form)
+    elif isinstance(form, PiecesForm) and keeps_energy:
+        layout = _PiecesEnergyLayout(form, system, True, project)
     elif isinstance(form, PiecesForm):
         layout = _PiecesLayout(form, system, adaptive or meth.family == "rk", project)
     else:
@@ -738,6 +851,29 @@ def engine_for(system, method, y0, adaptive: bool = False, project: bool = True)
         warnings.simplefilter("ignore", category=_experimental_warning())
         stage_module = meth.module_for(form) if isinstance(meth, MapForm) else ""
         return Engine(layout, meth, batch, adaptive, stage_module), ""
+
+
+def _energy_reason(form, meth, system, adaptive: bool) -> str:
+    """Why an energy-keeping pair does not run compiled on ``form`` ("" when it does): it is
+    compiled as an adaptive pair on the 3D top in exponential coordinates, the n-D top, and
+    systems whose compiled pieces declare an energy and whose generator has no commuting part
+    (the 3D top's Cayley coordinates run through its pieces, which would lose the spin's flow)."""
+    if not adaptive:
+        return "has no compiled form for fixed steps (compiled: the adaptive pairs)"
+    if isinstance(form, Top3Form):
+        if meth.coordinates == "exp":
+            return ""
+        return "has no compiled form for the 3D Euler top in Cayley coordinates (its pieces have no spin's flow)"
+    if isinstance(form, TopNForm):
+        return ""
+    if isinstance(form, PiecesForm):
+        pieces = form.pieces.resolve() if hasattr(form.pieces, "resolve") else form.pieces
+        if getattr(system, "commuting_generator", None) is not None:
+            return f"has no compiled form for {_label(system)}: its generator's commuting part flows on the numpy path"
+        if getattr(pieces, "energy", None) is None:
+            return f"has no compiled form for {_label(system)}: its compiled pieces declare no energy"
+        return ""
+    return f"has no compiled form for the compiled form {type(form).__name__}"
 
 
 def _experimental_warning():
