@@ -468,15 +468,16 @@ class _PiecesEnergyLayout(_PiecesLayout):
         super().__init__(form, system, needs_field, needs_projection)
         self.fields_size = self.d
         self.d = self.fields_size + 1  # count stays the fields' components: the level is no user's
-        self.orbit = _orbit_numbers(system.group, self.n, self.nv, self.m)
+        self.orbit = _orbit_numbers(_vector_factors(system.group), self.n, self.nv, self.m)
+        self.dim = _orbit_dimension(self.n, self.nv, self.m, self.orbit.size)
 
     def family(self, method) -> str:
         return "rkmk_energy_uncounted" if super().family(method) == "rkmk_uncounted" else "rkmk_energy"
 
     def context(self):
         bundle = self.pieces.bundle_for(self.needs_field, self.needs_projection, energy=True)
-        dims = np.array([self.n, self.nv, self.m, self.work], dtype=np.int64)
-        return (bundle, dims, *self.orbit)
+        dims = np.array([self.n, self.nv, self.m, self.work, self.dim], dtype=np.int64)
+        return (bundle, dims, self.orbit)
 
     def start(self, y: dict, N: int) -> np.ndarray:
         # H₀ as the generic path takes it (the system's own energy): the level both paths aim at
@@ -499,23 +500,39 @@ def _skew_basis(n: int) -> np.ndarray:
     return out
 
 
-def _orbit_numbers(group, n: int, nv: int, m: int) -> tuple:
+def _vector_factors(group) -> tuple:
+    """``(shape, antisymmetric)`` of each vector factor of ``group`` after its pose (none for
+    SO(n) or SE(n) alone): what the orbit basis of the compiled pieces depends on, hashable."""
+    from ..groups.vector import ProductGroup
+
+    factors = group.factors[1:] if isinstance(group, ProductGroup) else ()
+    return tuple((tuple(f.shape), bool(getattr(f, "antisymmetric", False))) for f in factors)
+
+
+def _orbit_dimension(n: int, nv: int, m: int, size: int) -> int:
+    """dim 𝔤 from the length of the flat orbit numbers (9 blocks of dim elements each)."""
+    per = 3 * (n * n + nv + m)
+    return size // per
+
+
+@lru_cache(maxsize=64)
+def _orbit_numbers(factors: tuple, n: int, nv: int, m: int) -> np.ndarray:
     """The basis of the algebra of ``SO(n)/SE(n) × Rᵐ`` as the compiled pieces lay it out,
     ``(W, v, a)`` per element (the generic path's basis and order: the rotations, the
     translations, each vector factor's unit vectors or, for a factor of skew matrices, its skew
-    basis), and the group elements ``exp(±ε e_i)`` as ``(Q, t, a)``, stacked ``(2, dim, …)``."""
-    from ..groups.vector import ProductGroup
+    basis), and the group elements ``exp(±ε e_i)`` as ``(Q, t, a)``, stacked ``(2, dim, …)``,
+    in one flat array, kept per layout and never written (:func:`lieint.fast.generic_energy._orbit`
+    reads it; writable, as the compiled pieces' signatures take their arrays); ``factors`` as
+    :func:`_vector_factors` gives them."""
     from .generic_energy import EPSILON
 
-    factors = group.factors[1:] if isinstance(group, ProductGroup) else ()
     rotations = _skew_basis(n)
     parts = []  # the vector factor's basis elements, flat in a
     start = 0
-    for factor in factors:
-        size = int(np.prod(factor.shape))
-        if getattr(factor, "antisymmetric", False):
-            k = factor.shape[0]
-            block = _skew_basis(k).reshape(-1, size)
+    for shape, antisymmetric in factors:
+        size = int(np.prod(shape))
+        if antisymmetric:
+            block = _skew_basis(shape[0]).reshape(-1, size)
         else:
             block = np.eye(size)
         for row in block:
@@ -524,7 +541,7 @@ def _orbit_numbers(group, n: int, nv: int, m: int) -> tuple:
             parts.append(element)
         start += size
     if start != m:
-        raise TypeError(f"the compiled pieces' vector factor has {m} entries; the group {group!r} has {start}")
+        raise TypeError(f"the compiled pieces' vector factor has {m} entries; the group's vector factors {start}")
     dim = len(rotations) + nv + len(parts)
     W, v, a = np.zeros((dim, n, n)), np.zeros((dim, nv)), np.zeros((dim, m))
     W[: len(rotations)] = rotations
@@ -542,7 +559,20 @@ def _orbit_numbers(group, n: int, nv: int, m: int) -> tuple:
             Q[side, i, k, j], Q[side, i, j, k] = sign * sn, -sign * sn
     t = np.stack([EPSILON * v, -EPSILON * v])
     shift = np.stack([EPSILON * a, -EPSILON * a])
-    return W, v, a, Q, np.ascontiguousarray(t), np.ascontiguousarray(shift)
+    return np.concatenate([part.ravel() for part in (W, v, a, Q, t, shift)])
+
+
+def orbit_parts(flat: np.ndarray, n: int, nv: int, m: int) -> tuple:
+    """``(W, v, a, Q, t, a±)`` of :func:`_orbit_numbers`' flat array, as the compiled side reads
+    it (the tests compare them with the generic path's basis)."""
+    dim = _orbit_dimension(n, nv, m, flat.size)
+    shapes = ((dim, n, n), (dim, nv), (dim, m), (2, dim, n, n), (2, dim, nv), (2, dim, m))
+    out, start = [], 0
+    for shape in shapes:
+        size = math.prod(shape)
+        out.append(flat[start : start + size].reshape(shape))
+        start += size
+    return tuple(out)
 
 
 def _algebra_element(group, W, v, a):

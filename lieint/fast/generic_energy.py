@@ -19,9 +19,10 @@ embedded solution is moved by the same amount (``y₁ − ŷ`` is the pair's, as
 These pieces' systems declare no commuting part of their generator (only the free Euler top
 does, whose energy pairs run on :mod:`lieint.fast.top3` and :mod:`lieint.fast.topn`).
 
-The run's context is the plain form's ``(pieces, dims)`` followed by the orbit's numbers
-``(basis_W, basis_v, basis_a, plus_minus_Q, plus_minus_t, plus_minus_a)``: the basis elements
-``(W, v, a)`` (dim 𝔤 of each) and the group elements ``g_i^±`` as ``(Q, t, a)`` (2, dim 𝔤, …).
+The run's context is the plain form's ``(pieces, dims)`` (dims with dim 𝔤 appended) and the
+orbit's numbers in one flat array (:func:`_orbit`: typing one array a call is cheaper than six):
+the basis elements ``(W, v, a)`` (dim 𝔤 of each) and the group elements ``g_i^±`` as
+``(Q, t, a)`` (2, dim 𝔤, …).
 """
 
 from __future__ import annotations
@@ -46,6 +47,25 @@ _MAX_MOVE = 1e-3
 _ITERATIONS = 4
 
 
+@njit(cache=True, inline="always")
+def _orbit(fx):
+    """The views ``(basis_W, basis_v, basis_a, Q, t, a)`` of the context's flat orbit numbers."""
+    dims, flat = fx[1], fx[2]
+    n, nv, m, dim = dims[0], dims[1], dims[2], dims[4]
+    sizes = (dim * n * n, dim * nv, dim * m, 2 * dim * n * n, 2 * dim * nv, 2 * dim * m)
+    o0 = 0
+    o1 = o0 + sizes[0]
+    o2 = o1 + sizes[1]
+    o3 = o2 + sizes[2]
+    o4 = o3 + sizes[3]
+    o5 = o4 + sizes[4]
+    return (
+        flat[o0:o1].reshape((dim, n, n)), flat[o1:o2].reshape((dim, nv)), flat[o2:o3].reshape((dim, m)),
+        flat[o3:o4].reshape((2, dim, n, n)), flat[o4:o5].reshape((2, dim, nv)),
+        flat[o5 : o5 + sizes[5]].reshape((2, dim, m)),
+    )  # fmt: skip
+
+
 @njit(cache=True)
 def form_energy_scratch(fx, meth, par, d):
     """The plain form's arrays for the fields (``d − 1``: the level is not a field), then the
@@ -53,8 +73,7 @@ def form_energy_scratch(fx, meth, par, d):
     orbit gradient (dim 𝔤), η and the move's ``(W, v, a)``, its group element ``(Q, t)`` and
     the Cayley elimination's array the exponential does not use."""
     pieces, dims = fx[0], fx[1]
-    n, nv, m = dims[0], dims[1], dims[2]
-    dim = fx[2].shape[0]
+    n, nv, m, dim = dims[0], dims[1], dims[2], dims[4]
     f = d - 1
     return form_scratch((pieces, dims), meth, par, f) + (
         np.zeros(f), np.zeros(f), np.zeros(dim), np.zeros((n, n)), np.zeros(nv), np.zeros(m), np.zeros((n, n)),
@@ -89,7 +108,7 @@ def onto_level(fx, y, par, level0, scr):
     """Move the fields ``y`` along the group orbit onto ``H = level0`` in place (the generic
     path's rule for one body: see the module docstring)."""
     pieces = fx[0]
-    basisW, basisv, basisa, gQ, gt, ga = fx[2], fx[3], fx[4], fx[5], fx[6], fx[7]
+    basisW, basisv, basisa, gQ, gt, ga = _orbit(fx)
     work, trial, grad = scr[9], scr[11], scr[12]
     etaW, etav, etaa = scr[13], scr[14], scr[15]
     act, energy = pieces.action, pieces.energy

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from bodies import initial, variants
 
-from lieint.fast.engine import _orbit_numbers, _PiecesLayout
+from lieint.fast.engine import _orbit_numbers, _PiecesLayout, _vector_factors, orbit_parts
 
 CASES = {f"{name} n={n}": system for n in (3, 4) for name, system in variants(n).items()}
 
@@ -44,7 +44,8 @@ def test_the_orbit_basis_is_the_generic_paths(label):
 
     system = CASES[label]
     layout = _PiecesLayout(system.compiled(), system)
-    W, v, a, Q, t, _shift = _orbit_numbers(system.group, layout.n, layout.nv, layout.m)
+    flat = _orbit_numbers(_vector_factors(system.group), layout.n, layout.nv, layout.m)
+    W, v, a, Q, t, _shift = orbit_parts(flat, layout.n, layout.nv, layout.m)
     basis = algebra_basis(system.group)
     parts = basis if isinstance(basis, tuple) else (basis,)
     pose = parts[0]
