@@ -26,7 +26,7 @@ from ..groups.so import SO
 from .base import Invariant, LieGroupSystem, Output, State
 from .mass import solve_lyapunov
 from .rigid import casimir_invariant, momentum_outputs, pose_invariants
-from .rolling_ball import RollingPose, check_ball, rolling_initial_kinematics
+from .rolling_ball import NORMAL_REFUSAL, RollingPose, check_ball, rolling_initial_kinematics
 
 if TYPE_CHECKING:
     from scipy.spatial.transform import Rotation
@@ -269,6 +269,36 @@ class ChaplyginBall(RollingPose, LieGroupSystem):
         out = super().validate_state(y, name)
         out["A"] = check_skew(out["A"], f"{name}['A']")
         return self._validate_pose(out, name)
+
+    # -- numeric parameters (lieint.sensitivity) ------------------------------------------
+    def parameter_values(self) -> dict[str, np.ndarray]:
+        """The numeric parameters a run can be differentiated by (:func:`lieint.sensitivity`).
+
+        Returns
+        -------
+        dict of ndarray
+            ``mass_tensor``, ``mass`` and ``radius``.
+        """
+        return {"mass_tensor": self.B_C.copy(), "mass": np.array(self.mass), "radius": np.array(self.radius)}
+
+    def parameter_refusals(self) -> dict[str, str]:
+        """Numeric arguments not offered as parameters, with why.
+
+        Returns
+        -------
+        dict of str
+            ``normal``: it fixes the frame in which the state's ``Γ = Rᵀν`` is read.
+        """
+        return {"normal": NORMAL_REFUSAL}
+
+    def _assign_parameter(self, name: str, value: np.ndarray) -> None:
+        if name == "mass_tensor":
+            self.B_C = value
+        elif name == "mass":
+            self.mass = value
+        else:
+            self.radius = value
+        self._Mr2 = self.mass * self.radius**2
 
     def __repr__(self) -> str:
         return (

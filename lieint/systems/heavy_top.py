@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import copy
 from collections.abc import Mapping
 from typing import TYPE_CHECKING
 
@@ -338,6 +339,46 @@ class HeavyTop(LieGroupSystem):
         if self.orientation:
             check_rotation(out["R"], f"{name}['R']", atol=1e-9)
         return out
+
+    # -- numeric parameters (lieint.sensitivity) ------------------------------------------
+    def parameter_values(self) -> dict[str, np.ndarray]:
+        """The numeric parameters a run can be differentiated by (:func:`lieint.sensitivity`).
+
+        Returns
+        -------
+        dict of ndarray
+            ``mass_tensor``, ``mass``, ``center_of_mass`` and ``gravity``.
+        """
+        return {
+            "mass_tensor": self.B.copy(),
+            "mass": np.array(self.mass),
+            "center_of_mass": self.center_of_mass.copy(),
+            "gravity": self.gravity.copy(),
+        }
+
+    def _assign_parameter(self, name: str, value: np.ndarray) -> None:
+        if name == "mass_tensor":
+            self.top = copy.copy(self.top)
+            self.top._assign_parameter("B", value)
+            self.inertia, self.B = self.top.inertia, self.top.B
+        elif name == "mass":
+            self.mass = value
+        elif name == "center_of_mass":
+            self.center_of_mass = value
+        else:
+            self.gravity = value
+        self._MXG = self.mass * self.center_of_mass
+
+    def _parameter_state_change(self, name: str, direction: np.ndarray, y: State) -> State:
+        if name != "gravity":
+            return {}
+        if "R" not in y:
+            raise ValueError(
+                "`parameters` names 'gravity', which enters the heavy top only through its state Γ = Rᵀg; without "
+                "the attitude R in the state (orientation=False) Γ cannot follow g. Build the top with "
+                "orientation=True, or differentiate with respect to Gamma (lieint.tangent_flow)."
+            )
+        return {"Gamma": (np.swapaxes(y["R"], -1, -2) @ direction[:, None])[..., 0]}
 
     def __repr__(self) -> str:
         return (
