@@ -856,6 +856,8 @@ def engine_for(system, method, y0, adaptive: bool = False, project: bool = True)
     batch = system.batch_shape(y0)
     if 0 in batch:
         return None, "the ensemble is empty"
+    if keeps_energy and meth.coordinates == "cayley" and isinstance(form, Top3Form):
+        form = _as_top_n(form)  # the spin's flow and the reduced stages are the n-D top's energy form's
     if meth.coordinates == "cayley" and isinstance(form, Top3Form):
         form = form.generic  # the 3D top's Cayley coordinates: through its compiled pieces
         if form is None:
@@ -883,18 +885,22 @@ def engine_for(system, method, y0, adaptive: bool = False, project: bool = True)
         return Engine(layout, meth, batch, adaptive, stage_module), ""
 
 
+def _as_top_n(form: Top3Form) -> TopNForm:
+    """The 3D top as the n-D top's form (eigenvalues ``b = tr(B) − I`` of B, ``tr B = ΣI/2``):
+    the energy pairs' Cayley coordinates run there (its pieces, where the plain pairs' Cayley
+    coordinates run, have no flow of the spin)."""
+    moments = np.asarray(form.moments, dtype=float)
+    return TopNForm(0.5 * moments.sum() - moments, form.P, form.orientation, form.generic)
+
+
 def _energy_reason(form, meth, system, adaptive: bool) -> str:
     """Why an energy-keeping pair does not run compiled on ``form`` ("" when it does): it is
-    compiled as an adaptive pair on the 3D top in exponential coordinates, the n-D top, and
-    systems whose compiled pieces declare an energy and whose generator has no commuting part
-    (the 3D top's Cayley coordinates run through its pieces, which would lose the spin's flow)."""
+    compiled as an adaptive pair on the tops (the 3D top's Cayley coordinates on the n-D top's
+    energy form) and on systems whose compiled pieces declare an energy and whose generator has
+    no commuting part."""
     if not adaptive:
         return "has no compiled form for fixed steps (compiled: the adaptive pairs)"
-    if isinstance(form, Top3Form):
-        if meth.coordinates == "exp":
-            return ""
-        return "has no compiled form for the 3D Euler top in Cayley coordinates (its pieces have no spin's flow)"
-    if isinstance(form, TopNForm):
+    if isinstance(form, (Top3Form, TopNForm)):
         return ""
     if isinstance(form, PiecesForm):
         pieces = form.pieces.resolve() if hasattr(form.pieces, "resolve") else form.pieces

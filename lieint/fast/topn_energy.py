@@ -1,6 +1,8 @@
 """The energy-keeping pairs (:mod:`lieint.methods.energy_projection`) on the Euler top in n ≥ 4
 dimensions, compiled (numba, cached on disk): a family of the n-D top's form
-(:mod:`lieint.fast.topn`), in exponential and Cayley coordinates.
+(:mod:`lieint.fast.topn`), in exponential and Cayley coordinates — and the 3D top's Cayley
+coordinates (its own form, :mod:`lieint.fast.top3`, has exponential coordinates only; the stage
+code holds for n = 3).
 
 State of one body: ``(Ã, R̃)`` in the principal frame (the plain form's layout), then the level
 H₀ every accepted step ends on — it travels with the state, so a run split into calls keeps the

@@ -71,12 +71,12 @@ exponential and an action). The compiled engine runs the whole step, the level c
 compiled state, the same steps as the generic path to round-off: on the 3D Euler top in
 exponential coordinates (:mod:`lieint.fast.top3`, family ``rkmk_energy``: the orbit gradient
 ``w × Π`` exact instead of by differences), on the n-D top in exponential and Cayley coordinates
-(:mod:`lieint.fast.topn_energy`: the gradient ``[Ã, Ω̃]`` exact) and on every system whose
+and the 3D top in Cayley coordinates (:mod:`lieint.fast.topn_energy`: the gradient ``[Ã, Ω̃]``
+exact) and on every system whose
 compiled pieces declare an energy — the heavy top, the free body, both balls — in either
 coordinates (:mod:`lieint.fast.generic_energy`: these central differences through the compiled
 action). A run with dense output, events or ``t_eval`` stays on the generic path, whose dense
-output steps again (:class:`lieint.dense.Restep`); so does the 3D top in Cayley coordinates
-(its Cayley coordinates run through its compiled pieces, which do not flow the spin).
+output steps again (:class:`lieint.dense.Restep`).
 """
 
 from __future__ import annotations

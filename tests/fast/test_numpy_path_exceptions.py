@@ -39,9 +39,6 @@ NUMPY_PATH: dict[str, frozenset] = {
     "cg3": ALL,
     "cg4a": ALL,
 }
-#: the pairs that run on the numpy path in Cayley coordinates only: the energy-keeping pairs on
-#: the 3D top, whose Cayley coordinates run through its compiled pieces (no flow of the spin)
-CAYLEY_ONLY = {name: frozenset({"euler_top n=3"}) for name in ("rkmk23+energy", "rkmk45+energy", "rkmk853+energy")}
 #: what backend_reason says of each kind of exception
 REASONS = ("has no compiled",)
 
@@ -52,7 +49,6 @@ DOC_NAMES = {
     "lie_midpoint": "midpoint",
     "cf": "commutator-free",
     "cg": "Crouch–Grossman",
-    "energy": "energy-keeping pairs",
 }
 
 
@@ -68,7 +64,7 @@ def test_every_pair_runs_compiled_or_is_a_declared_exception(label):
         sol = lieint.integrate(system, y0, (0.0, 0.03), method=name, coordinates=coordinates, **kw)
         where = (label, name, coordinates, sol.stats.backend_reason)
         assert sol.success, where
-        listed = label in NUMPY_PATH.get(name, ()) or (coordinates == "cayley" and label in CAYLEY_ONLY.get(name, ()))
+        listed = label in NUMPY_PATH.get(name, ())
         if listed:
             assert sol.stats.backend == "numpy", where
             assert any(f"{method.name!r} {reason}" in sol.stats.backend_reason for reason in REASONS), where
@@ -80,7 +76,7 @@ def test_the_declared_exceptions_are_in_the_architecture_table():
     text = (Path(__file__).resolve().parents[2] / "docs" / "architecture.md").read_text()
     table = text[text.index("What does not run compiled") :]
     table = table[: table.index("\n\n", table.index("| run |"))]
-    for name in (*NUMPY_PATH, *CAYLEY_ONLY):
+    for name in NUMPY_PATH:
         words = [v for k, v in DOC_NAMES.items() if k in name]
         assert words, name
         assert all(word in table for word in words), (name, words)
