@@ -16,19 +16,19 @@ The heavy tops are not in ``integrability_count``; their count is written in the
 about the vertical, ``6 − 1 − 1 − 1 = 3`` (not enough reduced); the Lagrange and the Kovalevskaya
 tops have one more integral, which with its Hamiltonian flow takes two more: ``= 1``.
 
-What to conclude: every motion the count calls integrable has ``⟨Y⟩`` near 2 and an exponent that
-falls like ``log(t)/t`` (the dotted line); the generic heavy top's ``⟨Y⟩`` grows linearly and its
-exponent stays. On a torus ``⟨Y⟩`` approaches 2 from below like ``2 − (C log t + D)/t``, C set by
-the torus and the initial tangent vector (``2 − π log(x)/x`` when ``|δ| = √(1 + x²)|δ(0)|``), so the
-4D top with this vector is still at 1.90 at t = 2000 and at 1.97 by t = 8000 (the guide's "Is this
-motion regular or chaotic?"). The 4D Chaplygin ball, whose count the lecture leaves open (it
-writes ``15 − 1 − 6 − 3 − 1 = 3``; the terms it names sum to 4), is printed with its error bars — the same quantities at
-``h/2`` and at ``2T``. At full
-size (T = 2000, ``LIEINT_FULL_EXAMPLES=1``, about 6 CPU minutes) its ``⟨Y⟩`` is 34.6 (31.8 at
-h/2) and 70.3 at 2T — it doubles with T, the ``λt/2`` of chaos — while its exponent stays at
-0.034 (0.032 at h/2, 0.036 at 2T): chaotic for this mass tensor and state, a numerical hint,
-not a proof. The quick size shown here (T = 100) is too short to tell a weak exponent from a
-slow torus; set ``LIEINT_FULL_EXAMPLES=1`` for T = 2000.
+What to conclude: every motion the count calls integrable has ``⟨Y⟩`` near 2 and an exponent
+that falls like ``log(t)/t`` (the dotted line); the generic heavy top's ``⟨Y⟩`` grows linearly
+and its exponent stays. On a torus ``⟨Y⟩`` approaches 2 from below like ``2 − (C log t + D)/t``,
+C set by the torus and the initial tangent vector (``2 − π log(x)/x`` when ``|δ| = √(1 +
+x²)|δ(0)|``), so the 4D top with this vector is still at 1.90 at t = 2000 and at 1.97 by t =
+8000 (the guide's "Is this motion regular or chaotic?"). The 4D Chaplygin ball, whose count the
+lecture leaves open (it writes ``15 − 1 − 6 − 3 − 1 = 3``; the terms it names sum to 4), is
+printed with its error bars — the same quantities at ``h/2`` and at ``2T``. At full size (T =
+2000, ``LIEINT_FULL_EXAMPLES=1``, about 6 CPU minutes) its ``⟨Y⟩`` is 34.6 (31.8 at h/2) and
+70.3 at 2T — it doubles with T, the ``λt/2`` of chaos — while its exponent stays at 0.034 (0.032
+at h/2, 0.036 at 2T): chaotic for this mass tensor and state, a numerical hint, not a proof. The
+quick size shown here (T = 100) is too short to tell a weak exponent from a slow torus; set
+``LIEINT_FULL_EXAMPLES=1`` for T = 2000.
 """
 
 import os
