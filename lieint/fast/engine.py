@@ -23,7 +23,7 @@ from functools import cache, lru_cache
 import numpy as np
 
 from ..groups.base import DexpinvRangeError, bernoulli_dexpinv_coefficients
-from .forms import ClassicalForm, MapForm, PiecesForm, RKMKForm, Top3Form, TopNForm
+from .forms import Chaplygin3Form, ClassicalForm, HeavyTop3Form, MapForm, PiecesForm, RKMKForm, Top3Form, TopNForm
 
 __all__ = ["Engine", "Tableau", "bound_loops", "engine_for", "range_error", "use_threads"]
 
@@ -52,10 +52,16 @@ def range_error(k: int, plan, where: str = "so(3)") -> DexpinvRangeError:
     )
 
 
-def _unsolved(k: int, plan) -> RuntimeError:
-    """The error a run of a Moser–Veselov map raises when Newton's method did not solve step
-    ``k``'s equation (the numpy path's message, with the step)."""
+def _unsolved(k: int, plan, family: str = "moser_veselov") -> RuntimeError:
+    """The error a run of a map raises when its step ``k`` failed: Newton's method did not solve a
+    Moser–Veselov equation (the numpy path's message, with the step), or the exact flow's
+    quadrature of the precession angle did not settle however finely the step was cut."""
     h = plan.step_size(k)
+    if family == "exact_flow":
+        return RuntimeError(
+            f"exact_flow step h = {h:g}: the precession angle's quadrature did not settle at step {k + 1} "
+            f"(t = {plan.time(k):.6g}) even cut into 4096 substeps; run it with backend='numpy' (the closed form)."
+        )
     return RuntimeError(
         f"Moser–Veselov step h = {h:g}: Newton did not reach round-off at step {k + 1} (t = {plan.time(k):.6g}); "
         "take a smaller `h`."
@@ -302,6 +308,142 @@ class _Top3LanesLayout(_Top3Layout):
         return hat(u).reshape(U.shape[:-2] + batch + (3, 3))
 
 
+class _HeavyTop3LanesLayout(_Top3Layout):
+    """An ensemble of 3D heavy tops in SIMD lanes (:mod:`lieint.fast.heavy_lanes`): blocks of
+    bodies structure-of-arrays in the principal frame of the top (Π, the attitude as quaternion
+    rows, Γ). A unit of the loop is a block."""
+
+    module = "lieint.fast.heavy_lanes"
+    group = "se(3)"
+    label = "3D heavy top in SIMD lanes (ensemble)"
+    #: ensembles of at least this many bodies run RKMK in lanes (measured: 2 bodies in a block of
+    #: 8 lanes already cost less than two bodies on the per-body path; benchmarks/ensembles.py)
+    FROM = 2
+
+    def __init__(self, form: HeavyTop3Form, N: int):
+        super().__init__(form)
+        from .heavy_lanes import ROWS
+        from .lanes import block_lanes
+
+        self.MXG = np.asarray(form.MXG, dtype=float)
+        self.params = np.concatenate([1.0 / self.moments, self.P.T @ self.MXG, [float(form.gravity)]])
+        self.count = 12 + (9 if self.orientation else 0)
+        self.N, self.L = N, block_lanes(N)
+        self.d = ROWS * (self.L + 8)
+        self.units = -(-N // self.L)
+
+    def start(self, y: dict, N: int) -> np.ndarray:
+        from .heavy_lanes import blocks_from_state
+        from .quaternions import lanes_from_matrices
+
+        Y = super().start(y, N)  # Π and R P in the principal frame
+        gamma = y["Gamma"].reshape(N, 3)
+        if not self.identity_frame:
+            gamma = gamma @ self.P
+        return blocks_from_state(Y[:, :3], lanes_from_matrices(Y[:, 3:].reshape(N, 3, 3)), gamma, N)
+
+    def user(self, Y: np.ndarray, batch: tuple) -> dict:
+        from .heavy_lanes import blocks_to_user
+
+        lead = Y.shape[:-2]
+        A, G, R = blocks_to_user(Y, self.N, self.P, self.identity_frame, self.orientation)
+        states = {"A": A.reshape(lead + batch + (3, 3)), "Gamma": G.reshape(lead + batch + (3,))}
+        if self.orientation:
+            states["R"] = R.reshape(lead + batch + (3, 3))
+        return states
+
+    def user_flat(self, y: dict, N: int) -> np.ndarray:
+        parts = [y["A"].reshape(N, 9), y["Gamma"].reshape(N, 3)]
+        if self.orientation:
+            parts.append(y["R"].reshape(N, 9))
+        return np.ascontiguousarray(np.concatenate(parts, axis=1))
+
+    def increments_size(self, method) -> int:
+        from .heavy_lanes import INCREMENT_ROWS
+
+        return INCREMENT_ROWS * (self.L + 8)
+
+    def increments(self, U: np.ndarray, batch: tuple):
+        """The steps' increments in the user's se(3), ``[[(P u_w)^, P u_v], [0, 0]]``."""
+        from ..groups.bivectors import hat
+        from ..groups.se import se_join
+        from .heavy_lanes import increments_to_user
+
+        w, v = increments_to_user(U, self.N, self.P, self.identity_frame)
+        return se_join(hat(w), v, algebra=True).reshape(U.shape[:-2] + batch + (4, 4))
+
+
+class _Chaplygin3LanesLayout(_Layout):
+    """An ensemble of 3D Chaplygin balls in SIMD lanes (:mod:`lieint.fast.chaplygin_lanes`):
+    blocks of bodies structure-of-arrays in the user's frame (Π, the attitude as quaternion rows,
+    Γ, the centre). A unit of the loop is a block."""
+
+    module = "lieint.fast.chaplygin_lanes"
+    label = "3D Chaplygin ball in SIMD lanes (ensemble)"
+    exact_radius = True
+    #: ensembles of at least this many bodies run RKMK in lanes (benchmarks/ensembles.py)
+    FROM = 2
+
+    def __init__(self, form: Chaplygin3Form, N: int):
+        from .chaplygin_lanes import ROWS
+        from .lanes import block_lanes
+
+        B = np.asarray(form.B_C, dtype=float)
+        J = np.trace(B) * np.eye(3) - B
+        normal = np.asarray(form.normal, dtype=float)
+        self.orientation, self.center = bool(form.orientation), bool(form.center)
+        self.params = np.concatenate([J.ravel(), [form.Mr2, form.radius], normal, [float(self.center)]])
+        self.group = "se(3)" if self.center else "so(3)"
+        self.count = 12 + (9 if self.orientation else 0) + (3 if self.center else 0)
+        self.N, self.L = N, block_lanes(N)
+        self.d = ROWS * (self.L + 8)
+        self.units = -(-N // self.L)
+
+    def start(self, y: dict, N: int) -> np.ndarray:
+        from .chaplygin_lanes import blocks_from_state
+        from .quaternions import lanes_from_matrices
+        from .top3 import minus_vee
+
+        R = y["R"].reshape(N, 3, 3) if self.orientation else np.broadcast_to(np.eye(3), (N, 3, 3))
+        center = y["center"].reshape(N, 3) if self.center else np.zeros((N, 3))
+        pi = minus_vee(y["A"].reshape(N, 3, 3))
+        return blocks_from_state(pi, lanes_from_matrices(R), y["Gamma"].reshape(N, 3), center, N)
+
+    def user(self, Y: np.ndarray, batch: tuple) -> dict:
+        from .chaplygin_lanes import blocks_to_user
+
+        lead = Y.shape[:-2]
+        A, G, R, C = blocks_to_user(Y, self.N, self.orientation, self.center)
+        states = {"A": A.reshape(lead + batch + (3, 3)), "Gamma": G.reshape(lead + batch + (3,))}
+        if self.orientation:
+            states["R"] = R.reshape(lead + batch + (3, 3))
+        if self.center:
+            states["center"] = C.reshape(lead + batch + (3,))
+        return states
+
+    def user_flat(self, y: dict, N: int) -> np.ndarray:
+        names = ["A", "Gamma"] + (["R"] if self.orientation else []) + (["center"] if self.center else [])
+        return np.ascontiguousarray(np.concatenate([y[k].reshape(N, -1) for k in names], axis=1))
+
+    def increments_size(self, method) -> int:
+        from .heavy_lanes import INCREMENT_ROWS
+
+        return INCREMENT_ROWS * (self.L + 8)
+
+    def increments(self, U: np.ndarray, batch: tuple):
+        """The steps' increments in the ball's algebra: ``[[û_w, u_v], [0, 0]]`` on se(3), ``û_w``
+        on so(3) (without the centre)."""
+        from ..groups.bivectors import hat
+        from ..groups.se import se_join
+        from .chaplygin_lanes import increments_to_user
+
+        w, v = increments_to_user(U, self.N)
+        lead = U.shape[:-2] + batch
+        if not self.center:
+            return hat(w).reshape(lead + (3, 3))
+        return se_join(hat(w), v, algebra=True).reshape(lead + (4, 4))
+
+
 class _TopNLayout(_Layout):
     """The Euler top in n ≥ 4 dimensions: ``(Ã, R̃) = (PᵀAP, RP)`` in the principal frame."""
 
@@ -532,9 +674,11 @@ class Engine:
             if getattr(m, "keeps_energy", False):
                 kind += ", energy kept"
         elif isinstance(m, MapForm):
-            kind = {"moser_veselov": "Moser–Veselov map", "splitting": "splitting into exact rotations"}.get(
-                m.family, m.family
-            )
+            kind = {
+                "moser_veselov": "Moser–Veselov map",
+                "splitting": "splitting into exact rotations",
+                "exact_flow": "exact flow (double-double short steps)",
+            }.get(m.family, m.family)
         else:
             kind = "classical RK"
         threads = f"{self.threads} threads" if self.parallel else "serial"
@@ -552,7 +696,7 @@ class Engine:
 
     @property
     def lanes(self) -> bool:
-        return isinstance(self.layout, _Top3LanesLayout)
+        return isinstance(self.layout, (_Top3LanesLayout, _HeavyTop3LanesLayout, _Chaplygin3LanesLayout))
 
     def user_state(self, internal: dict) -> dict:
         return {k: v[0] for k, v in self.layout.user(internal["Y"][None], self.batch).items()}
@@ -612,7 +756,7 @@ class Engine:
         bad = status[status >= 0]
         if bad.size:
             if isinstance(self.method, MapForm):
-                raise _unsolved(int(bad.min()), plan)
+                raise _unsolved(int(bad.min()), plan, self.method.family)
             raise range_error(int(bad.min()), plan, self.layout.group)
         result = {"Y": fin}, self.user_rows(out)
         if keep:
@@ -686,9 +830,12 @@ def _label(system) -> str:
     return label
 
 
-def engine_for(system, method, y0, adaptive: bool = False, project: bool = True) -> tuple[Engine | None, str]:
+def engine_for(
+    system, method, y0, adaptive: bool = False, project: bool = True, h: float | None = None
+) -> tuple[Engine | None, str]:
     """The compiled engine for this run, or None with the reason none applies (``project``:
-    whether the run projects its states; a run that does not compiles no projection).
+    whether the run projects its states; a run that does not compiles no projection; ``h``: the
+    fixed step, for a map whose stage code takes only some steps — its module's ``decline``).
 
     Chosen by what system and method *declare* (``system.compiled()``, ``method.compiled()``),
     never by their class: a system from another package that declares the same form gets the
@@ -729,7 +876,12 @@ def engine_for(system, method, y0, adaptive: bool = False, project: bool = True)
     elif isinstance(form, TopNForm):
         layout = _TopNLayout(form)
     elif isinstance(form, PiecesForm):
-        layout = _PiecesLayout(form, system, adaptive or meth.family == "rk", project)
+        N = math.prod(batch)
+        lanes = {HeavyTop3Form: _HeavyTop3LanesLayout, Chaplygin3Form: _Chaplygin3LanesLayout}.get(type(form.lanes))
+        if lanes and not adaptive and meth.family == "rkmk" and meth.coordinates == "exp" and N >= lanes.FROM:
+            layout = lanes(form.lanes, N)
+        else:
+            layout = _PiecesLayout(form, system, adaptive or meth.family == "rk", project)
     else:
         return None, f"no engine for the compiled form {type(form).__name__}"
     if isinstance(meth, MapForm) and not meth.covers(form):
@@ -737,6 +889,13 @@ def engine_for(system, method, y0, adaptive: bool = False, project: bool = True)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", category=_experimental_warning())
         stage_module = meth.module_for(form) if isinstance(meth, MapForm) else ""
+        if stage_module:
+            import importlib
+
+            decline = getattr(importlib.import_module(stage_module), "decline", None)
+            reason = "" if decline is None else decline(layout, layout.start(y0, math.prod(batch)), h)
+            if reason:
+                return None, reason
         return Engine(layout, meth, batch, adaptive, stage_module), ""
 
 

@@ -19,7 +19,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from .._validation import check_skew, describe
-from ..fast.forms import BUILTIN_PIECES, PiecesForm
+from ..fast.forms import BUILTIN_PIECES, Chaplygin3Form, PiecesForm
 from ..groups.bivectors import inner, skew_part
 from ..groups.se import SE
 from ..groups.so import SO
@@ -166,7 +166,8 @@ class ChaplyginBall(RollingPose, LieGroupSystem):
         """The compiled engine's form (:class:`lieint.fast.forms.PiecesForm`) for n ≥ 3.
 
         The Chaplygin ball's pieces in :mod:`lieint.fast.balls`; parameters n, the offsets of R
-        and of the centre, ``M r²``, r, ``B_C`` and ν.
+        and of the centre, ``M r²``, r, ``B_C`` and ν; for n = 3 also the form of its ensembles
+        in SIMD lanes (:class:`lieint.fast.forms.Chaplygin3Form`).
 
         Returns
         -------
@@ -178,7 +179,10 @@ class ChaplyginBall(RollingPose, LieGroupSystem):
         offset = self.field_offsets()
         head = [self.n, offset.get("R", -1), offset.get("center", -1), self._Mr2, self.radius]
         params = np.concatenate([head, self.B_C.ravel(), self.normal])
-        return PiecesForm(BUILTIN_PIECES.chaplygin, params, self.n, self.track_center, 0, self.fields)
+        lanes = None
+        if self.n == 3:  # ensembles of the 3D ball run in SIMD lanes
+            lanes = Chaplygin3Form(self.B_C, self._Mr2, self.radius, self.normal, "R" in self.fields, self.track_center)
+        return PiecesForm(BUILTIN_PIECES.chaplygin, params, self.n, self.track_center, 0, self.fields, lanes=lanes)
 
     # -- the LieGroupSystem contract ---------------------------------------------------
     def generator(self, t: float | np.ndarray, y: State) -> np.ndarray:

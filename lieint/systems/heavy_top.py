@@ -10,7 +10,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from .._validation import check_finite_positive, check_rotation, check_vector, describe
-from ..fast.forms import BUILTIN_PIECES, PiecesForm
+from ..fast.forms import BUILTIN_PIECES, HeavyTop3Form, PiecesForm
 from ..groups.bivectors import skew_part, vee, wedge
 from ..groups.se import SE, se_join, se_split
 from ..groups.so import project_to_so
@@ -221,7 +221,8 @@ class HeavyTop(LieGroupSystem):
         """The compiled engine's form (:class:`lieint.fast.forms.PiecesForm`) for n ≥ 3.
 
         The heavy top's pieces in :mod:`lieint.fast.bodies`; parameters n, the offset of R,
-        whether B is diagonal, the eigenbasis P of B, ``−1/(b_i + b_j)``, ``M X_G`` and ``|g|``.
+        whether B is diagonal, the eigenbasis P of B, ``−1/(b_i + b_j)``, ``M X_G`` and ``|g|``;
+        for n = 3 also the form of its ensembles in SIMD lanes (:class:`lieint.fast.forms.HeavyTop3Form`).
 
         Returns
         -------
@@ -232,8 +233,13 @@ class HeavyTop(LieGroupSystem):
             return None
         inertia, n = self.inertia, self.n
         head = [n, self.field_offsets().get("R", -1), float(inertia.diagonal)]
-        params = np.concatenate([head, inertia.kernel_params, self._MXG, [np.linalg.norm(self.gravity)]])
-        return PiecesForm(BUILTIN_PIECES.heavy_top, params, n, True, 0, self.fields)
+        g = float(np.linalg.norm(self.gravity))
+        params = np.concatenate([head, inertia.kernel_params, self._MXG, [g]])
+        lanes = None
+        if n == 3:  # ensembles of the 3D heavy top run in SIMD lanes
+            top = self.top
+            lanes = HeavyTop3Form(top.principal_moments, top.P, self._MXG, g, self.orientation)
+        return PiecesForm(BUILTIN_PIECES.heavy_top, params, n, True, 0, self.fields, lanes=lanes)
 
     # -- physics -----------------------------------------------------------------------
     def energy(self, A: np.ndarray, Gamma: np.ndarray) -> np.ndarray:
