@@ -86,7 +86,7 @@ def system_factories() -> dict[str, Callable]:
             continue
         kept = out[ep.name]
         which = f"the installed system {ep.name!r} ({ep.value}{_distribution(ep)})"
-        if isinstance(kept, metadata.EntryPoint):
+        if _is_entry_point(kept):
             why = f"another installed system of that name ({kept.value}{_distribution(kept)}) is used instead"
         else:
             why = "it has the name of a built-in system, which is used instead"
@@ -101,6 +101,13 @@ def _installed(path: tuple[str, ...]) -> tuple[metadata.EntryPoint, ...]:
     chunk. :func:`make_system` scans again before it reports an unknown name, so a plugin
     installed while the process runs is still found."""
     return tuple(metadata.entry_points(group=ENTRY_POINT_GROUP))
+
+
+def _is_entry_point(factory: object) -> bool:
+    """An installed system not loaded yet (by its interface: when ``importlib.metadata`` has been
+    imported afresh since this module was, the distributions found are of the new module's
+    classes, and ``isinstance`` with the old ``EntryPoint`` fails)."""
+    return not callable(factory) and callable(getattr(factory, "load", None)) and hasattr(factory, "value")
 
 
 def _distribution(ep: metadata.EntryPoint) -> str:
@@ -127,7 +134,7 @@ def make_system(name: str, parameters: dict):
             f"under the entry-point group {ENTRY_POINT_GROUP!r})."
         )
     factory = factories[name]
-    plugin = isinstance(factory, metadata.EntryPoint)
+    plugin = _is_entry_point(factory)
     if plugin:
         try:
             factory = factory.load()

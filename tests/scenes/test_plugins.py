@@ -190,6 +190,23 @@ def test_a_plugin_installed_while_the_process_runs_is_found(plugin_path, monkeyp
         lieint.catalog.make_system("no_such_body", {})
 
 
+def test_a_plugin_is_found_after_importlib_metadata_was_imported_afresh(plugin_path, monkeypatch):
+    """Once ``importlib.metadata`` has been imported again (a library or a test may do it), the
+    distributions found are of the new module's classes: a plugin must still be recognised as
+    one (an ``isinstance`` test with the first module's EntryPoint called it as a factory)."""
+    import importlib
+    import importlib.metadata
+
+    monkeypatch.syspath_prepend(str(plugin_path))
+    monkeypatch.delitem(sys.modules, "lieint_demo_plugin", raising=False)
+    monkeypatch.setattr(importlib, "metadata", importlib.metadata)  # restored after the test, as is sys.modules
+    monkeypatch.delitem(sys.modules, "importlib.metadata")
+    fresh = importlib.import_module("importlib.metadata")
+    assert fresh is not lieint.catalog.metadata
+    rotor = lieint.catalog.make_system("spinning_rotor", {"rate": 2.0})
+    assert type(rotor).__name__ == "SpinningRotor"
+
+
 def test_an_unknown_system_lists_the_known_ones(tmp_path):
     (tmp_path / "x.toml").write_text(SCENE.replace("spinning_rotor", "no_such_body"))
     with pytest.raises(ValueError, match=r"no system named 'no_such_body'; known systems are \[.*'euler_top'"):
