@@ -37,6 +37,7 @@ from functools import partial
 import numpy as np
 
 from ..dense import Increment
+from ..fast.forms import ExpProductForm
 from .base import Method, MethodSpec, StepResult
 from .registry import register
 from .tableau import ButcherTableau
@@ -128,6 +129,19 @@ class CommutatorFree(Method):
             # ρ(g₂, ρ(g₁, y)) = ρ(g₁g₂, y) for a right action: the step's element is g₁g₂…
             g = gl if g is None else group.multiply(g, gl)
         return StepResult(y1, None, len(self.c), None, dense=Increment(g=g))
+
+    def compiled(self):
+        """The compiled engine's form (:class:`lieint.fast.forms.ExpProductForm`): the weight
+        vectors of every exponential as rows, stage after stage and then the step's; None for a
+        subclass that changes the step (it integrates something else)."""
+        if not self.steps_as(CommutatorFree, ("step",)):
+            return None
+        rows = [w for stage in self.stages for w in stage] + list(self.output)
+        counts = [len(stage) for stage in self.stages] + [len(self.output)]
+        bounds = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+        s = len(self.c)
+        weights = np.array(rows, dtype=float).reshape(len(rows), s)
+        return ExpProductForm(np.asarray(self.c, dtype=float), weights, bounds)
 
 
 def _combine(group, weights, xis: list, h: float):

@@ -33,11 +33,6 @@ NUMPY_PATH: dict[str, frozenset] = {
     "splitting6": frozenset({"euler_top n=4", "heavy_top n=3", "heavy_top n=4"}),
     # the implicit Lie–Poisson midpoint
     "lie_midpoint": frozenset({"euler_top n=3", "euler_top n=4", "heavy_top n=3", "heavy_top n=4"}),
-    # commutator-free and Crouch–Grossman methods: everywhere
-    "cf3": ALL,
-    "cf4": ALL,
-    "cg3": ALL,
-    "cg4a": ALL,
     # the energy-keeping pairs: compiled on the 3D Euler top in exponential coordinates only
     "rkmk23+energy": ALL - {"euler_top n=3"},
     "rkmk45+energy": ALL - {"euler_top n=3"},
@@ -54,8 +49,6 @@ DOC_NAMES = {
     "exact_flow": "exact flow",
     "splitting": "splittings",
     "lie_midpoint": "midpoint",
-    "cf": "commutator-free",
-    "cg": "Crouch–Grossman",
     "energy": "energy-keeping pairs",
 }
 

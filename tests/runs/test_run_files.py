@@ -33,7 +33,7 @@ type = "fixed_point"
 omega = [[0.0, -0.3, 0.5, -0.2], [0.3, 0.0, -0.4, 0.6], [-0.5, 0.4, 0.0, -0.1], [0.2, -0.6, 0.1, 0.0]]
 
 [integrator]
-method = "cf4"  # commutator-free: the generic path (no compiled kernel), slow enough to be caught live
+method = "lie_midpoint"  # the generic path (no compiled kernel), slow enough to be caught live
 step = 0.002
 t_end = {t_end}
 save_every = 1
@@ -42,7 +42,7 @@ save_every = 1
 quantities = ["energy", "casimirs", "orientation"]
 """
 
-T_END = 8.0  # 4000 steps on the generic path: a few seconds, long enough to be caught live
+T_END = 28.0  # 14,000 steps on the generic path: a few seconds, long enough to be caught live
 
 
 def scene_file(tmp_path, t_end=T_END, name="s.toml"):
@@ -524,7 +524,7 @@ def test_small_refusals_are_clear(tmp_path, capsys):
     # a step far too large (exponential coordinates: beyond the dexp⁻¹ radius), held in memory:
     # the failure is a message, not a traceback
     big = tmp_path / "big.toml"
-    text = re.sub(r'method = "cf4".*', 'method = "rkmk4"', scene.read_text())
+    text = re.sub(r'method = "lie_midpoint".*', 'method = "rkmk4"', scene.read_text())
     big.write_text(text.replace("step = 0.002", "step = 50.0").replace("t_end = 0.1", "t_end = 1000.0"))
     code = main(["run", str(big)])
     err = capsys.readouterr().err

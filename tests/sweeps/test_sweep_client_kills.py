@@ -69,7 +69,7 @@ def _session(sid: int) -> list[int]:
     return alive
 
 
-# a 4D top stepped by a commutator-free method: the generic path (no compiled kernel), so that its
+# a 4D top stepped by the Lie–Poisson midpoint: the generic path (no compiled kernel), so that its
 # chunks take long enough (about a second each) for kills to land between commits
 GENERIC_4D = """
 [scene]
@@ -81,9 +81,9 @@ type = "fixed_point"
 [initial]
 omega = [[0.0, -0.3, 0.5, -0.2], [0.3, 0.0, -0.4, 0.6], [-0.5, 0.4, 0.0, -0.1], [0.2, -0.6, 0.1, 0.0]]
 [integrator]
-method = "cf4"
+method = "lie_midpoint"
 step = 0.002
-t_end = 1.5
+t_end = 5.0
 project = true
 save_every = 10
 [output]
