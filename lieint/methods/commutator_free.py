@@ -27,6 +27,12 @@ Methods (order, stages, exponentials per step):
 
 A Crouch–Grossman method is the special case with one frozen generator per exponential
 (``y₁ = ρ(exp(h b_s ξ_s), … ρ(exp(h b_1 ξ_1), y₀))``).
+
+Every method here runs compiled wherever RKMK does — the Euler top of any dimension, the heavy
+top, the free body, both balls; fixed steps, batches, dense output, events, ``t_eval`` — from
+its weights as data (:meth:`CommutatorFree.compiled`, :class:`lieint.fast.forms.ExpProductForm`:
+one stage function per system form serves every such method); the numpy path below is the
+reference it is tested against.
 """
 
 from __future__ import annotations
