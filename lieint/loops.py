@@ -21,20 +21,45 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol
 
 import numpy as np
 
 from .groups.base import DexpinvRangeError
 from .limits import RowBudget
 
-if TYPE_CHECKING:
-    from .driver import Driver
-
 __all__ = ["Carry", "ScipyLoop", "Segment", "adaptive_loop", "fixed_loop"]
 
 # How often (in steps) a long stretch between saves is checked for non-finite values.
 _FINITE_CHECK_EVERY = 256
+
+
+class LoopHost(Protocol):
+    """What a loop reads of the run it serves (:class:`lieint.driver.Driver` is the one).
+
+    Written as a protocol so that the loops, one layer below the driver, need not import it.
+    """
+
+    system: Any
+    method: Any
+    observer: Any
+    kind: str
+    loop: Any
+    t0: float
+    t1: float
+    direction: float
+    h: float | None
+    rtol: float
+    atol: float
+    max_step: float | None
+    project: bool
+    save_every: int
+    save_times: np.ndarray | None
+    plan: Any
+    controller: Any
+    backend_request: str
+
+    def before_end(self, t: float) -> bool: ...
 
 
 @dataclass
@@ -69,7 +94,7 @@ class Segment:
         return int(self.t.size)
 
 
-def fixed_loop(driver: Driver, y0: dict):
+def fixed_loop(driver: LoopHost, y0: dict):
     """The compiled engine where it covers system and method, else the generic loop (dense
     output, events and ``t_eval`` are served from the engine's steps too)."""
     if driver.backend_request == "numpy":
@@ -87,7 +112,7 @@ def fixed_loop(driver: Driver, y0: dict):
 class _GenericRows:
     """What the generic loops share: the carry holds the user's state itself."""
 
-    d: Driver
+    d: LoopHost
 
     def first_row(self, carry: Carry) -> Segment:
         return Segment(np.array([self.d.t0]), {k: v[None] for k, v in carry.state.items()})
@@ -101,7 +126,7 @@ class _FixedLoop(_GenericRows):
 
     name = "numpy"
 
-    def __init__(self, driver: Driver, reason: str):
+    def __init__(self, driver: LoopHost, reason: str):
         self.d, self.reason = driver, reason
 
     def start(self, y0: dict) -> Carry:
@@ -159,7 +184,7 @@ class _CompiledRows:
     turns it into the user's rows; it may also know the step check's radius of ξ."""
 
     kernel: Any
-    d: Driver
+    d: LoopHost
 
     def first_row(self, carry: Carry) -> Segment:
         y = self.kernel.user_state(carry.state)
@@ -181,7 +206,7 @@ class _KernelLoop(_CompiledRows):
 
     name = "numba"
 
-    def __init__(self, driver: Driver, kernel):
+    def __init__(self, driver: LoopHost, kernel):
         self.d, self.kernel = driver, kernel
         self.reason = kernel.describe()
         self.threads = kernel.threads
@@ -294,7 +319,7 @@ class _AdaptiveLoop(_GenericRows):
 
     name = "numpy"
 
-    def __init__(self, driver: Driver, reason: str = "adaptive steps run on the generic path"):
+    def __init__(self, driver: LoopHost, reason: str = "adaptive steps run on the generic path"):
         self.d, self.reason = driver, reason
         self.h_min = 1e-14 * max(1.0, abs(driver.t0), abs(driver.t1))
 
@@ -358,7 +383,7 @@ class _AdaptiveLoop(_GenericRows):
         )
 
 
-def adaptive_loop(driver: Driver, y0: dict):
+def adaptive_loop(driver: LoopHost, y0: dict):
     """The compiled engine's controller loop where it covers system and method, else the generic
     loop (dense output, events and ``t_eval`` are served from the engine's steps too)."""
     if driver.backend_request == "numpy":
@@ -383,7 +408,7 @@ class _AdaptiveKernelLoop(_CompiledRows, _AdaptiveLoop):
 
     name = "numba"
 
-    def __init__(self, driver: Driver, kernel):
+    def __init__(self, driver: LoopHost, kernel):
         super().__init__(driver, kernel.describe())
         self.kernel, self.threads = kernel, kernel.threads
 
@@ -476,7 +501,7 @@ class ScipyLoop:
     name = "scipy"
     reason = "scipy's solve_ivp solver"
 
-    def __init__(self, driver: Driver):
+    def __init__(self, driver: LoopHost):
         self.d = driver
 
     def start(self, y0: dict) -> Carry:
@@ -554,13 +579,13 @@ class ScipyLoop:
 # -- helpers ---------------------------------------------------------------------------------------
 
 
-def _first_trial(d: Driver, h: float) -> float:
+def _first_trial(d: LoopHost, h: float) -> float:
     """The first trial step of an adaptive run from its size ``h`` (given, or scipy's estimate):
     at most ``max_step`` and the span, signed by the run's direction."""
     return d.direction * min(h, d.max_step, abs(d.t1 - d.t0))
 
 
-def _row_budget(d: Driver, like: dict) -> RowBudget:
+def _row_budget(d: LoopHost, like: dict) -> RowBudget:
     """The rows an adaptive segment may hold (:class:`lieint.limits.RowBudget`), each a time and
     a state like ``like``: tolerances below what round-off lets the error estimate resolve drive
     the step size down without end, every step saved."""
@@ -575,7 +600,7 @@ def _row_budget(d: Driver, like: dict) -> RowBudget:
     )
 
 
-def _stopped(d: Driver, carry: Carry, segment: Segment) -> Segment:
+def _stopped(d: LoopHost, carry: Carry, segment: Segment) -> Segment:
     """After a terminal event: the run ends at the event (its state is the last row)."""
     stop = d.observer.stop if d.observer is not None else None
     if stop is None or (carry.t == stop[0] and segment.rows and segment.t[-1] == stop[0]):

@@ -41,7 +41,8 @@ True
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from collections.abc import Iterable
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -50,8 +51,6 @@ from ._validation import as_float_array, check_finite_positive, check_rotation, 
 
 if TYPE_CHECKING:
     from scipy.spatial.transform import Rotation
-
-    from .solution import Solution
 
 __all__ = ["from_quaternion", "from_scipy", "from_solution", "is_scipy_rotation", "to_quaternion", "to_scipy"]
 
@@ -234,7 +233,19 @@ def from_quaternion(q: ArrayLike, *, scalar_first: bool) -> np.ndarray:
     return np.asarray(Rotation.from_quat(last.reshape(-1, 4)).as_matrix(), dtype=float).reshape(batch + (3, 3))
 
 
-def from_solution(sol: Solution, field: str = "R", *, atol: float = ROTATION_ATOL) -> Rotation:
+class SolutionLike(Protocol):
+    """What :func:`from_solution` reads of a result (:class:`lieint.Solution` is the one).
+
+    A protocol, so that this module (below the solution in the layers) need not import it.
+    """
+
+    states: dict[str, np.ndarray]
+    system: Any
+
+    def outputs(self, names: Iterable[str]) -> dict[str, np.ndarray]: ...
+
+
+def from_solution(sol: SolutionLike, field: str = "R", *, atol: float = ROTATION_ATOL) -> Rotation:
     """The saved orientations of a result as a :class:`scipy.spatial.transform.Rotation`.
 
     Parameters
@@ -265,7 +276,7 @@ def from_solution(sol: Solution, field: str = "R", *, atol: float = ROTATION_ATO
     return to_scipy(_orientation_of(sol, field), atol=atol)
 
 
-def _orientation_of(sol: Solution, field: str) -> np.ndarray:
+def _orientation_of(sol: SolutionLike, field: str) -> np.ndarray:
     """The orientation series ``(m, *batch, 3, 3)`` of a result: a state field or an output."""
     if field in sol.states:
         return sol.states[field]

@@ -65,27 +65,14 @@ def _module_name(path: Path, root: Path = ROOT) -> str:
     return ".".join(parts)
 
 
-def _annotation_only(tree: ast.AST) -> set[int]:
-    """``id`` of the import nodes under ``if TYPE_CHECKING:`` (names for annotations only)."""
-    out = set()
-    for node in ast.walk(tree):
-        if isinstance(node, ast.If) and "TYPE_CHECKING" in ast.unparse(node.test):
-            out |= {id(inner) for branch in node.body for inner in ast.walk(branch)}
-    return out
-
-
-def _imports(path: Path, root: Path = ROOT, *, annotations: bool = True) -> list[tuple[str, list[str], int]]:
+def _imports(path: Path, root: Path = ROOT) -> list[tuple[str, list[str], int]]:
     """``(module imported, names taken, line)`` of every import in the file, relative ones
-    resolved (function-level imports included; ``TYPE_CHECKING`` ones unless ``annotations``
-    is False)."""
+    resolved (function-level and ``TYPE_CHECKING`` imports included)."""
     name = _module_name(path, root)
     package = name if path.name == "__init__.py" else name.rsplit(".", 1)[0]
     out = []
     tree = ast.parse(path.read_text(), str(path))
-    skip = set() if annotations else _annotation_only(tree)
     for node in ast.walk(tree):
-        if id(node) in skip:
-            continue
         if isinstance(node, ast.Import):
             out += [(alias.name, [], node.lineno) for alias in node.names]
         elif isinstance(node, ast.ImportFrom):
@@ -110,12 +97,13 @@ MODULES = {_module_name(p): p for p in sorted(ROOT.rglob("*.py"))}
 
 
 def _graph() -> dict[str, set[str]]:
-    """Who imports whom when the code runs (``TYPE_CHECKING`` imports name types for
-    annotations and never run: they count for the layers, not for circles)."""
+    """Who imports whom, ``TYPE_CHECKING`` imports included: a module that needs another's
+    type for its annotations depends on it as much as one that calls it (a protocol in the lower
+    module breaks such a circle)."""
     graph = {}
     for name, path in MODULES.items():
         targets = set()
-        for target, _, _ in _imports(path, annotations=False):
+        for target, _, _ in _imports(path):
             # the imported module itself, or the package it lives in
             while target not in MODULES and "." in target:
                 target = target.rsplit(".", 1)[0]
