@@ -5,7 +5,8 @@ yet — a fresh install, a new numba, a cluster node's empty home directory — 
 machine code for every later process. A cluster job or a CI run that would otherwise pay that
 in its first integration compiles here instead, once: each built-in system with each compiled
 method family (fixed-step RKMK in exponential and Cayley coordinates, the embedded pairs'
-controller loop, classical RK, the SIMD lanes of a 3D-top ensemble, the tops' Moser–Veselov
+controller loop, classical RK, the products of exponentials of the commutator-free and
+Crouch–Grossman methods, the SIMD lanes of a 3D-top ensemble, the tops' Moser–Veselov
 maps and the 3D top's splitting), and the pieces of the generic form. Items the cache already
 holds cost a fraction of a second.
 """
@@ -79,6 +80,7 @@ _RUNS = (
     ("RKMK, Cayley coordinates", dict(method="rkmk4", h=0.01, coordinates="cayley")),
     ("embedded pair (controller loop)", dict(method="rkmk45", rtol=1e-6, atol=1e-9)),
     ("classical RK", dict(method="rk4", h=0.01)),
+    ("commutator-free, Crouch–Grossman", dict(method="cf4", h=0.01)),
 )
 
 
