@@ -49,5 +49,7 @@ sphinx_gallery_conf = {
     "remove_config_comments": True,
     "abort_on_example_error": True,
     "within_subsection_order": "FileNameSortKey",
+    # run the examples in as many processes as sphinx-build's -j (joblib): most of the build's time
+    "parallel": True,
 }
 os.environ.setdefault("MPLBACKEND", "Agg")

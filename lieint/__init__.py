@@ -34,7 +34,7 @@ from .systems.atoms import AtomsBody
 from .systems.euler_top_exact import euler_top_flip_times
 from .systems.particles import CentralForceParticle, ConstantForceParticle, SurfaceParticle
 from .systems.prescribed import PrescribedRotation
-from .tangent import tangent_flow
+from .tangent import sensitivity, tangent_flow, trust_horizon
 
 __all__ = [
     "SE",
@@ -65,7 +65,9 @@ __all__ = [
     "poincare",
     "rotations",
     "run",
+    "sensitivity",
     "sweep",
     "tangent",
     "tangent_flow",
+    "trust_horizon",
 ]

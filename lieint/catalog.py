@@ -25,6 +25,8 @@ takes ``rates`` (body rates ``(m, 3)``) and their ``times`` ``(m,)``::
 
 from __future__ import annotations
 
+import functools
+import sys
 import warnings
 from collections.abc import Callable
 from importlib import metadata
@@ -78,7 +80,7 @@ def system_factories() -> dict[str, Callable]:
     name of one installed before it) is ignored with a :class:`PluginWarning` naming it, so
     that a scene never runs another system than the one its author sees."""
     out = _builtin()
-    for ep in metadata.entry_points(group=ENTRY_POINT_GROUP):
+    for ep in _installed(tuple(sys.path)):
         if ep.name not in out:
             out[ep.name] = ep  # loaded on use
             continue
@@ -90,6 +92,15 @@ def system_factories() -> dict[str, Callable]:
             why = "it has the name of a built-in system, which is used instead"
         warnings.warn(PluginWarning(f"{which} is ignored: {why}; rename its entry point"), stacklevel=2)
     return out
+
+
+@functools.lru_cache(maxsize=8)
+def _installed(path: tuple[str, ...]) -> tuple[metadata.EntryPoint, ...]:
+    """The entry points of the group on this import path, found once: the scan reads every
+    installed distribution's metadata (about 0.1 s), and a sweep or a scene builds a system per
+    chunk. :func:`make_system` scans again before it reports an unknown name, so a plugin
+    installed while the process runs is still found."""
+    return tuple(metadata.entry_points(group=ENTRY_POINT_GROUP))
 
 
 def _distribution(ep: metadata.EntryPoint) -> str:
@@ -107,6 +118,9 @@ def _plugin_failure(exc: BaseException) -> str:
 def make_system(name: str, parameters: dict):
     """Build the system ``name`` from keyword ``parameters``; errors name what went wrong."""
     factories = system_factories()
+    if name not in factories:
+        _installed.cache_clear()  # installed since the last scan?
+        factories = system_factories()
     if name not in factories:
         raise ValueError(
             f"`system`: no system named {name!r}; known systems are {sorted(factories)} (packages add theirs "

@@ -147,11 +147,19 @@ def _build_parser() -> argparse.ArgumentParser:
         "--megno", action="store_true", help="also integrate the scene and print its MEGNO (2: regular; grows: chaotic)"
     )
     analyze.add_argument(
+        "--max-error-estimate",
+        type=float,
+        default=None,
+        metavar="TOL",
+        help="also integrate the scene with its global error estimated (local errors by step doubling carried "
+        "by the tangent map) and print the time at which the estimate exceeds TOL: the trust horizon",
+    )
+    analyze.add_argument(
         "--t-end",
         type=float,
         default=None,
         metavar="T",
-        help="end of the run for --lyapunov/--megno (default: the scene's)",
+        help="end of the run for --lyapunov/--megno/--max-error-estimate (default: the scene's)",
     )
     _add_sweep_parser(sub)
     return parser
@@ -520,14 +528,25 @@ def _analyze(args) -> int:
                 )
             scene = known[args.scene]
         result = analyze_scene(scene, integrals=args.integrals)
-        if args.t_end is not None and not (args.lyapunov or args.megno):
-            raise ValueError("--t-end applies to --lyapunov and --megno only")
+        integrates = args.lyapunov or args.megno or args.max_error_estimate is not None
+        if args.t_end is not None and not integrates:
+            raise ValueError("--t-end applies to --lyapunov, --megno and --max-error-estimate only")
+        if args.max_error_estimate is not None and not (
+            math.isfinite(args.max_error_estimate) and args.max_error_estimate > 0
+        ):
+            raise ValueError(f"--max-error-estimate must be a finite positive error; got {args.max_error_estimate:g}")
         if args.t_end is not None and not (math.isfinite(args.t_end) and args.t_end > scene.t_start):
             raise ValueError(
                 f"--t-end must be a finite time after the scene's t_start = {scene.t_start:g}; got {args.t_end:g}"
             )
-        if args.lyapunov or args.megno:
-            result["indicators"] = scene_indicators(scene, lyapunov=args.lyapunov, megno=args.megno, t_end=args.t_end)
+        if integrates:
+            result["indicators"] = scene_indicators(
+                scene,
+                lyapunov=args.lyapunov,
+                megno=args.megno,
+                max_error_estimate=args.max_error_estimate,
+                t_end=args.t_end,
+            )
     except (SceneError, ValueError) as exc:
         _error("analyze", exc)
         return 2

@@ -156,3 +156,20 @@ name = "flip"
 output = "angular_velocity"
 component = [0, 2]
 """
+
+
+# -- the order the test runner's processes take the files in -------------------------------------
+def pytest_collection_modifyitems(config, items):
+    """Files holding slow tests first, most slow tests first (order within a file kept).
+
+    ``pytest -n auto --dist loadfile`` hands the files out in collection order, one at a time to
+    whichever process is free: a long file taken last keeps one process busy while the other
+    waits (the collection order is alphabetical, and two of the longest files sit near its end).
+    Taking the long files first is the classic longest-first schedule; the count of ``slow``
+    marks is the file's measured weight (a test is marked slow for taking >= 14 s).
+    """
+    weight: dict[str, int] = {}
+    for item in items:
+        weight[item.fspath.strpath] = weight.get(item.fspath.strpath, 0) + (item.get_closest_marker("slow") is not None)
+    first = {path: i for i, path in enumerate(dict.fromkeys(item.fspath.strpath for item in items))}
+    items.sort(key=lambda item: (-weight[item.fspath.strpath], first[item.fspath.strpath]))

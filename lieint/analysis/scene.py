@@ -42,7 +42,14 @@ def analyze_scene(scene, *, integrals: str = "momentum") -> dict:
     return result
 
 
-def scene_indicators(scene, *, lyapunov: bool = False, megno: bool = False, t_end: float | None = None) -> dict:
+def scene_indicators(
+    scene,
+    *,
+    lyapunov: bool = False,
+    megno: bool = False,
+    max_error_estimate: float | None = None,
+    t_end: float | None = None,
+) -> dict:
     """Chaos indicators of a scene's motion on the exact tangent map of its method and step.
 
     Parameters
@@ -52,6 +59,9 @@ def scene_indicators(scene, *, lyapunov: bool = False, megno: bool = False, t_en
     lyapunov, megno : bool
         Which indicators to compute (:func:`lieint.lyapunov`: the whole spectrum;
         :func:`lieint.megno`).
+    max_error_estimate : float, optional
+        Also estimate the run's global error (:func:`lieint.trust_horizon`) and report when it
+        exceeds this tolerance.
     t_end : float, optional
         The end of the run instead of the scene's ``t_end`` (the indicators converge slowly).
 
@@ -59,7 +69,9 @@ def scene_indicators(scene, *, lyapunov: bool = False, megno: bool = False, t_en
     -------
     dict
         ``"lyapunov"``: exponents per member (list of lists) and ``"pairing"`` (max |λ_i + λ_{k+1-i}|),
-        ``"megno"``: ⟨Y⟩ per member, with ``"t_end"``, ``"h"``, ``"method"``, ``"backend_reason"``.
+        ``"megno"``: ⟨Y⟩ per member; ``"trust_horizon"``: per member the time the error estimate
+        exceeds ``"max_error_estimate"`` (None: not by ``t_end``) and ``"error_estimate"``, the
+        estimate at the end; with ``"t_end"``, ``"h"``, ``"method"``, ``"backend_reason"``.
 
     Raises
     ------
@@ -91,16 +103,33 @@ def scene_indicators(scene, *, lyapunov: bool = False, megno: bool = False, t_en
         )
         out["megno"] = np.atleast_1d(m.mean).tolist()
         out["backend_reason"] = m.backend_reason
+    if max_error_estimate is not None:
+        from ..tangent.horizon import trust_horizon
+
+        run = trust_horizon(system, y0, span, scene.step, tolerance=max_error_estimate, **common)
+        horizon = np.atleast_1d(run.horizon)
+        out["max_error_estimate"] = float(max_error_estimate)
+        out["trust_horizon"] = [None if np.isinf(v) else float(v) for v in horizon]
+        out["error_estimate"] = np.atleast_1d(run.estimate[-1]).tolist()
+        out["backend_reason"] = run.backend_reason
     return out
 
 
 def format_indicators(result: dict) -> str:
-    """The printed form of :func:`scene_indicators`."""
-    lines = [f"chaos indicators: {result['method']}, h = {result['h']:g}, t_end = {result['t_end']:g} "
+    """The printed form of :func:`scene_indicators` (chaos indicators, trust horizon)."""
+    lines = [f"on the tangent map: {result['method']}, h = {result['h']:g}, t_end = {result['t_end']:g} "
              f"fixed steps (exact tangent map; {result['backend_reason']})"]  # fmt: skip
     if "megno" in result:
         values = ", ".join(f"{v:.3f}" for v in result["megno"])
         lines.append(f"MEGNO <Y> = {values}  (-> 2 regular/quasi-periodic, grows like lambda t/2 if chaotic)")
+    if "trust_horizon" in result:
+        tol = result["max_error_estimate"]
+        for i, (t, e) in enumerate(zip(result["trust_horizon"], result["error_estimate"], strict=True)):
+            member = f"member {i}: " if len(result["trust_horizon"]) > 1 else ""
+            if t is None:
+                lines.append(f"trust horizon {member}not reached: the error estimate is {e:.2e} <= {tol:g} at the end")
+            else:
+                lines.append(f"trust horizon {member}t = {t:g}: the estimated global error exceeds {tol:g} there")
     if "lyapunov" in result:
         for i, (exps, pair) in enumerate(zip(result["lyapunov"], result["pairing"], strict=True)):
             member = f"member {i}: " if len(result["lyapunov"]) > 1 else ""

@@ -23,7 +23,17 @@ from functools import cache, lru_cache
 import numpy as np
 
 from ..groups.base import DexpinvRangeError, bernoulli_dexpinv_coefficients
-from .forms import ClassicalForm, ExpProductForm, MapForm, PiecesForm, RKMKForm, Top3Form, TopNForm
+from .forms import (
+    Chaplygin3Form,
+    ClassicalForm,
+    ExpProductForm,
+    HeavyTop3Form,
+    MapForm,
+    PiecesForm,
+    RKMKForm,
+    Top3Form,
+    TopNForm,
+)
 
 __all__ = ["Engine", "Products", "Tableau", "bound_loops", "engine_for", "range_error", "use_threads"]
 
@@ -313,6 +323,142 @@ class _Top3LanesLayout(_Top3Layout):
         return hat(u).reshape(U.shape[:-2] + batch + (3, 3))
 
 
+class _HeavyTop3LanesLayout(_Top3Layout):
+    """An ensemble of 3D heavy tops in SIMD lanes (:mod:`lieint.fast.heavy_lanes`): blocks of
+    bodies structure-of-arrays in the principal frame of the top (Π, the attitude as quaternion
+    rows, Γ). A unit of the loop is a block."""
+
+    module = "lieint.fast.heavy_lanes"
+    group = "se(3)"
+    label = "3D heavy top in SIMD lanes (ensemble)"
+    #: ensembles of at least this many bodies run RKMK in lanes (measured: 2 bodies in a block of
+    #: 8 lanes already cost less than two bodies on the per-body path; benchmarks/ensembles.py)
+    FROM = 2
+
+    def __init__(self, form: HeavyTop3Form, N: int):
+        super().__init__(form)
+        from .heavy_lanes import ROWS
+        from .lanes import block_lanes
+
+        self.MXG = np.asarray(form.MXG, dtype=float)
+        self.params = np.concatenate([1.0 / self.moments, self.P.T @ self.MXG, [float(form.gravity)]])
+        self.count = 12 + (9 if self.orientation else 0)
+        self.N, self.L = N, block_lanes(N)
+        self.d = ROWS * (self.L + 8)
+        self.units = -(-N // self.L)
+
+    def start(self, y: dict, N: int) -> np.ndarray:
+        from .heavy_lanes import blocks_from_state
+        from .quaternions import lanes_from_matrices
+
+        Y = super().start(y, N)  # Π and R P in the principal frame
+        gamma = y["Gamma"].reshape(N, 3)
+        if not self.identity_frame:
+            gamma = gamma @ self.P
+        return blocks_from_state(Y[:, :3], lanes_from_matrices(Y[:, 3:].reshape(N, 3, 3)), gamma, N)
+
+    def user(self, Y: np.ndarray, batch: tuple) -> dict:
+        from .heavy_lanes import blocks_to_user
+
+        lead = Y.shape[:-2]
+        A, G, R = blocks_to_user(Y, self.N, self.P, self.identity_frame, self.orientation)
+        states = {"A": A.reshape(lead + batch + (3, 3)), "Gamma": G.reshape(lead + batch + (3,))}
+        if self.orientation:
+            states["R"] = R.reshape(lead + batch + (3, 3))
+        return states
+
+    def user_flat(self, y: dict, N: int) -> np.ndarray:
+        parts = [y["A"].reshape(N, 9), y["Gamma"].reshape(N, 3)]
+        if self.orientation:
+            parts.append(y["R"].reshape(N, 9))
+        return np.ascontiguousarray(np.concatenate(parts, axis=1))
+
+    def increments_size(self, method) -> int:
+        from .heavy_lanes import INCREMENT_ROWS
+
+        return INCREMENT_ROWS * (self.L + 8)
+
+    def increments(self, U: np.ndarray, batch: tuple):
+        """The steps' increments in the user's se(3), ``[[(P u_w)^, P u_v], [0, 0]]``."""
+        from ..groups.bivectors import hat
+        from ..groups.se import se_join
+        from .heavy_lanes import increments_to_user
+
+        w, v = increments_to_user(U, self.N, self.P, self.identity_frame)
+        return se_join(hat(w), v, algebra=True).reshape(U.shape[:-2] + batch + (4, 4))
+
+
+class _Chaplygin3LanesLayout(_Layout):
+    """An ensemble of 3D Chaplygin balls in SIMD lanes (:mod:`lieint.fast.chaplygin_lanes`):
+    blocks of bodies structure-of-arrays in the user's frame (Π, the attitude as quaternion rows,
+    Γ, the centre). A unit of the loop is a block."""
+
+    module = "lieint.fast.chaplygin_lanes"
+    label = "3D Chaplygin ball in SIMD lanes (ensemble)"
+    exact_radius = True
+    #: ensembles of at least this many bodies run RKMK in lanes (benchmarks/ensembles.py)
+    FROM = 2
+
+    def __init__(self, form: Chaplygin3Form, N: int):
+        from .chaplygin_lanes import ROWS
+        from .lanes import block_lanes
+
+        B = np.asarray(form.B_C, dtype=float)
+        J = np.trace(B) * np.eye(3) - B
+        normal = np.asarray(form.normal, dtype=float)
+        self.orientation, self.center = bool(form.orientation), bool(form.center)
+        self.params = np.concatenate([J.ravel(), [form.Mr2, form.radius], normal, [float(self.center)]])
+        self.group = "se(3)" if self.center else "so(3)"
+        self.count = 12 + (9 if self.orientation else 0) + (3 if self.center else 0)
+        self.N, self.L = N, block_lanes(N)
+        self.d = ROWS * (self.L + 8)
+        self.units = -(-N // self.L)
+
+    def start(self, y: dict, N: int) -> np.ndarray:
+        from .chaplygin_lanes import blocks_from_state
+        from .quaternions import lanes_from_matrices
+        from .top3 import minus_vee
+
+        R = y["R"].reshape(N, 3, 3) if self.orientation else np.broadcast_to(np.eye(3), (N, 3, 3))
+        center = y["center"].reshape(N, 3) if self.center else np.zeros((N, 3))
+        pi = minus_vee(y["A"].reshape(N, 3, 3))
+        return blocks_from_state(pi, lanes_from_matrices(R), y["Gamma"].reshape(N, 3), center, N)
+
+    def user(self, Y: np.ndarray, batch: tuple) -> dict:
+        from .chaplygin_lanes import blocks_to_user
+
+        lead = Y.shape[:-2]
+        A, G, R, C = blocks_to_user(Y, self.N, self.orientation, self.center)
+        states = {"A": A.reshape(lead + batch + (3, 3)), "Gamma": G.reshape(lead + batch + (3,))}
+        if self.orientation:
+            states["R"] = R.reshape(lead + batch + (3, 3))
+        if self.center:
+            states["center"] = C.reshape(lead + batch + (3,))
+        return states
+
+    def user_flat(self, y: dict, N: int) -> np.ndarray:
+        names = ["A", "Gamma"] + (["R"] if self.orientation else []) + (["center"] if self.center else [])
+        return np.ascontiguousarray(np.concatenate([y[k].reshape(N, -1) for k in names], axis=1))
+
+    def increments_size(self, method) -> int:
+        from .heavy_lanes import INCREMENT_ROWS
+
+        return INCREMENT_ROWS * (self.L + 8)
+
+    def increments(self, U: np.ndarray, batch: tuple):
+        """The steps' increments in the ball's algebra: ``[[û_w, u_v], [0, 0]]`` on se(3), ``û_w``
+        on so(3) (without the centre)."""
+        from ..groups.bivectors import hat
+        from ..groups.se import se_join
+        from .chaplygin_lanes import increments_to_user
+
+        w, v = increments_to_user(U, self.N)
+        lead = U.shape[:-2] + batch
+        if not self.center:
+            return hat(w).reshape(lead + (3, 3))
+        return se_join(hat(w), v, algebra=True).reshape(lead + (4, 4))
+
+
 class _TopNLayout(_Layout):
     """The Euler top in n ≥ 4 dimensions: ``(Ã, R̃) = (PᵀAP, RP)`` in the principal frame."""
 
@@ -574,7 +720,7 @@ class Engine:
 
     @property
     def lanes(self) -> bool:
-        return isinstance(self.layout, _Top3LanesLayout)
+        return isinstance(self.layout, (_Top3LanesLayout, _HeavyTop3LanesLayout, _Chaplygin3LanesLayout))
 
     def user_state(self, internal: dict) -> dict:
         return {k: v[0] for k, v in self.layout.user(internal["Y"][None], self.batch).items()}
@@ -761,7 +907,12 @@ def engine_for(system, method, y0, adaptive: bool = False, project: bool = True)
     elif isinstance(form, TopNForm):
         layout = _TopNLayout(form)
     elif isinstance(form, PiecesForm):
-        layout = _PiecesLayout(form, system, adaptive or meth.family == "rk", project)
+        N = math.prod(batch)
+        lanes = {HeavyTop3Form: _HeavyTop3LanesLayout, Chaplygin3Form: _Chaplygin3LanesLayout}.get(type(form.lanes))
+        if lanes and not adaptive and meth.family == "rkmk" and meth.coordinates == "exp" and N >= lanes.FROM:
+            layout = lanes(form.lanes, N)
+        else:
+            layout = _PiecesLayout(form, system, adaptive or meth.family == "rk", project)
     else:
         return None, f"no engine for the compiled form {type(form).__name__}"
     if isinstance(meth, MapForm) and not meth.covers(form):

@@ -14,7 +14,8 @@ System forms:
 * :class:`PiecesForm` — any system on ``SO(n)`` or ``SE(n)`` times ``Rᵐ`` that supplies compiled
   *pieces* (generator, action, vector field, projection: :mod:`lieint.fast.pieces`), the
   built-in heavy top, free body and balls among them (:data:`BUILTIN_PIECES`), and any system
-  outside the package that declares its own.
+  outside the package that declares its own; the 3D heavy top's and the 3D Chaplygin ball's also
+  name :class:`HeavyTop3Form` and :class:`Chaplygin3Form`, their ensembles in SIMD lanes.
 
 Method forms: :class:`RKMKForm` (explicit Runge–Kutta–Munthe-Kaas in exponential or Cayley
 coordinates, fixed-step or an embedded pair), :class:`ExpProductForm` (products of exponentials
@@ -34,8 +35,10 @@ import numpy as np
 
 __all__ = [
     "BUILTIN_PIECES",
+    "Chaplygin3Form",
     "ClassicalForm",
     "ExpProductForm",
+    "HeavyTop3Form",
     "LazyPieces",
     "MapForm",
     "PiecesForm",
@@ -215,6 +218,9 @@ class PiecesForm:
     abelian: int
     fields: dict
     group: str = ""
+    #: the same system as a form for ensembles in SIMD lanes (:class:`HeavyTop3Form`,
+    #: :class:`Chaplygin3Form`), or None
+    lanes: Any = field(default=None, repr=False)
 
     def __post_init__(self):
         if not self.group:
@@ -231,6 +237,34 @@ class Top3Form:
     P: np.ndarray
     orientation: bool
     generic: PiecesForm | None = field(default=None, repr=False)
+
+
+@dataclass(frozen=True, eq=False)
+class HeavyTop3Form:
+    """The 3D heavy top for ensembles in SIMD lanes (:mod:`lieint.fast.heavy_lanes`): the principal
+    moments and frame P (columns) of its top, ``M X_G`` in the body frame, ``|g|``, whether the
+    state carries the attitude R. Declared as :attr:`PiecesForm.lanes` of the heavy top's pieces,
+    which step everything else (one body, adaptive steps, Cayley coordinates, classical RK)."""
+
+    moments: np.ndarray
+    P: np.ndarray
+    MXG: np.ndarray
+    gravity: float
+    orientation: bool
+
+
+@dataclass(frozen=True, eq=False)
+class Chaplygin3Form:
+    """The 3D Chaplygin ball for ensembles in SIMD lanes (:mod:`lieint.fast.chaplygin_lanes`):
+    its mass tensor about the centre ``B_C``, ``M r²``, the radius r, the plane's normal ν, whether
+    the state carries R and the centre. Declared as :attr:`PiecesForm.lanes` of the ball's pieces."""
+
+    B_C: np.ndarray
+    Mr2: float
+    radius: float
+    normal: np.ndarray
+    orientation: bool
+    center: bool
 
 
 @dataclass(frozen=True, eq=False)

@@ -21,7 +21,9 @@ To add a system, subclass :class:`LieGroupSystem` and implement
    (the state from physical keywords; scenes pass their ``[initial]`` keys to it),
    :meth:`compiled` (what a compiled kernel needs, see :mod:`lieint.fast`) and
    :meth:`relative_element` (the group element between two states, when the state determines
-   it: dense output on the group for methods that report no increment, :mod:`lieint.dense`).
+   it: dense output on the group for methods that report no increment, :mod:`lieint.dense`),
+   and :meth:`parameter_values` with ``_assign_parameter`` (the numeric parameters a run can
+   be differentiated by, :func:`lieint.sensitivity`).
 
 Generators and actions must be pure array functions (no hidden state), so that a compiled
 fast path can replace them. A system that another package installs under the entry-point group
@@ -30,6 +32,7 @@ fast path can replace them. A system that another package installs under the ent
 
 from __future__ import annotations
 
+import copy
 import math
 from abc import ABC, abstractmethod
 from collections.abc import Callable, Iterable, Mapping
@@ -420,8 +423,93 @@ class LieGroupSystem(ABC):
             out[key] = arr
         return out
 
+    # -- numeric parameters (sensitivities, lieint.tangent) --------------------------
+    def parameter_values(self) -> dict[str, np.ndarray]:
+        """The numeric parameters a run can be differentiated by, under their constructor names.
+
+        Returns
+        -------
+        dict of ndarray
+            name → a copy of its (real) value; empty by default (no parameters offered).
+        """
+        return {}
+
+    def parameter_refusals(self) -> dict[str, str]:
+        """Numeric constructor arguments not offered by :meth:`parameter_values`, with why.
+
+        Returns
+        -------
+        dict of str
+            name → the reason (empty by default).
+        """
+        return {}
+
+    def with_parameter_step(
+        self, name: str, direction: np.ndarray, scale: complex, y: State
+    ) -> tuple[LieGroupSystem, State]:
+        """This system with parameter ``name`` moved to ``value + scale·direction``, and ``y`` with it.
+
+        The constructor path of the complex step (:func:`lieint.sensitivity`): the copy's
+        parameter may be complex, every quantity derived from it is recomputed analytically,
+        and nothing is validated again (the real system was, by its constructor). The state is
+        held fixed except the fields the parameter defines through the pose (the heavy top's
+        ``Γ = Rᵀg`` follows g for the same R; a ball's centre stays at the height r).
+
+        Parameters
+        ----------
+        name : str
+            A key of :meth:`parameter_values`.
+        direction : ndarray
+            The direction, of the parameter's shape.
+        scale : complex
+            The step along it (``1j·ε`` for the complex step).
+        y : dict of ndarray
+            The (validated, real) initial state.
+
+        Returns
+        -------
+        system : LieGroupSystem
+            The moved copy; it declares no compiled form (the compiled kernels are real).
+        y : dict of ndarray
+            The initial state moved with it (complex where it moved).
+
+        Raises
+        ------
+        ValueError
+            An unknown name, a direction of the wrong shape, or a parameter refused for this
+            state (naming why).
+        """
+        values = self.parameter_values()
+        if name not in values:
+            raise ValueError(
+                f"`parameters` names {name!r}, which {type(self).__name__} does not offer; it offers {sorted(values)}."
+            )
+        direction = np.asarray(direction)
+        if direction.shape != values[name].shape:
+            raise ValueError(f"the direction of {name!r} must have shape {values[name].shape}; got {direction.shape}.")
+        out = copy.copy(self)
+        out.compiled = _no_compiled_form  # the compiled kernels are real: the copy runs generic
+        out._assign_parameter(name, values[name] + scale * direction)
+        moved = dict(y)
+        for field, change in self._parameter_state_change(name, direction, y).items():
+            moved[field] = y[field] + scale * change
+        return out, moved
+
+    def _assign_parameter(self, name: str, value: np.ndarray) -> None:
+        """Set parameter ``name`` of this (copied) system to ``value`` and everything derived from it."""
+        raise ValueError(f"{type(self).__name__} offers no numeric parameters.")
+
+    def _parameter_state_change(self, name: str, direction: np.ndarray, y: State) -> State:
+        """The change of the initial state's fields per unit of ``direction`` (none by default)."""
+        return {}
+
     def __repr__(self) -> str:
         return f"{type(self).__name__}(group={self.group!r}, fields={list(self.fields)})"
+
+
+def _no_compiled_form() -> None:
+    """The compiled declaration of a system whose parameters are complex: none."""
+    return None
 
 
 def _field_getter(name: str) -> InvariantFunction:

@@ -19,14 +19,14 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from .._validation import check_skew, describe
-from ..fast.forms import BUILTIN_PIECES, PiecesForm
+from ..fast.forms import BUILTIN_PIECES, Chaplygin3Form, PiecesForm
 from ..groups.bivectors import inner, skew_part
 from ..groups.se import SE
 from ..groups.so import SO
 from .base import Invariant, LieGroupSystem, Output, State
 from .mass import solve_lyapunov
 from .rigid import casimir_invariant, momentum_outputs, pose_invariants
-from .rolling_ball import RollingPose, check_ball, rolling_initial_kinematics
+from .rolling_ball import NORMAL_REFUSAL, RollingPose, check_ball, rolling_initial_kinematics
 
 if TYPE_CHECKING:
     from scipy.spatial.transform import Rotation
@@ -166,7 +166,8 @@ class ChaplyginBall(RollingPose, LieGroupSystem):
         """The compiled engine's form (:class:`lieint.fast.forms.PiecesForm`) for n ≥ 3.
 
         The Chaplygin ball's pieces in :mod:`lieint.fast.balls`; parameters n, the offsets of R
-        and of the centre, ``M r²``, r, ``B_C`` and ν.
+        and of the centre, ``M r²``, r, ``B_C`` and ν; for n = 3 also the form of its ensembles
+        in SIMD lanes (:class:`lieint.fast.forms.Chaplygin3Form`).
 
         Returns
         -------
@@ -178,7 +179,10 @@ class ChaplyginBall(RollingPose, LieGroupSystem):
         offset = self.field_offsets()
         head = [self.n, offset.get("R", -1), offset.get("center", -1), self._Mr2, self.radius]
         params = np.concatenate([head, self.B_C.ravel(), self.normal])
-        return PiecesForm(BUILTIN_PIECES.chaplygin, params, self.n, self.track_center, 0, self.fields)
+        lanes = None
+        if self.n == 3:  # ensembles of the 3D ball run in SIMD lanes
+            lanes = Chaplygin3Form(self.B_C, self._Mr2, self.radius, self.normal, "R" in self.fields, self.track_center)
+        return PiecesForm(BUILTIN_PIECES.chaplygin, params, self.n, self.track_center, 0, self.fields, lanes=lanes)
 
     # -- the LieGroupSystem contract ---------------------------------------------------
     def generator(self, t: float | np.ndarray, y: State) -> np.ndarray:
@@ -269,6 +273,36 @@ class ChaplyginBall(RollingPose, LieGroupSystem):
         out = super().validate_state(y, name)
         out["A"] = check_skew(out["A"], f"{name}['A']")
         return self._validate_pose(out, name)
+
+    # -- numeric parameters (lieint.sensitivity) ------------------------------------------
+    def parameter_values(self) -> dict[str, np.ndarray]:
+        """The numeric parameters a run can be differentiated by (:func:`lieint.sensitivity`).
+
+        Returns
+        -------
+        dict of ndarray
+            ``mass_tensor``, ``mass`` and ``radius``.
+        """
+        return {"mass_tensor": self.B_C.copy(), "mass": np.array(self.mass), "radius": np.array(self.radius)}
+
+    def parameter_refusals(self) -> dict[str, str]:
+        """Numeric arguments not offered as parameters, with why.
+
+        Returns
+        -------
+        dict of str
+            ``normal``: it fixes the frame in which the state's ``Γ = Rᵀν`` is read.
+        """
+        return {"normal": NORMAL_REFUSAL}
+
+    def _assign_parameter(self, name: str, value: np.ndarray) -> None:
+        if name == "mass_tensor":
+            self.B_C = value
+        elif name == "mass":
+            self.mass = value
+        else:
+            self.radius = value
+        self._Mr2 = self.mass * self.radius**2
 
     def __repr__(self) -> str:
         return (

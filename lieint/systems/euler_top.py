@@ -25,6 +25,7 @@ from .euler_top_exact import euler_top_angular_velocity
 from .invariants import manakov_integrals, manakov_labels
 from .mass import check_mass_tensor, is_mass_distribution, moments_tensor
 from .rigid import (
+    ComplexStepInertia,
     InertiaOperator,
     casimir_invariant,
     momentum_outputs,
@@ -505,6 +506,24 @@ class EulerTop(LieGroupSystem):
             R0 = self.validate_state(y0, "y0")["R"]
             out["R"] = R0 @ Q
         return out
+
+    # -- numeric parameters (lieint.sensitivity) ------------------------------------------
+    def parameter_values(self) -> dict[str, np.ndarray]:
+        """The numeric parameters a run can be differentiated by (:func:`lieint.sensitivity`).
+
+        Returns
+        -------
+        dict of ndarray
+            ``{"B": B}``, the mass tensor.
+        """
+        return {"B": self.B.copy()}
+
+    def _assign_parameter(self, name: str, value: np.ndarray) -> None:
+        self.inertia = ComplexStepInertia(value)
+        self.B, self.b, self.P = self.inertia.B, self.inertia.b, self.inertia.P
+        self._diagonal = self.inertia.diagonal
+        self._minus_inv_pair = getattr(self.inertia, "minus_inv_pair", None)
+        self._B2 = self.inertia.B2
 
     def __repr__(self) -> str:
         return f"EulerTop(n={self.n}, b={describe(self.b)}, orientation={self.orientation})"

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import copy
 from collections.abc import Mapping
 from typing import TYPE_CHECKING
 
@@ -226,6 +227,28 @@ class FreeBody(LieGroupSystem):
         if self.orientation:
             check_rotation(out["R"], f"{name}['R']", atol=1e-9)
         return out
+
+    # -- numeric parameters (lieint.sensitivity) ------------------------------------------
+    def parameter_values(self) -> dict[str, np.ndarray]:
+        """The numeric parameters a run can be differentiated by (:func:`lieint.sensitivity`).
+
+        Returns
+        -------
+        dict of ndarray
+            ``mass_tensor``, ``mass`` and ``gravity`` (zero when none was given).
+        """
+        g = np.zeros(self.n) if self.gravity is None else self.gravity.copy()
+        return {"mass_tensor": self.B.copy(), "mass": np.array(self.mass), "gravity": g}
+
+    def _assign_parameter(self, name: str, value: np.ndarray) -> None:
+        if name == "mass_tensor":
+            self.top = copy.copy(self.top)
+            self.top._assign_parameter("B", value)
+            self.inertia, self.B = self.top.inertia, self.top.B
+        elif name == "mass":
+            self.mass = value
+        else:
+            self.gravity = value
 
     def __repr__(self) -> str:
         g = None if self.gravity is None else describe(self.gravity)

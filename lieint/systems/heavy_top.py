@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import copy
 from collections.abc import Mapping
 from typing import TYPE_CHECKING
 
@@ -9,7 +10,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from .._validation import check_finite_positive, check_rotation, check_vector, describe
-from ..fast.forms import BUILTIN_PIECES, PiecesForm
+from ..fast.forms import BUILTIN_PIECES, HeavyTop3Form, PiecesForm
 from ..groups.bivectors import skew_part, vee, wedge
 from ..groups.se import SE, se_join, se_split
 from ..groups.so import project_to_so
@@ -220,7 +221,8 @@ class HeavyTop(LieGroupSystem):
         """The compiled engine's form (:class:`lieint.fast.forms.PiecesForm`) for n ≥ 3.
 
         The heavy top's pieces in :mod:`lieint.fast.bodies`; parameters n, the offset of R,
-        whether B is diagonal, the eigenbasis P of B, ``−1/(b_i + b_j)``, ``M X_G`` and ``|g|``.
+        whether B is diagonal, the eigenbasis P of B, ``−1/(b_i + b_j)``, ``M X_G`` and ``|g|``;
+        for n = 3 also the form of its ensembles in SIMD lanes (:class:`lieint.fast.forms.HeavyTop3Form`).
 
         Returns
         -------
@@ -231,8 +233,13 @@ class HeavyTop(LieGroupSystem):
             return None
         inertia, n = self.inertia, self.n
         head = [n, self.field_offsets().get("R", -1), float(inertia.diagonal)]
-        params = np.concatenate([head, inertia.kernel_params, self._MXG, [np.linalg.norm(self.gravity)]])
-        return PiecesForm(BUILTIN_PIECES.heavy_top, params, n, True, 0, self.fields)
+        g = float(np.linalg.norm(self.gravity))
+        params = np.concatenate([head, inertia.kernel_params, self._MXG, [g]])
+        lanes = None
+        if n == 3:  # ensembles of the 3D heavy top run in SIMD lanes
+            top = self.top
+            lanes = HeavyTop3Form(top.principal_moments, top.P, self._MXG, g, self.orientation)
+        return PiecesForm(BUILTIN_PIECES.heavy_top, params, n, True, 0, self.fields, lanes=lanes)
 
     # -- physics -----------------------------------------------------------------------
     def energy(self, A: np.ndarray, Gamma: np.ndarray) -> np.ndarray:
@@ -338,6 +345,46 @@ class HeavyTop(LieGroupSystem):
         if self.orientation:
             check_rotation(out["R"], f"{name}['R']", atol=1e-9)
         return out
+
+    # -- numeric parameters (lieint.sensitivity) ------------------------------------------
+    def parameter_values(self) -> dict[str, np.ndarray]:
+        """The numeric parameters a run can be differentiated by (:func:`lieint.sensitivity`).
+
+        Returns
+        -------
+        dict of ndarray
+            ``mass_tensor``, ``mass``, ``center_of_mass`` and ``gravity``.
+        """
+        return {
+            "mass_tensor": self.B.copy(),
+            "mass": np.array(self.mass),
+            "center_of_mass": self.center_of_mass.copy(),
+            "gravity": self.gravity.copy(),
+        }
+
+    def _assign_parameter(self, name: str, value: np.ndarray) -> None:
+        if name == "mass_tensor":
+            self.top = copy.copy(self.top)
+            self.top._assign_parameter("B", value)
+            self.inertia, self.B = self.top.inertia, self.top.B
+        elif name == "mass":
+            self.mass = value
+        elif name == "center_of_mass":
+            self.center_of_mass = value
+        else:
+            self.gravity = value
+        self._MXG = self.mass * self.center_of_mass
+
+    def _parameter_state_change(self, name: str, direction: np.ndarray, y: State) -> State:
+        if name != "gravity":
+            return {}
+        if "R" not in y:
+            raise ValueError(
+                "`parameters` names 'gravity', which enters the heavy top only through its state Γ = Rᵀg; without "
+                "the attitude R in the state (orientation=False) Γ cannot follow g. Build the top with "
+                "orientation=True, or differentiate with respect to Gamma (lieint.tangent_flow)."
+            )
+        return {"Gamma": (np.swapaxes(y["R"], -1, -2) @ direction[:, None])[..., 0]}
 
     def __repr__(self) -> str:
         return (

@@ -15,9 +15,10 @@ import numpy as np
 from ..groups.bivectors import inner, skew_part
 from .base import Invariant, Output
 from .invariants import orthogonality_defect, skew_spectrum
-from .mass import check_inertia_tensor, check_mass_tensor
+from .mass import check_inertia_tensor, check_mass_tensor, solve_lyapunov
 
 __all__ = [
+    "ComplexStepInertia",
     "InertiaOperator",
     "casimir_invariant",
     "momentum_invariant",
@@ -86,6 +87,66 @@ class InertiaOperator:
             return skew_part(A * self.minus_inv_pair)
         P = self.P
         return skew_part(P @ ((P.T @ A @ P) * self.minus_inv_pair) @ P.T)
+
+    def energy(self, A: np.ndarray) -> np.ndarray:
+        """Kinetic energy ``T = ¼ tr(ΩA) = −¼ ⟨Ω, A⟩``."""
+        return -0.25 * inner(self.angular_velocity(A), A)
+
+
+class ComplexStepInertia:
+    """The inertia operator of a complex mass tensor ``B + iε dB`` (parameter sensitivities).
+
+    :mod:`lieint.tangent` differentiates a run with respect to B by the complex step, which
+    needs every map of B to be analytic. The eigendecomposition of a complex matrix is the
+    Hermitian one (not analytic), so Ω is found from ``B Ω + Ω B = −A`` by one dense solve
+    (:func:`~lieint.systems.mass.solve_lyapunov`), unless B is diagonal, where
+    ``Ω_ij = −A_ij/(b_i + b_j)`` is analytic as it stands. The real part ``B`` was validated by
+    the system's constructor.
+
+    Parameters
+    ----------
+    B : ndarray, shape (n, n)
+        The complex symmetric tensor.
+
+    Attributes
+    ----------
+    B, B2 : ndarray
+        The tensor and its square.
+    b, P : ndarray or None
+        Diagonal B: its diagonal and the identity; else None (no analytic eigenbasis: the
+        splittings, which rotate about the principal axes, are refused for such a B).
+    diagonal : bool
+    n : int
+    """
+
+    def __init__(self, B: np.ndarray):
+        self.B = np.asarray(B, dtype=complex)
+        self.n = self.B.shape[-1]
+        self.B2 = self.B @ self.B
+        self.diagonal = bool(np.all(self.B == np.diag(np.diag(self.B))))
+        self.b = self.P = None
+        if self.diagonal:
+            self.b, self.P = np.diag(self.B).copy(), np.eye(self.n)
+            pair = self.b[:, None] + self.b[None, :]
+            np.fill_diagonal(pair, 1.0)
+            self.minus_inv_pair = -1.0 / pair
+
+    @property
+    def principal_moments(self) -> np.ndarray:
+        """n = 3, diagonal B: ``I = tr(B) − b``."""
+        if self.b is None:
+            raise ValueError("a non-diagonal complex mass tensor has no analytic principal moments")
+        return self.b.sum() - self.b
+
+    def momentum(self, Omega: np.ndarray) -> np.ndarray:
+        """Body angular momentum ``A = −(BΩ + ΩB)``."""
+        return -(self.B @ Omega + Omega @ self.B)
+
+    def angular_velocity(self, A: np.ndarray) -> np.ndarray:
+        """Ω with ``A = −(BΩ + ΩB)`` (analytic in B and A)."""
+        if self.diagonal:
+            return skew_part(A * self.minus_inv_pair)
+        return solve_lyapunov(self.B, -np.asarray(A, dtype=complex))
 
     def energy(self, A: np.ndarray) -> np.ndarray:
         """Kinetic energy ``T = ¼ tr(ΩA) = −¼ ⟨Ω, A⟩``."""

@@ -49,7 +49,13 @@ _DYNAMICS = (
 if TYPE_CHECKING:
     from scipy.spatial.transform import Rotation
 
-__all__ = ["RollingBall", "RollingPose", "check_ball", "rolling_initial_kinematics"]
+__all__ = ["NORMAL_REFUSAL", "RollingBall", "RollingPose", "check_ball", "rolling_initial_kinematics"]
+
+#: why a ball's plane normal is not a parameter of :func:`lieint.sensitivity`
+NORMAL_REFUSAL = (
+    "the plane's normal fixes the frame in which the state's Γ = Rᵀν is read; turn the initial attitude "
+    "instead (lieint.tangent_flow)"
+)
 
 
 def check_ball(mass_tensor, mass, radius, center_of_mass=None, normal=None):
@@ -104,6 +110,18 @@ class RollingPose:
     def orientation_is_passive(self) -> bool:
         """R moves only itself unless the centre is tracked (it moves by ``p + R v``)."""
         return not self.track_center
+
+    def _parameter_state_change(self, name: str, direction: np.ndarray, y: State) -> State:
+        if name == "radius" and self.track_center:  # the ball stays on the plane: the centre at height r
+            return {"center": direction * self.normal}
+        if name == "gravity":
+            if "R" not in y:
+                raise ValueError(
+                    "`parameters` names 'gravity', which enters a tilted rolling ball through its state G = Rᵀg; "
+                    "without the attitude R in the state G cannot follow g (build the ball with orientation=True)."
+                )
+            return {"G": (np.swapaxes(y["R"], -1, -2) @ direction[:, None])[..., 0]}
+        return {}
 
     def _pose_fields(self, n: int, orientation: bool) -> None:
         if orientation or self.track_center:  # the centre moves by p + R v: it needs R
@@ -481,6 +499,53 @@ class RollingBall(RollingPose, LieGroupSystem):
         out = super().validate_state(y, name)
         out["Omega"] = check_skew(out["Omega"], f"{name}['Omega']")
         return self._validate_pose(out, name)
+
+    # -- numeric parameters (lieint.sensitivity) ------------------------------------------
+    def parameter_values(self) -> dict[str, np.ndarray]:
+        """The numeric parameters a run can be differentiated by (:func:`lieint.sensitivity`).
+
+        Returns
+        -------
+        dict of ndarray
+            ``mass_tensor``, ``mass``, ``radius``, ``center_of_mass`` and, on an incline, ``gravity``.
+        """
+        out = {
+            "mass_tensor": self.B_C.copy(),
+            "mass": np.array(self.mass),
+            "radius": np.array(self.radius),
+            "center_of_mass": self.center_of_mass.copy(),
+        }
+        if self._tilted:
+            out["gravity"] = self.gravity.copy()
+        return out
+
+    def parameter_refusals(self) -> dict[str, str]:
+        """Numeric arguments not offered as parameters, with why.
+
+        Returns
+        -------
+        dict of str
+            ``normal``, and a gravity along it or none (a tilt would add the state field G).
+        """
+        out = {"normal": NORMAL_REFUSAL}
+        if not self._tilted:
+            out["gravity"] = (
+                "this ball's gravity is along the plane's normal (or absent), so its state has no field G = Rᵀg, "
+                "which a tilt of g would add; build the ball with a tilted gravity to differentiate with respect to it"
+            )
+        return out
+
+    def _assign_parameter(self, name: str, value: np.ndarray) -> None:
+        if name == "mass_tensor":
+            self.B_C = value
+        elif name == "mass":
+            self.mass = value
+        elif name == "radius":
+            self.radius = value
+        elif name == "center_of_mass":
+            self.center_of_mass, self._offset = value, True
+        else:
+            self.gravity = value
 
     def __repr__(self) -> str:
         return (

@@ -64,6 +64,10 @@ class StackedInertia:
         return -0.25 * inner(self.angular_velocity(A), A)
 
 
+#: why a stack of different tops offers no parameters to lieint.sensitivity
+STACK_REFUSAL = "a stack of different tops has one value per member; differentiate each top on its own"
+
+
 class _StackedEulerTop(EulerTop):
     """k Euler tops with their own mass tensors, one batch (no compiled kernel, no Manakov integrals)."""
 
@@ -88,6 +92,12 @@ class _StackedEulerTop(EulerTop):
 
     def compiled(self):
         return None
+
+    def parameter_values(self) -> dict:
+        return {}  # one value per member: differentiate each top on its own (parameter_refusals)
+
+    def parameter_refusals(self) -> dict:
+        return {name: STACK_REFUSAL for name in ("B",)}
 
     def __repr__(self) -> str:
         return f"StackedEulerTop(n={self.n}, members={self.members}, orientation={self.orientation})"
@@ -124,6 +134,12 @@ class _StackedHeavyTop(HeavyTop):
         if self.orientation:
             out["R"] = project_to_so(y["R"])
         return out
+
+    def parameter_values(self) -> dict:
+        return {}  # one value per member: differentiate each top on its own (parameter_refusals)
+
+    def parameter_refusals(self) -> dict:
+        return {name: STACK_REFUSAL for name in ("mass_tensor", "mass", "center_of_mass", "gravity")}
 
     def __repr__(self) -> str:
         return f"StackedHeavyTop(n={self.n}, members={self.members}, orientation={self.orientation})"

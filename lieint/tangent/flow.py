@@ -46,6 +46,8 @@ __all__ = [
     "REFUSED",
     "TangentFlow",
     "TangentStepper",
+    "family_of",
+    "run_steps",
     "step_schedule",
     "tangent_flow",
 ]
@@ -76,11 +78,15 @@ def _refusal(method: Method) -> str | None:
         return REFUSED["scipy"]
     if method.name in _REFUSED_NAMES:
         return _REFUSED_NAMES[method.name]
+    family = family_of(method)
+    return REFUSED.get(family) if family is not None else None
+
+
+def family_of(method: Method) -> str | None:
+    """The registered family of ``method`` ("rkmk", "splitting", …), or None for an unregistered one."""
     base = re.sub(r"\[[^]]*\]", "", method.name)  # "rkmk23[cayley]+energy" is registered as "rkmk23+energy"
     spec = method_specs().get(base)
-    if spec is not None and spec.family in REFUSED:
-        return REFUSED[spec.family]
-    return None
+    return None if spec is None else spec.family
 
 
 class TangentStepper:
@@ -331,11 +337,7 @@ def tangent_flow(
     v = np.eye(chart.dim) if vectors is None else np.asarray(vectors, dtype=float)
     if not np.all(np.isfinite(v)):
         raise ValueError("`vectors` must be finite.")
-    z = stepper.seed(y, v)
-    state = stepper.init(t0, z, float(sizes[0]))
-    with np.errstate(over="ignore", invalid="ignore"):
-        for tk, hk in zip(starts, sizes, strict=True):
-            z, state = stepper.step(float(tk), z, float(hk), state)
+    z = run_steps(stepper, stepper.seed(y, v), t0, starts, sizes)
     y1, out = stepper.split(z)
     if np.max(np.abs(out), initial=0.0) > 1e20:
         raise FloatingPointError(
@@ -347,6 +349,32 @@ def tangent_flow(
             f"the run or its tangent map became non-finite before t = {t1:g}; reduce the step (h = {h}) or the horizon."
         )
     return TangentFlow(t1, y1, out, chart, len(sizes))
+
+
+def run_steps(stepper: TangentStepper, z: dict, t0: float, starts: np.ndarray, sizes: np.ndarray) -> dict:
+    """The complex state ``z`` stepped by ``stepper`` through the steps of :func:`step_schedule`.
+
+    Parameters
+    ----------
+    stepper : TangentStepper
+        The method on the system.
+    z : dict of ndarray
+        The complex state (copies on a leading axis).
+    t0 : float
+        The initial time.
+    starts, sizes : ndarray
+        The time at the start of each step and its size.
+
+    Returns
+    -------
+    dict of ndarray
+        The complex state after the last step (overflow left to the caller's finiteness check).
+    """
+    state = stepper.init(t0, z, float(sizes[0]))
+    with np.errstate(over="ignore", invalid="ignore"):
+        for tk, hk in zip(starts, sizes, strict=True):
+            z, state = stepper.step(float(tk), z, float(hk), state)
+    return z
 
 
 def step_schedule(

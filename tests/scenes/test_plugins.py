@@ -175,6 +175,21 @@ def test_a_plugin_shadowed_by_a_built_in_name_is_warned_about(plugin_path, tmp_p
     assert "rename its entry point" in done.stderr
 
 
+def test_a_plugin_installed_while_the_process_runs_is_found(plugin_path, monkeypatch):
+    """The entry points are scanned once per import path (a scan reads every installed package's
+    metadata); a name not found sends make_system to scan again before it refuses."""
+    monkeypatch.syspath_prepend(str(plugin_path))
+    monkeypatch.delitem(sys.modules, "lieint_demo_plugin", raising=False)
+    assert "spinning_rotor" in lieint.catalog.system_factories()  # the scan is now remembered
+    entry_points = plugin_path / "lieint_demo_plugin-0.1.dist-info" / "entry_points.txt"
+    entry_points.write_text(ENTRY_POINTS + "late_rotor = lieint_demo_plugin:SpinningRotor\n")
+    assert "late_rotor" not in lieint.catalog.system_factories()
+    rotor = lieint.catalog.make_system("late_rotor", {"rate": 2.0})
+    assert type(rotor).__name__ == "SpinningRotor"
+    with pytest.raises(ValueError, match="no system named 'no_such_body'"):
+        lieint.catalog.make_system("no_such_body", {})
+
+
 def test_an_unknown_system_lists_the_known_ones(tmp_path):
     (tmp_path / "x.toml").write_text(SCENE.replace("spinning_rotor", "no_such_body"))
     with pytest.raises(ValueError, match=r"no system named 'no_such_body'; known systems are \[.*'euler_top'"):

@@ -7,6 +7,7 @@ to the catalog is covered (and must come with a case below, or the coverage test
 
 from __future__ import annotations
 
+import functools
 import re
 import textwrap
 
@@ -103,10 +104,15 @@ def test_every_builtin_system_has_a_case():
     assert set(SYSTEM_CASES) == set(_builtin()), "add a case for each built-in system"
 
 
+def system_of(name):
+    """The system of a case alone (cheap: no initial state, which may compile a kernel)."""
+    parameters, _ = SYSTEM_CASES[name]
+    return make_system(name, {k: np.asarray(v) if isinstance(v, list) else v for k, v in parameters.items()})
+
+
 def build(name):
-    parameters, initial = SYSTEM_CASES[name]
-    system = make_system(name, {k: np.asarray(v) if isinstance(v, list) else v for k, v in parameters.items()})
-    return system, system.initial_state(**{k: np.asarray(v) for k, v in initial.items()})
+    system = system_of(name)
+    return system, system.initial_state(**{k: np.asarray(v) for k, v in SYSTEM_CASES[name][1].items()})
 
 
 def applies(method, system) -> bool:
@@ -409,11 +415,15 @@ def test_scipy_methods_report_the_steps_they_take(name, tmp_path, capsys):
 # -- a scene whose method does not apply to its system is refused, not a traceback -------------
 
 
+@functools.cache
 def first_refusing_system(name) -> str | None:
-    """The first built-in system case the method does not apply to (None: it applies to all)."""
+    """The first built-in system case the method does not apply to (None: it applies to all).
+
+    Called while the tests are collected, in every test process: it builds the systems only
+    (an initial state may compile a kernel) and remembers its answers."""
     method = lieint.get_method(name)
     for system_name in SYSTEM_CASES:
-        if not applies(method, build(system_name)[0]):
+        if not applies(method, system_of(system_name)):
             return system_name
     return None
 

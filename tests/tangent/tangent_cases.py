@@ -151,3 +151,98 @@ def poisson_tensor(system, y) -> np.ndarray:
         P[g : g + n, :d] = block
         P[:d, g : g + n] = -block.T
     return P
+
+
+# -- parameter sensitivities, independently of lieint.tangent ----------------------------------
+
+
+def parameter_bodies() -> dict[str, tuple]:
+    """Each built-in body (n = 3) as ``(build, parameters, initial keywords)``: ``build(**p)``
+    calls the public constructor with the parameters ``p``, so a perturbed body is made the way
+    a user makes one (and validated so)."""
+    rng = np.random.default_rng(39)
+    down = np.array([0.0, 0.0, -9.81])
+    incline = np.array([1.5, 0.0, -9.6])
+    ball = _spd(rng, 3, 0.05, 0.2)
+    w = {"angular_velocity": [0.6, -0.4, 0.9]}
+    return {
+        "euler_top": (lambda **p: lieint.EulerTop(p["B"]), {"B": _spd(rng, 3, 0.5, 1.5)}, w),
+        "heavy_top": (
+            lambda **p: lieint.HeavyTop(p["mass_tensor"], p["mass"], p["center_of_mass"], p["gravity"]),
+            {"mass_tensor": _spd(rng, 3, 0.5, 1.5), "mass": 1.0, "center_of_mass": [0.05, -0.1, 0.2], "gravity": down},
+            w,
+        ),
+        "free_body": (
+            lambda **p: lieint.FreeBody(p["mass_tensor"], p["mass"], p["gravity"]),
+            {"mass_tensor": _spd(rng, 3, 0.5, 1.5), "mass": 2.0, "gravity": down},
+            {**w, "velocity": [0.5, 0.0, 1.0]},
+        ),
+        "chaplygin_ball": (
+            lambda **p: lieint.ChaplyginBall(p["mass_tensor"], p["mass"], p["radius"]),
+            {"mass_tensor": ball, "mass": 1.0, "radius": 1.0},
+            w,
+        ),
+        "rolling_ball": (
+            lambda **p: lieint.RollingBall(p["mass_tensor"], p["mass"], p["radius"], p["center_of_mass"], p["gravity"]),
+            {"mass_tensor": ball, "mass": 1.0, "radius": 1.0, "center_of_mass": [0.05, 0.1, -0.1], "gravity": incline},
+            w,
+        ),
+    }
+
+
+def parameter_directions(name: str, value) -> list[np.ndarray]:
+    """Unit directions of a parameter's components: scalar, vector entries, and the upper
+    triangle of a symmetric tensor (both off-diagonal entries together)."""
+    value = np.asarray(value, dtype=float)
+    if value.ndim == 0:
+        return [np.array(1.0)]
+    if value.ndim == 1:
+        return list(np.eye(value.size))
+    out = []
+    for i, j in zip(*np.triu_indices(value.shape[0]), strict=True):
+        E = np.zeros(value.shape)
+        E[i, j] = E[j, i] = 1.0
+        out.append(E)
+    return out
+
+
+def moved_initial_state(name: str, y0: dict, direction, e: float, normal=(0.0, 0.0, 1.0)) -> dict:
+    """The initial state for the perturbed body: held, except Γ = Rᵀg (heavy top) or G = Rᵀg
+    (incline) following g, and a ball's centre at the height r."""
+    y = {k: np.array(v, dtype=float) for k, v in y0.items()}
+    body_gravity = "G" if "G" in y else "Gamma" if "Gamma" in y else None  # a free body has none
+    if name == "gravity" and body_gravity is not None:
+        y[body_gravity] = y[body_gravity] + e * y["R"].T @ direction
+    if name == "radius" and "center" in y:
+        y["center"] = y["center"] + e * float(direction) * np.asarray(normal)
+    return y
+
+
+def parameter_difference(label, name, steps=(1e-3, 3e-4, 1e-4, 3e-5, 1e-5), **run):
+    """``∂y(T)/∂θ_c`` along every direction of parameter ``name`` by central differences of
+    whole :func:`lieint.integrate` runs of bodies rebuilt by their constructors, the step chosen
+    by a sweep (as :func:`central_difference`); returns (columns, the sweep's uncertainty)."""
+    build, params, keywords = parameter_bodies()[label]
+    base = build(**params)
+    y0 = base.initial_state(**keywords)
+
+    def flow(p, y):
+        sol = lieint.integrate(build(**p), y, **run)
+        return {k: v[-1] for k, v in sol.states.items()}
+
+    y1 = flow(params, y0)
+    columns, uncertainty = [], []
+    for direction in parameter_directions(name, params[name]):
+        est = []
+        for e in steps:
+            ends = []
+            for s in (e, -e):
+                p = dict(params)
+                p[name] = np.asarray(params[name], dtype=float) + s * direction
+                ends.append(flow(p, moved_initial_state(name, y0, direction, s)))
+            est.append(difference(base, y1, ends[0], ends[1], e))
+        change = [np.max(np.abs(a - b)) for a, b in itertools.pairwise(est)]
+        best = int(np.argmin(change))
+        columns.append(est[best + 1])
+        uncertainty.append(change[best])
+    return np.stack(columns, axis=-1), np.array(uncertainty)
