@@ -3,8 +3,8 @@
 Run: ``LIEINT_REFERENCE_CODES=DIR OPENBLAS_NUM_THREADS=1 python benchmarks/reference_codes.py``
 (``--codes DIR`` instead of the variable; ``--hog`` times a second time while another
 CPU-bound process runs; ``--quick`` for a smoke run; ``--markdown PATH`` also writes the tables
-as a Markdown page). A few minutes, most of it ``exact_flow``'s steps, which run on lieint's
-numpy path (the Moser–Veselov forms run compiled).
+as a Markdown page). A few minutes; every method timed runs on lieint's compiled engine
+(``exact_flow``'s one-shot steps of item 3, |λh| > 1, on the numpy path's closed form).
 
 DIR holds copies of two public codes, which are compiled here and never copied into lieint:
 

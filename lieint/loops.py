@@ -101,7 +101,7 @@ def fixed_loop(driver: LoopHost, y0: dict):
         return _FixedLoop(driver, "backend='numpy' asked for the generic path")
     from .fast.engine import engine_for
 
-    kernel, reason = engine_for(driver.system, driver.method, y0, project=driver.project)
+    kernel, reason = engine_for(driver.system, driver.method, y0, project=driver.project, h=driver.plan.h)
     if kernel is not None:
         return _KernelLoop(driver, kernel)
     if driver.backend_request == "numba":

@@ -65,10 +65,16 @@ def range_error(k: int, plan, where: str = "so(3)") -> DexpinvRangeError:
     )
 
 
-def _unsolved(k: int, plan) -> RuntimeError:
-    """The error a run of a Moser–Veselov map raises when Newton's method did not solve step
-    ``k``'s equation (the numpy path's message, with the step)."""
+def _unsolved(k: int, plan, family: str = "moser_veselov") -> RuntimeError:
+    """The error a run of a map raises when its step ``k`` failed: Newton's method did not solve a
+    Moser–Veselov equation (the numpy path's message, with the step), or the exact flow's
+    quadrature of the precession angle did not settle however finely the step was cut."""
     h = plan.step_size(k)
+    if family == "exact_flow":
+        return RuntimeError(
+            f"exact_flow step h = {h:g}: the precession angle's quadrature did not settle at step {k + 1} "
+            f"(t = {plan.time(k):.6g}) even cut into 4096 substeps; run it with backend='numpy' (the closed form)."
+        )
     return RuntimeError(
         f"Moser–Veselov step h = {h:g}: Newton did not reach round-off at step {k + 1} (t = {plan.time(k):.6g}); "
         "take a smaller `h`."
@@ -700,9 +706,11 @@ class Engine:
         elif isinstance(m, ExpProductForm):
             kind = "product of exponentials (commutator-free, Crouch–Grossman)"
         elif isinstance(m, MapForm):
-            kind = {"moser_veselov": "Moser–Veselov map", "splitting": "splitting into exact rotations"}.get(
-                m.family, m.family
-            )
+            kind = {
+                "moser_veselov": "Moser–Veselov map",
+                "splitting": "splitting into exact rotations",
+                "exact_flow": "exact flow (double-double short steps)",
+            }.get(m.family, m.family)
         else:
             kind = "classical RK"
         threads = f"{self.threads} threads" if self.parallel else "serial"
@@ -790,7 +798,7 @@ class Engine:
         bad = status[status >= 0]
         if bad.size:
             if isinstance(self.method, MapForm):
-                raise _unsolved(int(bad.min()), plan)
+                raise _unsolved(int(bad.min()), plan, self.method.family)
             raise range_error(int(bad.min()), plan, self.layout.group)
         result = {"Y": fin}, self.user_rows(out)
         if keep:
@@ -864,9 +872,12 @@ def _label(system) -> str:
     return label
 
 
-def engine_for(system, method, y0, adaptive: bool = False, project: bool = True) -> tuple[Engine | None, str]:
+def engine_for(
+    system, method, y0, adaptive: bool = False, project: bool = True, h: float | None = None
+) -> tuple[Engine | None, str]:
     """The compiled engine for this run, or None with the reason none applies (``project``:
-    whether the run projects its states; a run that does not compiles no projection).
+    whether the run projects its states; a run that does not compiles no projection; ``h``: the
+    fixed step, for a map whose stage code takes only some steps — its module's ``decline``).
 
     Chosen by what system and method *declare* (``system.compiled()``, ``method.compiled()``),
     never by their class: a system from another package that declares the same form gets the
@@ -920,6 +931,13 @@ def engine_for(system, method, y0, adaptive: bool = False, project: bool = True)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", category=_experimental_warning())
         stage_module = meth.module_for(form) if isinstance(meth, MapForm) else ""
+        if stage_module:
+            import importlib
+
+            decline = getattr(importlib.import_module(stage_module), "decline", None)
+            reason = "" if decline is None else decline(layout, layout.start(y0, math.prod(batch)), h)
+            if reason:
+                return None, reason
         return Engine(layout, meth, batch, adaptive, stage_module, system.group), ""
 
 

@@ -25,8 +25,6 @@ ALL = frozenset(SYSTEMS)
 
 #: the pairs that run on the numpy path: method -> the systems (labels of SYSTEMS)
 NUMPY_PATH: dict[str, frozenset] = {
-    # the exact free-body flow (elliptic functions and the third-kind integral)
-    "exact_flow": frozenset({"euler_top n=3"}),
     # the splittings' exact sub-flows beyond the free 3D top's rotations
     "splitting2": frozenset({"euler_top n=4", "heavy_top n=3", "heavy_top n=4"}),
     "splitting4": frozenset({"euler_top n=4", "heavy_top n=3", "heavy_top n=4"}),
@@ -46,7 +44,6 @@ REASONS = ("has no compiled", "runs compiled on the 3D Euler top")
 
 #: how docs/architecture.md's table names each listed method
 DOC_NAMES = {
-    "exact_flow": "exact flow",
     "splitting": "splittings",
     "lie_midpoint": "midpoint",
     "energy": "energy-keeping pairs",
@@ -82,3 +79,16 @@ def test_the_declared_exceptions_are_in_the_architecture_table():
         assert words, name
         assert all(word in table for word in words), (name, words)
     assert "Moser–Veselov" not in table  # compiled on every top it applies to
+
+
+def test_long_exact_flow_steps_are_a_declared_exception():
+    # exact_flow runs compiled on the 3D top (above, h = 0.01); a step with |λh| > 1 takes the
+    # numpy path's closed form, and the run says so — in backend_reason and in the docs' table
+    top = SYSTEMS["euler_top n=3"]
+    y0 = initial(top, np.random.default_rng(2))
+    sol = lieint.integrate(top, y0, (0.0, 60.0), h=30.0, method="exact_flow")
+    assert sol.stats.backend == "numpy", sol.stats.backend_reason
+    assert "'exact_flow' steps with |λh| > 1" in sol.stats.backend_reason
+    text = (Path(__file__).resolve().parents[2] / "docs" / "architecture.md").read_text()
+    table = text[text.index("What does not run compiled") :]
+    assert "exact flow with steps" in table[: table.index("\n\n", table.index("| run |"))]

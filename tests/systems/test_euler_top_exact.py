@@ -204,6 +204,7 @@ def test_long_steps_take_the_closed_form(rng):
 
 def _energy_and_casimir_errors(top, y0, h, steps, saves=4):
     sol = lieint.integrate(top, y0, (0.0, steps * h), h=h, method="exact_flow", save_every=steps // saves)
+    assert sol.stats.backend == "numba", sol.stats.backend_reason  # the compiled short steps
     from fractions import Fraction
 
     I = [Fraction(float(v)) for v in top.principal_moments]
@@ -246,6 +247,9 @@ def test_stepped_exact_flow_drifts_from_the_one_shot_solution_no_more_than_frb_s
     y0 = {"A": -lieint.groups.bivectors.hat(np.array(Pi0)), "R": np.eye(3)}
     one = lieint.integrate(top, y0, (0.0, 1000.0), h=1000.0, method="exact_flow")
     stepped = lieint.integrate(top, y0, (0.0, 1000.0), h=0.1, method="exact_flow", save_every=10_000)
+    # the one step is the closed form (numpy path), the 10⁴ steps the compiled short step
+    assert one.stats.backend == "numpy" and "closed form" in one.stats.backend_reason
+    assert stepped.stats.backend == "numba", stepped.stats.backend_reason
     G = np.linalg.norm(Pi0)
     drift = max(np.max(np.abs(stepped.states["A"][-1] - one.states["A"][-1])) / G,
                 np.max(np.abs(stepped.states["R"][-1] - one.states["R"][-1])))  # fmt: skip
