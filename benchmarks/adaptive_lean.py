@@ -1,17 +1,18 @@
 """CPU time at equal achieved global error: the default adaptive method against scipy's DOP853 on a
 lean right-hand side, side by side in one run.
 
-The default adaptive method is ``rkmk853+energy`` (compiled on the 3D top, the generic path
-elsewhere); the baseline ``solve_ivp(DOP853)`` on the equations written out in numpy
+The default adaptive method is ``rkmk853+energy`` (compiled on every built-in system); the
+baseline ``solve_ivp(DOP853)`` on the equations written out in numpy
 (``benchmarks/lean_rhs.py``, checked against ``system.vector_field`` first), R projected onto
-SO(3) at the end as a user would. Two problems of ``benchmarks/adaptive_systems.py``: the free top
-near its unstable axis (the default scene's motion, with R, T = 100; exact solution) and the fast
-heavy top (T = 10; reference DOP853 at rtol 1e-14). The error of a run is its global error at T
+SO(n) at the end as a user would. The problems of ``benchmarks/adaptive_systems.py``: the free top
+near its unstable axis (the default scene's motion, with R, T = 100; exact solution), the fast
+heavy top (T = 10), the offset and the Chaplygin ball (T = 10) and the 4D top (T = 20; reference
+DOP853 at rtol 1e-14). The error of a run is its global error at T
 over the whole state, ``‖y(T) − y_ref(T)‖₂ / ‖y_ref(T)‖₂``. Each series is swept over rtol
 (atol = 1e-3·rtol, half decades); for each target error the loosest rtol of each series that
 reaches it is timed — process CPU time of the whole call, the minimum over repeats.
 
-    OPENBLAS_NUM_THREADS=1 python benchmarks/adaptive_lean.py [--hog] [--quick]
+    OPENBLAS_NUM_THREADS=1 python benchmarks/adaptive_lean.py [--hog] [--quick] [--problems "heavy top,4D top"]
 
 ``--hog`` keeps one busy-looping process running meanwhile (the machine busy); the load average
 is printed.
@@ -35,6 +36,7 @@ from lieint.groups import project_to_so
 
 TARGETS = (1e-6, 1e-8, 1e-10)
 METHOD = "rkmk853+energy"
+PROBLEMS = ("free top", "heavy top", "offset ball", "Chaplygin ball", "4D top")
 
 
 def cpu_min(fn, repeats: int) -> float:
@@ -80,22 +82,27 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--hog", action="store_true", help="a CPU-bound process running meanwhile")
     parser.add_argument("--quick", action="store_true", help="fewer settings and repeats")
+    parser.add_argument("--problems", default=",".join(PROBLEMS), help="comma-separated problem names")
     args = parser.parse_args()
+    labels = [label.strip() for label in args.problems.split(",") if label.strip()]
+    unknown = sorted(set(labels) - set(PROBLEMS))
+    if unknown:
+        parser.error(f"--problems: unknown {unknown}; choose from {list(PROBLEMS)}")
     hog = subprocess.Popen([sys.executable, "-c", "while True: pass"]) if args.hog else None
     try:
-        run(args.quick, args.hog)
+        run(args.quick, args.hog, labels)
     finally:
         if hog is not None:
             hog.kill()
             hog.wait()
 
 
-def run(quick: bool, hogging: bool) -> None:
+def run(quick: bool, hogging: bool, labels=PROBLEMS) -> None:
     rtols = [10.0 ** (-k / 2) for k in range(10, 29)]  # 1e-5 … 1e-14
     if quick:
         rtols = rtols[::2]
     reps = 3 if quick else 7
-    for label in ("free top", "heavy top"):
+    for label in labels:
         _, T, lie, dop = problem_runs(label)
         first = lie(1e-8)[2]  # compiles (or loads) the kernels; says which path runs
         lie_rows = [(rtol, *lie(rtol)[:2]) for rtol in rtols]

@@ -63,9 +63,29 @@ def _chaplygin_omega(y, par, n):
 
 
 def _chaplygin_work(n: int) -> int:
-    """B_K, −A_K and the Lyapunov system."""
+    """B_K, −A_K and the Lyapunov system, and Ω for the energy."""
     k = n * (n - 1) // 2
-    return 2 * n * n + k * (k + 1)
+    return 3 * n * n + k * (k + 1)
+
+
+@njit(cache=True, **NO_REFCOUNT)
+def _chaplygin_energy(y, par, work):
+    """``T = −¼⟨Ω, A_K⟩`` with Ω from ``B_K Ω + Ω B_K = −A_K`` (the generator's solve)."""
+    n = int(par[0])
+    nn = n * n
+    k = n * (n - 1) // 2
+    BK, C, L = work[:nn], work[nn : 2 * nn], work[2 * nn : 2 * nn + k * (k + 1)]
+    for i in range(n):
+        for j in range(n):
+            BK[i * n + j] = par[5 + i * n + j] + par[3] * y[nn + i] * y[nn + j]
+            C[i * n + j] = -y[i * n + j]
+    lyapunov_pairs(BK, C, n, L)
+    off = 2 * nn + k * (k + 1)
+    skew_from_pairs(L, n, work, off)
+    total = 0.0
+    for e in range(nn):
+        total += work[off + e] * y[e]
+    return -0.25 * total
 
 
 @njit(cache=True, **NO_REFCOUNT)
@@ -116,7 +136,7 @@ def _chaplygin_projection(y, par, out, work):
 
 
 # rolling ball: fields Omega, Gamma, [G], [R], [center]; params n, oR, oC, oG, M, r, gravity mode
-# (0: none, 1: along ν, c = ⟨g, ν⟩; 2: tilted, G a field), c, |g|, B_C (n²), X_G (n), ν (n)
+# (0: none, 1: along ν, c = ⟨g, ν⟩; 2: tilted, G a field), c, |g|, B_C (n²), X_G (n), ν (n), g (n)
 
 
 @njit(cache=True)
@@ -228,6 +248,40 @@ def _ball_field(y, par, out, work):
     pose_rate(Om, par[5] * mv(Om, G), y, out, int(par[1]), int(par[2]), n)
 
 
+@njit(cache=True, **NO_REFCOUNT)
+def _ball_energy(y, par, work):
+    """``H = ½⟨Ω, B_K Ω⟩ − U``, ``U = M⟨G, X_G⟩`` plus ``M⟨g, q⟩`` on an incline (G a field,
+    q tracked) or ``M c r`` with gravity along ν (``G = cΓ``): the generic path's
+    :meth:`lieint.RollingBall.energy`."""
+    n = int(par[0])
+    nn = n * n
+    M, r, mode = par[4], par[5], par[6]
+    xg = 9 + nn
+    kinetic = 0.0
+    for i in range(n):
+        for j in range(n):
+            acc = 0.0
+            for m in range(n):  # (B_K Ω)_ij, B_K = B_C + M κκᵀ + M (X_G κᵀ + κ X_Gᵀ), κ = rΓ
+                ki, km = r * y[nn + i], r * y[nn + m]
+                bk = par[9 + i * n + m] + M * (ki * km + par[xg + i] * km + ki * par[xg + m])
+                acc += bk * y[m * n + j]
+            kinetic += y[i * n + j] * acc
+    energy = 0.5 * kinetic
+    if mode == 1.0:
+        c = par[7]
+        for i in range(n):
+            energy -= M * (c * y[nn + i]) * par[xg + i]
+        energy -= M * c * r
+    elif mode == 2.0:
+        oG, oC = int(par[3]), int(par[2])
+        for i in range(n):
+            energy -= M * y[oG + i] * par[xg + i]
+        if oC >= 0:
+            for i in range(n):
+                energy -= M * y[oC + i] * par[xg + 2 * n + i]
+    return energy
+
+
 @njit(cache=True)
 def _ball_projection(y, par, out, work):
     n = int(par[0])
@@ -243,7 +297,10 @@ def _ball_projection(y, par, out, work):
 #: the balls' pieces, by the name their systems' ``compiled()`` declares
 #: the Chaplygin ball's pieces (:data:`lieint.fast.forms.BUILTIN_PIECES`)
 CHAPLYGIN = CompiledPieces(
-    _chaplygin_generator, _chaplygin_action, _chaplygin_field, _chaplygin_projection, _chaplygin_work
-)
+    _chaplygin_generator, _chaplygin_action, _chaplygin_field, _chaplygin_projection, _chaplygin_work,
+    energy=_chaplygin_energy,
+)  # fmt: skip
 #: the rolling ball's pieces (:data:`lieint.fast.forms.BUILTIN_PIECES`)
-ROLLING_BALL = CompiledPieces(_ball_generator, _ball_action, _ball_field, _ball_projection, _ball_work)
+ROLLING_BALL = CompiledPieces(
+    _ball_generator, _ball_action, _ball_field, _ball_projection, _ball_work, energy=_ball_energy
+)

@@ -8,6 +8,8 @@ path's (docs/theory.md §3–§5):
 * Euler top, ``Q·(A, R) = (QᵀAQ, RQ)``, ``ξ = Ω(A)`` (its adaptive pairs for n ≥ 4);
 * heavy top, ``(Q, v)·(A, Γ, R) = (Qᵀ(A + v∧Γ)Q, QᵀΓ, RQ)``, ``ξ = (Ω(A), M X_G)``;
 * free body, ``(Q, p, w)·(A, R, q, v) = (QᵀAQ, RQ, q + p, v + w)``, ``ξ = (Ω(A), v, g)``;
+* the energies of the heavy top and the free body, ``T − M⟨Γ, X_G⟩`` and ``T + ½M|v|² − M⟨g, q⟩``
+  with ``T = −¼⟨Ω, A⟩`` (the energy-keeping pairs);
 * the Chaplygin ball and the rolling ball: :mod:`lieint.fast.balls`.
 
 The pieces are compiled lazily, for the signatures of :mod:`lieint.fast.pieces`, when a run of
@@ -111,8 +113,23 @@ def _conj_skew_into(Q, y, out, work):
 
 
 def _body_work(n: int) -> int:
-    """Two n × n temporaries."""
-    return 2 * n * n
+    """Two n × n temporaries, and Ω for the energy."""
+    return 3 * n * n
+
+
+@njit(cache=True)
+def _rotational_energy(y, par, work):
+    """``T = ¼ tr(ΩA) = −¼ ⟨Ω, A⟩`` of the momentum A stored first in y (the generic path's
+    :meth:`lieint.systems.rigid.InertiaOperator.energy`); Ω in the third n² of ``work``."""
+    n = int(par[0])
+    nn = n * n
+    W = work[2 * nn : 3 * nn].reshape((n, n))
+    _omega_into(y, par, W, work)
+    total = 0.0
+    for i in range(n):
+        for j in range(n):
+            total += W[i, j] * y[i * n + j]
+    return -0.25 * total
 
 
 # Euler top (its adaptive pairs for n ≥ 4): fields A, [R]; no own params
@@ -186,6 +203,16 @@ def _heavy_field(y, par, out, work):
 
 
 @njit(cache=True)
+def _heavy_energy(y, par, work):
+    """``H = T − M⟨Γ, X_G⟩``."""
+    n = int(par[0])
+    potential = 0.0
+    for i in range(n):
+        potential += y[n * n + i] * par[3 + 2 * n * n + i]
+    return _rotational_energy(y, par, work) - potential
+
+
+@njit(cache=True)
 def _heavy_projection(y, par, out, work):
     n = int(par[0])
     put(out, 0, skew_part(mat(y, 0, n)))
@@ -193,7 +220,7 @@ def _heavy_projection(y, par, out, work):
     project_pose(y, out, int(par[1]), -1, n, np.empty(0), 0.0)
 
 
-# free body: fields A, [R], center, velocity; own params oC, g (n)
+# free body: fields A, [R], center, velocity; own params oC, g (n), M
 @njit(cache=True, **NO_REFCOUNT)
 def _free_generator(y, par, W, v, a, work):
     n = W.shape[0]
@@ -230,6 +257,19 @@ def _free_field(y, par, out, work):
 
 
 @njit(cache=True)
+def _free_energy(y, par, work):
+    """``T_rot + ½M|v|² − M⟨g, q⟩``."""
+    n = int(par[0])
+    oC, mass = int(par[3 + 2 * n * n]), par[4 + 2 * n * n + n]
+    kinetic, potential = 0.0, 0.0
+    for i in range(n):
+        v = y[oC + n + i]
+        kinetic += v * v
+        potential += y[oC + i] * par[4 + 2 * n * n + i]
+    return _rotational_energy(y, par, work) + 0.5 * mass * kinetic - mass * potential
+
+
+@njit(cache=True)
 def _free_projection(y, par, out, work):
     n = int(par[0])
     copy_into(y, out)
@@ -240,6 +280,10 @@ def _free_projection(y, par, out, work):
 #: the Euler top's pieces (its Cayley coordinates in 3D; :data:`lieint.fast.forms.BUILTIN_PIECES`)
 EULER_TOP = CompiledPieces(_top_generator, _top_action, _top_field, _top_projection, _body_work)
 #: the heavy top's pieces
-HEAVY_TOP = CompiledPieces(_heavy_generator, _heavy_action, _heavy_field, _heavy_projection, _body_work)
+HEAVY_TOP = CompiledPieces(
+    _heavy_generator, _heavy_action, _heavy_field, _heavy_projection, _body_work, energy=_heavy_energy
+)
 #: the free body's pieces
-FREE_BODY = CompiledPieces(_free_generator, _free_action, _free_field, _free_projection, _body_work)
+FREE_BODY = CompiledPieces(
+    _free_generator, _free_action, _free_field, _free_projection, _body_work, energy=_free_energy
+)

@@ -498,7 +498,7 @@ class _TopNLayout(_Layout):
             A = 0.5 * (A - np.swapaxes(A, -1, -2))  # exactly skew (the identity on a skew A)
         else:
             A, R = to_principal(A, R, self.P)
-        Y = np.empty((N, self.d))
+        Y = np.empty((N, n * n + self.r * self.r))  # the fields (an energy pair's level is added after)
         Y[:, : n * n] = A.reshape(N, n * n)
         if self.orientation:
             Y[:, n * n :] = R.reshape(N, n * n)
@@ -533,6 +533,30 @@ class _TopNLayout(_Layout):
         if not self.identity_frame:
             u = self.P @ u @ self.P.T
         return u.reshape(U.shape[:-2] + batch + (n, n))
+
+
+class _TopNEnergyLayout(_TopNLayout):
+    """The n-D top under an energy-keeping pair: ``(Ã, R̃)``, then the level H₀ every accepted
+    step ends on (:mod:`lieint.fast.topn_energy`)."""
+
+    module = "lieint.fast.topn_energy"
+
+    def __init__(self, form: TopNForm, system):
+        super().__init__(form)
+        self.system = system
+        self.fields_size = self.d
+        self.d = self.fields_size + 1  # count stays the fields' components: the level is no user's
+
+    def family(self, method) -> str:
+        return "rkmk_energy"
+
+    def start(self, y: dict, N: int) -> np.ndarray:
+        # H₀ as the generic path takes it (the system's own energy): the level both paths aim at
+        level = np.asarray(self.system.invariants["energy"](0.0, y), dtype=float).reshape(N, 1)
+        return np.concatenate([super().start(y, N), level], axis=1)
+
+    def user(self, Y: np.ndarray, batch: tuple) -> dict:
+        return super().user(Y[..., : self.fields_size], batch)
 
 
 class _PiecesLayout(_Layout):
@@ -594,6 +618,124 @@ class _PiecesLayout(_Layout):
         v = U[..., n * n : n * n + nv].reshape(lead + (nv,))
         a = U[..., n * n + nv :].reshape(lead + (self.m,))
         return _algebra_element(self.system.group, W, v, a)
+
+
+class _PiecesEnergyLayout(_PiecesLayout):
+    """A system through compiled pieces under an energy-keeping pair: its fields, then the level
+    H₀ every accepted step ends on (:mod:`lieint.fast.generic_energy`); the context carries the
+    orbit's basis and the group elements of its central differences."""
+
+    module = "lieint.fast.generic_energy"
+
+    def __init__(self, form: PiecesForm, system, needs_field: bool = True, needs_projection: bool = True):
+        super().__init__(form, system, needs_field, needs_projection)
+        self.fields_size = self.d
+        self.d = self.fields_size + 1  # count stays the fields' components: the level is no user's
+        self.orbit = _orbit_numbers(_vector_factors(system.group), self.n, self.nv, self.m)
+        self.dim = _orbit_dimension(self.n, self.nv, self.m, self.orbit.size)
+
+    def family(self, method) -> str:
+        return "rkmk_energy_uncounted" if super().family(method) == "rkmk_uncounted" else "rkmk_energy"
+
+    def context(self):
+        bundle = self.pieces.bundle_for(self.needs_field, self.needs_projection, energy=True)
+        dims = np.array([self.n, self.nv, self.m, self.work, self.dim], dtype=np.int64)
+        return (bundle, dims, self.orbit)
+
+    def start(self, y: dict, N: int) -> np.ndarray:
+        # H₀ as the generic path takes it (the system's own energy): the level both paths aim at
+        level = np.asarray(self.system.invariants["energy"](0.0, y), dtype=float).reshape(N, 1)
+        return np.concatenate([super().start(y, N), level], axis=1)
+
+    def user(self, Y: np.ndarray, batch: tuple) -> dict:
+        return super().user(Y[..., : self.fields_size], batch)
+
+    def user_flat(self, y: dict, N: int) -> np.ndarray:
+        return np.ascontiguousarray(super().start(y, N))
+
+
+def _skew_basis(n: int) -> np.ndarray:
+    """``E_kj − E_jk`` for j < k (the generic path's basis of so(n), in its order)."""
+    pairs = [(j, k) for j in range(n) for k in range(j + 1, n)]
+    out = np.zeros((len(pairs), n, n))
+    for i, (j, k) in enumerate(pairs):
+        out[i, j, k], out[i, k, j] = -1.0, 1.0
+    return out
+
+
+def _vector_factors(group) -> tuple:
+    """``(shape, antisymmetric)`` of each vector factor of ``group`` after its pose (none for
+    SO(n) or SE(n) alone): what the orbit basis of the compiled pieces depends on, hashable."""
+    from ..groups.vector import ProductGroup
+
+    factors = group.factors[1:] if isinstance(group, ProductGroup) else ()
+    return tuple((tuple(f.shape), bool(getattr(f, "antisymmetric", False))) for f in factors)
+
+
+def _orbit_dimension(n: int, nv: int, m: int, size: int) -> int:
+    """dim 𝔤 from the length of the flat orbit numbers (9 blocks of dim elements each)."""
+    per = 3 * (n * n + nv + m)
+    return size // per
+
+
+@lru_cache(maxsize=64)
+def _orbit_numbers(factors: tuple, n: int, nv: int, m: int) -> np.ndarray:
+    """The basis of the algebra of ``SO(n)/SE(n) × Rᵐ`` as the compiled pieces lay it out,
+    ``(W, v, a)`` per element (the generic path's basis and order: the rotations, the
+    translations, each vector factor's unit vectors or, for a factor of skew matrices, its skew
+    basis), and the group elements ``exp(±ε e_i)`` as ``(Q, t, a)``, stacked ``(2, dim, …)``,
+    in one flat array, kept per layout and never written (:func:`lieint.fast.generic_energy._orbit`
+    reads it; writable, as the compiled pieces' signatures take their arrays); ``factors`` as
+    :func:`_vector_factors` gives them."""
+    from .generic_energy import EPSILON
+
+    rotations = _skew_basis(n)
+    parts = []  # the vector factor's basis elements, flat in a
+    start = 0
+    for shape, antisymmetric in factors:
+        size = int(np.prod(shape))
+        if antisymmetric:
+            block = _skew_basis(shape[0]).reshape(-1, size)
+        else:
+            block = np.eye(size)
+        for row in block:
+            element = np.zeros(m)
+            element[start : start + size] = row
+            parts.append(element)
+        start += size
+    if start != m:
+        raise TypeError(f"the compiled pieces' vector factor has {m} entries; the group's vector factors {start}")
+    dim = len(rotations) + nv + len(parts)
+    W, v, a = np.zeros((dim, n, n)), np.zeros((dim, nv)), np.zeros((dim, m))
+    W[: len(rotations)] = rotations
+    for i in range(nv):
+        v[len(rotations) + i, i] = 1.0
+    for i, element in enumerate(parts):
+        a[len(rotations) + nv + i] = element
+    # exp(±ε e_i): a plane rotation, a unit translation (φ₁(0) = I), a vector's shift
+    Q = np.broadcast_to(np.eye(n), (2, dim, n, n)).copy()
+    c, sn = np.cos(EPSILON), np.sin(EPSILON)
+    for i in range(len(rotations)):
+        j, k = np.argwhere(rotations[i] == 1.0)[0][::-1]  # e_i = E_kj − E_jk
+        for sign, side in ((1.0, 0), (-1.0, 1)):
+            Q[side, i, j, j] = Q[side, i, k, k] = c
+            Q[side, i, k, j], Q[side, i, j, k] = sign * sn, -sign * sn
+    t = np.stack([EPSILON * v, -EPSILON * v])
+    shift = np.stack([EPSILON * a, -EPSILON * a])
+    return np.concatenate([part.ravel() for part in (W, v, a, Q, t, shift)])
+
+
+def orbit_parts(flat: np.ndarray, n: int, nv: int, m: int) -> tuple:
+    """``(W, v, a, Q, t, a±)`` of :func:`_orbit_numbers`' flat array, as the compiled side reads
+    it (the tests compare them with the generic path's basis)."""
+    dim = _orbit_dimension(n, nv, m, flat.size)
+    shapes = ((dim, n, n), (dim, nv), (dim, m), (2, dim, n, n), (2, dim, nv), (2, dim, m))
+    out, start = [], 0
+    for shape in shapes:
+        size = math.prod(shape)
+        out.append(flat[start : start + size].reshape(shape))
+        start += size
+    return tuple(out)
 
 
 def _algebra_element(group, W, v, a):
@@ -896,14 +1038,15 @@ def engine_for(
     if adaptive and not (meth.family == "rkmk" and meth.pair):
         return None, f"{method.name!r} has no compiled adaptive form (compiled: RKMK embedded pairs)"
     keeps_energy = getattr(meth, "keeps_energy", False)
-    if keeps_energy and not (isinstance(form, Top3Form) and meth.coordinates == "exp" and adaptive):
-        return None, (
-            f"{method.name!r} runs compiled on the 3D Euler top in exponential coordinates only "
-            f"(here: {_label(system)}, {meth.coordinates} coordinates)"
-        )
+    if keeps_energy:
+        reason = _energy_reason(form, meth, system, adaptive)
+        if reason:
+            return None, f"{method.name!r} {reason}"
     batch = system.batch_shape(y0)
     if 0 in batch:
         return None, "the ensemble is empty"
+    if keeps_energy and meth.coordinates == "cayley" and isinstance(form, Top3Form):
+        form = _as_top_n(form)  # the spin's flow and the reduced stages are the n-D top's energy form's
     if meth.coordinates == "cayley" and isinstance(form, Top3Form):
         form = form.generic  # the 3D top's Cayley coordinates: through its compiled pieces
         if form is None:
@@ -916,7 +1059,9 @@ def engine_for(
         else:
             layout = _Top3LanesLayout(form, N) if lanes else _Top3Layout(form)
     elif isinstance(form, TopNForm):
-        layout = _TopNLayout(form)
+        layout = _TopNEnergyLayout(form, system) if keeps_energy else _TopNLayout(form)
+    elif isinstance(form, PiecesForm) and keeps_energy:
+        layout = _PiecesEnergyLayout(form, system, True, project)
     elif isinstance(form, PiecesForm):
         N = math.prod(batch)
         lanes = {HeavyTop3Form: _HeavyTop3LanesLayout, Chaplygin3Form: _Chaplygin3LanesLayout}.get(type(form.lanes))
@@ -939,6 +1084,33 @@ def engine_for(
             if reason:
                 return None, reason
         return Engine(layout, meth, batch, adaptive, stage_module, system.group), ""
+
+
+def _as_top_n(form: Top3Form) -> TopNForm:
+    """The 3D top as the n-D top's form (eigenvalues ``b = tr(B) − I`` of B, ``tr B = ΣI/2``):
+    the energy pairs' Cayley coordinates run there (its pieces, where the plain pairs' Cayley
+    coordinates run, have no flow of the spin)."""
+    moments = np.asarray(form.moments, dtype=float)
+    return TopNForm(0.5 * moments.sum() - moments, form.P, form.orientation, form.generic)
+
+
+def _energy_reason(form, meth, system, adaptive: bool) -> str:
+    """Why an energy-keeping pair does not run compiled on ``form`` ("" when it does): it is
+    compiled as an adaptive pair on the tops (the 3D top's Cayley coordinates on the n-D top's
+    energy form) and on systems whose compiled pieces declare an energy and whose generator has
+    no commuting part."""
+    if not adaptive:
+        return "has no compiled form for fixed steps (compiled: the adaptive pairs)"
+    if isinstance(form, (Top3Form, TopNForm)):
+        return ""
+    if isinstance(form, PiecesForm):
+        pieces = form.pieces.resolve() if hasattr(form.pieces, "resolve") else form.pieces
+        if getattr(system, "commuting_generator", None) is not None:
+            return f"has no compiled form for {_label(system)}: its generator's commuting part flows on the numpy path"
+        if getattr(pieces, "energy", None) is None:
+            return f"has no compiled form for {_label(system)}: its compiled pieces declare no energy"
+        return ""
+    return f"has no compiled form for the compiled form {type(form).__name__}"
 
 
 def _experimental_warning():

@@ -58,7 +58,8 @@ class RKMKForm:
     embedded weights ``b_hat`` (DOP853's third-order ``b_low`` too) and the controller's error
     order q. ``keeps_energy``: the pair of an energy-keeping method
     (:mod:`lieint.methods.energy_projection`: the spin about the momentum flowed exactly, every
-    step moved onto the initial energy), compiled on the 3D top."""
+    step moved onto the initial energy), compiled as the family ``rkmk_energy`` of the 3D top,
+    the n-D top and compiled pieces that declare an energy."""
 
     A: np.ndarray
     b: np.ndarray

@@ -7,6 +7,9 @@ the compiled record they travel in (:data:`BUNDLE`).
 * ``action(Q, t, a, y, params, out, work)`` writes ``ρ(g, y)`` for ``g = ((Q, t), a)``;
 * ``vector_field(y, params, out, work)`` writes ``ẏ`` (classical RK, on the flattened state);
 * ``projection(y, params, out, work)`` writes the projected state (``project=True``);
+* ``energy(y, params, work) -> float``, optional: the system's conserved energy H(y), what the
+  energy-keeping pairs move every step onto (:mod:`lieint.methods.energy_projection`; a system
+  whose pieces declare none runs those pairs on the generic path);
 
 ``work`` is scratch memory of the length the pieces declare (:meth:`CompiledPieces.work_size`),
 allocated once per run and thread. Passing the four pieces as one record (:data:`BUNDLE`, a
@@ -25,7 +28,7 @@ from numba import njit, types
 from numba.core.types.function_type import CompileResultWAP
 from numba.experimental import structref
 
-__all__ = ["ACTION", "BUNDLE", "FIELD", "GENERATOR", "CompiledPieces", "PiecesBundle"]
+__all__ = ["ACTION", "BUNDLE", "ENERGY", "FIELD", "GENERATOR", "CompiledPieces", "PiecesBundle"]
 
 _vec = types.float64[::1]
 _mat = types.float64[:, ::1]
@@ -35,6 +38,8 @@ GENERATOR = types.void(_vec, _vec, _mat, _vec, _vec, _vec)
 ACTION = types.void(_mat, _vec, _vec, _vec, _vec, _vec, _vec)
 #: ``vector_field(y, params, out, work)`` and ``projection(y, params, out, work)``
 FIELD = types.void(_vec, _vec, _vec, _vec)
+#: ``energy(y, params, work) -> H(y)``
+ENERGY = types.float64(_vec, _vec, _vec)
 
 
 @dataclass(frozen=True)
@@ -42,13 +47,15 @@ class CompiledPieces:
     """A system's compiled generator, action, vector field and projection: numba functions,
     compiled for the signatures :data:`GENERATOR`, :data:`ACTION`, :data:`FIELD`, :data:`FIELD`
     when first used (or declared with them); ``work``: the length of the scratch vector they
-    are given, a number or a function of n."""
+    are given, a number or a function of n; ``energy``: optionally, the conserved energy
+    (:data:`ENERGY`), which the energy-keeping pairs need to run compiled."""
 
     generator: object
     action: object
     vector_field: object
     projection: object
     work: int | Callable[[int], int] = 0
+    energy: object = None
 
     def work_size(self, n: int) -> int:
         """The scratch length for bodies of dimension n."""
@@ -59,16 +66,19 @@ class CompiledPieces:
 
     @cached_property
     def functions(self) -> tuple:
-        """The four pieces as first-class function values, resolved once (:class:`_Piece`)."""
-        return tuple(self.piece(i) for i in range(4))
+        """The four pieces and the energy (a stand-in when none is declared) as first-class
+        function values, resolved once (:class:`_Piece`)."""
+        return tuple(self.piece(i) for i in range(5))
 
     def piece(self, i: int):
-        """Piece i (generator, action, vector field, projection) as a first-class function value,
-        compiled for its signature on first use and kept."""
+        """Piece i (generator, action, vector field, projection, energy) as a first-class
+        function value, compiled for its signature on first use and kept (the energy's stand-in
+        returns NaN when the pieces declare none)."""
         cache = self.__dict__.setdefault("_pieces", {})
         if i not in cache:
-            function = (self.generator, self.action, self.vector_field, self.projection)[i]
-            cache[i] = _Piece(function, (GENERATOR, ACTION, FIELD, FIELD)[i])
+            energy = _unused_energy if self.energy is None else self.energy
+            function = (self.generator, self.action, self.vector_field, self.projection, energy)[i]
+            cache[i] = _Piece(function, (GENERATOR, ACTION, FIELD, FIELD, ENERGY)[i])
         return cache[i]
 
     @cached_property
@@ -79,20 +89,22 @@ class CompiledPieces:
         twice to look up its addresses)."""
         return _bundle(*self.functions)
 
-    def bundle_for(self, field: bool, projection: bool) -> PiecesBundle:
+    def bundle_for(self, field: bool, projection: bool, energy: bool = False) -> PiecesBundle:
         """:attr:`bundle` with only the pieces a run calls compiled: the vector field (classical
         RK, an adaptive run's first trial step) when ``field``, the projection when
-        ``projection``; the others are stand-ins that write NaN (a call the run was not to make
-        shows, it does not pass). A cold first run of a system compiles a third less."""
-        if field and projection:
+        ``projection``, the energy when ``energy`` (the energy-keeping pairs); the others are
+        stand-ins that write or return NaN (a call the run was not to make shows, it does not
+        pass). A cold first run of a system compiles a third less."""
+        if field and projection and energy:
             return self.bundle
-        key = (field, projection)
+        key = (field, projection, energy)
         cache = self.__dict__.setdefault("_partial_bundles", {})
         if key not in cache:
             unused = _Piece(_unused_field, FIELD)
             vector_field = self.piece(2) if field else unused
             projector = self.piece(3) if projection else unused
-            cache[key] = _bundle(self.piece(0), self.piece(1), vector_field, projector)
+            level = self.piece(4) if energy else _Piece(_unused_energy, ENERGY)
+            cache[key] = _bundle(self.piece(0), self.piece(1), vector_field, projector, level)
         return cache[key]
 
 
@@ -135,7 +147,7 @@ class _BundleType(types.StructRef):
 
 class PiecesBundle(structref.StructRefProxy):
     """A system's compiled pieces as one compiled record (fields ``generator``, ``action``,
-    ``vector_field``, ``projection``), made by :attr:`CompiledPieces.bundle`."""
+    ``vector_field``, ``projection``, ``energy``), made by :attr:`CompiledPieces.bundle`."""
 
 
 structref.define_boxing(_BundleType, PiecesBundle)
@@ -146,6 +158,7 @@ BUNDLE = _BundleType(
         ("action", types.FunctionType(ACTION)),
         ("vector_field", types.FunctionType(FIELD)),
         ("projection", types.FunctionType(FIELD)),
+        ("energy", types.FunctionType(ENERGY)),
     ]
 )
 
@@ -157,11 +170,18 @@ def _unused_field(y, params, out, work):
         out[i] = np.nan
 
 
+@njit(ENERGY, cache=True)
+def _unused_energy(y, params, work):
+    """The stand-in of an energy the pieces do not declare (or a run does not call): NaN."""
+    return np.nan
+
+
 @njit(BUNDLE(*BUNDLE.field_dict.values()), cache=True)
-def _bundle(generator, action, vector_field, projection):
+def _bundle(generator, action, vector_field, projection, energy):
     record = structref.new(BUNDLE)
     record.generator = generator
     record.action = action
     record.vector_field = vector_field
     record.projection = projection
+    record.energy = energy
     return record

@@ -130,12 +130,30 @@ _SMALL = compiled_copies(
 _act_small, _bracket_small, _dcayinv_small = _SMALL["_act_into"], _SMALL["_bracket_into"], _SMALL["dcayinv_into"]
 
 
+@njit(cache=True, **NO_REFCOUNT)
+def _without_spin(xi, A):
+    """``ξ ← ξ − μA`` with ``μ = ⟨ξ, A⟩/⟨A, A⟩``: the generator without its part along the
+    momentum (:meth:`lieint.EulerTop.commuting_generator`; nothing where A is zero)."""
+    n2, dot = 0.0, 0.0
+    for a in range(A.shape[0]):
+        for c in range(A.shape[1]):
+            n2 += A[a, c] * A[a, c]
+            dot += xi[a, c] * A[a, c]
+    if n2 == 0.0:
+        return
+    mu = dot / n2
+    for a in range(A.shape[0]):
+        for c in range(A.shape[1]):
+            xi[a, c] -= mu * A[a, c]
+
+
 @njit(cache=True)
-def _lie_step(A, R, orient, M, tab, b, h, coeffs, cayley, K, W, E):
+def _lie_step(A, R, orient, M, tab, b, h, coeffs, cayley, K, W, E, reduce=False):
     """One RKMK step (right action) of ``(A, R)`` in place, in exponential coordinates (dexp⁻¹
     truncated at ``coeffs``) or in Cayley coordinates (``cayley``: exact dcay⁻¹, no range);
     returns False, leaving A and R as they were, when a stage increment reaches the dexp⁻¹
-    radius.
+    radius. With ``reduce``, of the generator without its part along the momentum at each
+    stage (:func:`_without_spin`: the energy-keeping pairs, :mod:`lieint.fast.topn_energy`).
 
     ``K`` (stages, n, n) holds the stage slopes, ``W`` (8, n, n) and ``E`` (5, n, n) are
     scratch (the coordinate map's): a step allocates nothing."""
@@ -152,17 +170,24 @@ def _lie_step(A, R, orient, M, tab, b, h, coeffs, cayley, K, W, E):
             for a in range(n):  # u = 0: ξ = Ω̃(Ã)
                 for c in range(n):
                     K[i, a, c] = A[a, c] * M[a, c]
+            if reduce:
+                _without_spin(K[i], A)
             continue
         if cayley:
             cayley_into(u, Q, E0, E1)
             if unrolled:
                 congruence_skew_into(Q, A, M, other, acc)  # acc = Ω̃(QᵀÃQ) = ξ
-                dcayinv_skew_into(u, acc, K[i])
             elif small:
                 _act_small(Q, QT, A, M, other, acc, C, tmp)  # acc = Ω̃(QᵀÃQ) = ξ
-                _dcayinv_small(u, acc, K[i], C, tmp)
             else:
                 _act_into(Q, QT, A, M, other, acc, C, tmp)
+            if reduce:
+                _without_spin(acc, other)  # other = QᵀÃQ, the stage's momentum
+            if unrolled:
+                dcayinv_skew_into(u, acc, K[i])
+            elif small:
+                _dcayinv_small(u, acc, K[i], C, tmp)
+            else:
                 dcayinv_into(u, acc, K[i], C, tmp)
             continue
         if so_ad_radius_exceeds(u) == 1:
@@ -174,6 +199,8 @@ def _lie_step(A, R, orient, M, tab, b, h, coeffs, cayley, K, W, E):
             _act_small(Q, QT, A, M, other, acc, C, tmp)  # acc = Ω̃(QᵀÃQ) = ξ
         else:
             _act_into(Q, QT, A, M, other, acc, C, tmp)
+        if reduce:
+            _without_spin(acc, other)  # other = QᵀÃQ, the stage's momentum
         # k = Σ_d (B_d/d!) ad_{−u}^d ξ, the terms by repeated brackets
         for a in range(n):
             for c in range(n):

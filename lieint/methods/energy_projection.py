@@ -67,11 +67,16 @@ combination, 9.6e-12 s with e₅ (scipy's DOP853: 4.1e-12 s), for 2.3× the step
 
 Cost: on the generic path about 2.3× the base pair's step (H at the step's end, the gradient's
 ``2 dim 𝔤`` evaluations of H in one batched call, then one to four secant evaluations, each an
-exponential and an action). On the 3D Euler top in exponential coordinates the compiled engine
-runs the whole step (:mod:`lieint.fast.top3`, family ``rkmk_energy``: the level carried in the
-compiled state, the orbit gradient ``w × Π`` exact instead of by differences), the same steps as
-the generic path to round-off; a run with dense output, events or ``t_eval`` stays on the generic
-path, whose dense output steps again (:class:`lieint.dense.Restep`).
+exponential and an action). The compiled engine runs the whole step, the level carried in the
+compiled state, the same steps as the generic path to round-off: on the 3D Euler top in
+exponential coordinates (:mod:`lieint.fast.top3`, family ``rkmk_energy``: the orbit gradient
+``w × Π`` exact instead of by differences), on the n-D top in exponential and Cayley coordinates
+and the 3D top in Cayley coordinates (:mod:`lieint.fast.topn_energy`: the gradient ``[Ã, Ω̃]``
+exact) and on every system whose
+compiled pieces declare an energy — the heavy top, the free body, both balls — in either
+coordinates (:mod:`lieint.fast.generic_energy`: these central differences through the compiled
+action). A run with dense output, events or ``t_eval`` stays on the generic path, whose dense
+output steps again (:class:`lieint.dense.Restep`).
 """
 
 from __future__ import annotations
@@ -365,8 +370,9 @@ class EnergyProjected(Method):
         return {k: np.where(keep[k], moved[k], y[k]) for k in moved}
 
     def compiled(self):
-        """The base pair's form marked ``keeps_energy`` (the compiled engine runs it on the 3D
-        top, :mod:`lieint.fast.top3`), with the estimate this method steps on — the embedded
+        """The base pair's form marked ``keeps_energy`` (the compiled engine runs it on the tops
+        and on compiled pieces that declare an energy: the module docstring), with the estimate
+        this method steps on — the embedded
         solution of the highest order alone — or None (a base without a compiled pair, or whose
         steps a subclass replaced)."""
         if type(self) is not EnergyProjected:

@@ -118,7 +118,8 @@ class FreeBody(LieGroupSystem):
         """The compiled engine's form (:class:`lieint.fast.forms.PiecesForm`) for n ≥ 3.
 
         The free body's pieces in :mod:`lieint.fast.bodies`; parameters n, the offsets of R and
-        of the centre, whether B is diagonal, the eigenbasis P of B, ``−1/(b_i + b_j)`` and g.
+        of the centre, whether B is diagonal, the eigenbasis P of B, ``−1/(b_i + b_j)``, g and the mass
+        (the energy).
 
         Returns
         -------
@@ -131,7 +132,7 @@ class FreeBody(LieGroupSystem):
         offset = self.field_offsets()
         g = np.zeros(n) if self.gravity is None else self.gravity
         head = [n, offset.get("R", -1), float(inertia.diagonal)]
-        params = np.concatenate([head, inertia.kernel_params, [offset["center"]], g])
+        params = np.concatenate([head, inertia.kernel_params, [offset["center"]], g, [self.mass]])
         return PiecesForm(BUILTIN_PIECES.free_body, params, n, False, 2 * n, self.fields)
 
     def energy(self, y: State) -> np.ndarray:

@@ -392,7 +392,7 @@ class RollingBall(RollingPose, LieGroupSystem):
 
         The rolling ball's pieces in :mod:`lieint.fast.balls`; parameters n, the offsets of R, the centre and G, M, r,
         the gravity mode (0 none, 1 along ν with ``G = ⟨g, ν⟩Γ``, 2 tilted: G a field),
-        ``⟨g, ν⟩``, ``|g|``, ``B_C``, ``X_G`` and ν; the vector factor carries ``δΩ`` (n²).
+        ``⟨g, ν⟩``, ``|g|``, ``B_C``, ``X_G``, ν and g (the energy); the vector factor carries ``δΩ`` (n²).
 
         Returns
         -------
@@ -406,7 +406,8 @@ class RollingBall(RollingPose, LieGroupSystem):
         gnorm = 0.0 if self.gravity is None else float(np.linalg.norm(self.gravity))
         head = [self.n, offset.get("R", -1), offset.get("center", -1), offset.get("G", -1)]
         head += [self.mass, self.radius, mode, self._g_normal, gnorm]
-        params = np.concatenate([head, self.B_C.ravel(), self.center_of_mass, self.normal])
+        g = np.zeros(self.n) if self.gravity is None else self.gravity
+        params = np.concatenate([head, self.B_C.ravel(), self.center_of_mass, self.normal, g])
         return PiecesForm(BUILTIN_PIECES.rolling_ball, params, self.n, self.track_center, self.n * self.n, self.fields)
 
     # -- the LieGroupSystem contract ---------------------------------------------------

@@ -21,8 +21,7 @@ DECLARED = (
     "has no compiled form",  # the method (not yet compiled: see the guide's table)
     "has no compiled adaptive form",
     "scipy's solve_ivp solver",
-    "runs compiled on the 3D Euler top in exponential coordinates only",  # the energy-keeping pairs
-    "step again (generic path)",  # their dense output, events, t_eval
+    "step again (generic path)",  # the energy-keeping pairs' dense output, events, t_eval
 )
 
 
@@ -58,9 +57,8 @@ def test_every_method_and_front_end_runs_compiled_or_says_why(label):
         energy_pair = getattr(meth, "keeps_energy", False)
         for front, state, keywords in _front_ends(system, y0, t1):
             kw = dict(keywords)
-            if energy_pair:  # compiled on the 3D top in exp coordinates, without an observer
-                top3 = type(system.compiled()).__name__ == "Top3Form" and coordinates != "cayley"
-                expected = top3 and front in ("plain", "batch")
+            if energy_pair:  # compiled without an observer (dense output, events, t_eval step again)
+                expected = front in ("plain", "batch")
             if method.adaptive or method.self_controlled:
                 kw.update(rtol=1e-6, atol=1e-9)
             else:

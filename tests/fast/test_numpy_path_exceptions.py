@@ -31,22 +31,14 @@ NUMPY_PATH: dict[str, frozenset] = {
     "splitting6": frozenset({"euler_top n=4", "heavy_top n=3", "heavy_top n=4"}),
     # the implicit Lie–Poisson midpoint
     "lie_midpoint": frozenset({"euler_top n=3", "euler_top n=4", "heavy_top n=3", "heavy_top n=4"}),
-    # the energy-keeping pairs: compiled on the 3D Euler top in exponential coordinates only
-    "rkmk23+energy": ALL - {"euler_top n=3"},
-    "rkmk45+energy": ALL - {"euler_top n=3"},
-    "rkmk853+energy": ALL - {"euler_top n=3"},
 }
-#: the pairs listed in NUMPY_PATH whose exception depends on the coordinate map as well: in
-#: Cayley coordinates the energy-keeping pairs run on the numpy path on every system
-CAYLEY_EVERYWHERE = {"rkmk23+energy", "rkmk45+energy", "rkmk853+energy"}
 #: what backend_reason says of each kind of exception
-REASONS = ("has no compiled", "runs compiled on the 3D Euler top")
+REASONS = ("has no compiled",)
 
 #: how docs/architecture.md's table names each listed method
 DOC_NAMES = {
     "splitting": "splittings",
     "lie_midpoint": "midpoint",
-    "energy": "energy-keeping pairs",
 }
 
 
@@ -62,7 +54,7 @@ def test_every_pair_runs_compiled_or_is_a_declared_exception(label):
         sol = lieint.integrate(system, y0, (0.0, 0.03), method=name, coordinates=coordinates, **kw)
         where = (label, name, coordinates, sol.stats.backend_reason)
         assert sol.success, where
-        listed = label in NUMPY_PATH.get(name, ()) or (name in CAYLEY_EVERYWHERE and coordinates == "cayley")
+        listed = label in NUMPY_PATH.get(name, ())
         if listed:
             assert sol.stats.backend == "numpy", where
             assert any(f"{method.name!r} {reason}" in sol.stats.backend_reason for reason in REASONS), where
