@@ -11,7 +11,8 @@ Both carry tangent vectors along a run with the exact derivative of the method's
 * :func:`megno` — the Mean Exponential Growth factor of Nearby Orbits (Cincotta & Simó 2000):
   ``Y(t) = (2/t) ∫₀ᵗ s d(log |δ|)`` and its running mean ``⟨Y⟩(t)``; ``⟨Y⟩ → 2`` for
   quasi-periodic motion, ``→ 0`` near a stable periodic orbit, and it grows like ``λt/2`` for
-  chaotic motion. The integral is summed step by step, ``s`` the midpoint of each step.
+  chaotic motion. The integral is summed step by step, ``s`` the midpoint of each step, and
+  ``⟨Y⟩`` by the trapezoidal rule (second order in h; a one-sided sum would add ``O(h/t)``).
 
 The tangent vectors are renormalised before their growth could reach the complex step's
 limit (a vector grown by 10²⁰ would make ``ε²|v|²`` felt in the real part). Not compiled:
@@ -93,6 +94,8 @@ class Megno:
         ``⟨Y⟩(t)``.
     lyapunov : ndarray, shape (...)
         The largest exponent estimated from the same vector, ``log|δ(T)|/T``.
+    lyapunov_history : ndarray, shape (m, ...)
+        ``log|δ(t)|/t`` at the times ``t`` (→ 0 like ``log(t)/t`` on a torus).
     y : dict of ndarray
         The final state.
     method : str
@@ -108,6 +111,7 @@ class Megno:
     y_history: np.ndarray
     mean_history: np.ndarray
     lyapunov: np.ndarray
+    lyapunov_history: np.ndarray
     y: dict = field(repr=False)
     method: str = ""
     h: float = 0.0
@@ -306,8 +310,9 @@ def megno(
     state = stepper.init(t0, z, float(sizes[0]))
     log_norm = np.zeros(batch)  # log|δ(t)|, renormalisations added back
     weighted = np.zeros(batch)  # ∫ s d log|δ|
-    y_sum = np.zeros(batch)  # ∫ Y dt
-    times, ys, means = [], [], []
+    y_sum = np.zeros(batch)  # ∫ Y dt, by the trapezoidal rule (Y(t0) = 0)
+    y_prev = np.zeros(batch)
+    times, ys, means, exponents = [], [], [], []
     n = len(sizes)
     with np.errstate(over="ignore", invalid="ignore"):
         for step, (tk, hk) in enumerate(zip(starts, sizes, strict=True)):
@@ -324,11 +329,13 @@ def megno(
             log_norm += dlog
             weighted += (0.5 * (tk + t) - t0) * dlog
             Y = 2.0 * weighted / (t - t0)
-            y_sum += Y * (t - tk)
+            y_sum += 0.5 * (y_prev + Y) * (t - tk)
+            y_prev = Y
             if (step + 1) % save_every == 0 or last:
                 times.append(t)
                 ys.append(Y)
                 means.append(y_sum / (t - t0))
+                exponents.append(log_norm / (t - t0))
             z = stepper.seed(y, (W / norm[..., None]))
     return Megno(
         np.asarray(means[-1]),
@@ -336,6 +343,7 @@ def megno(
         np.asarray(ys),
         np.asarray(means),
         log_norm / (t1 - t0),
+        np.asarray(exponents),
         y,
         stepper.method.name,
         float(h),
