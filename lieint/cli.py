@@ -171,8 +171,9 @@ def _add_sweep_parser(sub) -> None:
         help="compile the compiled engine's kernels ahead of the first run (clusters, CI)",
         description=(
             "Compile the compiled engine's kernels for the built-in systems (each with fixed-step RKMK in "
-            "exponential and Cayley coordinates, the embedded pairs' controller loop, classical RK and, for the "
-            "3D top, SIMD lanes) into numba's disk cache, so that later runs start at once. Items already cached "
+            "exponential and Cayley coordinates, the embedded pairs' controller loop, classical RK, the "
+            "commutator-free and Crouch–Grossman methods and, for the tops, their maps and SIMD lanes) into "
+            "numba's disk cache, so that later runs start at once. Items already cached "
             "take a fraction of a second."
         ),
     )
@@ -290,6 +291,8 @@ def _dispatch(args, parser) -> int:
         return _sweep(args)
     if args.command == "info":
         return _info(args)
+    if args.command == "warmup":
+        return _warmup(args)
     parser.print_help()
     return 0
 

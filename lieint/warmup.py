@@ -5,7 +5,8 @@ yet — a fresh install, a new numba, a cluster node's empty home directory — 
 machine code for every later process. A cluster job or a CI run that would otherwise pay that
 in its first integration compiles here instead, once: each built-in system with each compiled
 method family (fixed-step RKMK in exponential and Cayley coordinates, the embedded pairs'
-controller loop, classical RK, the SIMD lanes of an ensemble of 3D tops, heavy tops or Chaplygin
+controller loop, classical RK, the products of exponentials of the commutator-free and
+Crouch–Grossman methods, the SIMD lanes of an ensemble of 3D tops, heavy tops or Chaplygin
 balls, the tops' Moser–Veselov maps and the 3D top's splitting), and the pieces of the generic
 form. Items the cache already holds cost a fraction of a second.
 """
@@ -81,6 +82,7 @@ _RUNS = (
     # the default adaptive method (its energy family; Cayley coordinates share the kernel)
     ("energy-keeping pair (controller loop)", dict(method="rkmk853+energy", rtol=1e-6, atol=1e-9)),
     ("classical RK", dict(method="rk4", h=0.01)),
+    ("commutator-free, Crouch–Grossman", dict(method="cf4", h=0.01)),
 )
 
 

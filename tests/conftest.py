@@ -17,16 +17,22 @@ def random_rotation(rng, n, batch=()):
     return Q
 
 
+#: the method forms' families with stage code on every system form ("rkmk": exponential
+#: coordinates with a truncated dexp⁻¹, or Cayley coordinates; "cf": products of exponentials, the
+#: commutator-free and Crouch–Grossman methods; "rk": classical RK)
+EVERY_FORM = ("rkmk", "cf", "rk")
+
+
 def compiled_methods() -> list[str]:
     """The registry's fixed-step methods whose ``compiled()`` declares a form the compiled
-    engine takes ("rkmk": exponential coordinates with a truncated dexp⁻¹; "rk": classical RK)."""
+    engine takes on every system form (:data:`EVERY_FORM`)."""
     import lieint
 
     names = []
     for name in lieint.method_names():
         method = lieint.get_method(name)
         form = method.compiled()
-        if not method.adaptive and getattr(form, "family", None) in ("rkmk", "rk"):
+        if not method.adaptive and getattr(form, "family", None) in EVERY_FORM:
             names.append(name)
     return names
 

@@ -23,12 +23,25 @@ from functools import cache, lru_cache
 import numpy as np
 
 from ..groups.base import DexpinvRangeError, bernoulli_dexpinv_coefficients
-from .forms import Chaplygin3Form, ClassicalForm, HeavyTop3Form, MapForm, PiecesForm, RKMKForm, Top3Form, TopNForm
+from .forms import (
+    Chaplygin3Form,
+    ClassicalForm,
+    ExpProductForm,
+    HeavyTop3Form,
+    MapForm,
+    PiecesForm,
+    RKMKForm,
+    Top3Form,
+    TopNForm,
+)
 
-__all__ = ["Engine", "Tableau", "bound_loops", "engine_for", "range_error", "use_threads"]
+__all__ = ["Engine", "Products", "Tableau", "bound_loops", "engine_for", "range_error", "use_threads"]
 
-#: a method's numbers as the compiled steps read them (one numba type for every method form)
+#: a method's numbers as the compiled steps read them (one numba type for every tableau form)
 Tableau = namedtuple("Tableau", "A b c coeffs cayley")
+#: a product of exponentials' numbers (:class:`lieint.fast.forms.ExpProductForm`; ``cayley`` is
+#: False: the observer reads it as a tableau's)
+Products = namedtuple("Products", "weights bounds c cayley")
 
 #: rows the controller loop buffers per call before handing them back (memory stays bounded) ...
 ROWS_PER_CALL = 4096
@@ -153,6 +166,14 @@ def _forget_stale(dispatcher, stem: str) -> None:
 # -- layouts: the user's fields <-> a form's flat state ----------------------------------------------
 
 
+def _increment_blocks(method) -> int:
+    """Algebra elements in a step's increment: one (RKMK, a map), the step's exponents (a product
+    of exponentials), none (classical RK: dense output interpolates the state arrays)."""
+    if isinstance(method, ExpProductForm):
+        return method.outputs
+    return 1 if method.family == "rkmk" or isinstance(method, MapForm) else 0
+
+
 class _Layout:
     """How one system form lays out a body's state, and what its loop needs (subclasses)."""
 
@@ -231,7 +252,7 @@ class _Top3Layout(_Layout):
         return np.ascontiguousarray(np.concatenate(parts, axis=1))
 
     def increments_size(self, method) -> int:
-        return 3 if method.family == "rkmk" or isinstance(method, MapForm) else 0
+        return 3 * _increment_blocks(method)
 
     def increments(self, U: np.ndarray, batch: tuple):
         """The steps' increments in the user's so(3): ``(P u)^`` (conjugation by a proper P moves
@@ -504,7 +525,7 @@ class _TopNLayout(_Layout):
         return np.ascontiguousarray(np.concatenate(parts, axis=1))
 
     def increments_size(self, method) -> int:
-        return self.n * self.n if method.family == "rkmk" or isinstance(method, MapForm) else 0
+        return self.n * self.n * _increment_blocks(method)
 
     def increments(self, U: np.ndarray, batch: tuple):
         n = self.n
@@ -587,7 +608,7 @@ class _PiecesLayout(_Layout):
         return np.ascontiguousarray(self.start(y, N))
 
     def increments_size(self, method) -> int:
-        return self.n * self.n + self.nv + self.m if method.family == "rkmk" else 0
+        return (self.n * self.n + self.nv + self.m) * _increment_blocks(method)
 
     def increments(self, U: np.ndarray, batch: tuple):
         """The steps' increments as elements of the system's algebra (a skew matrix on so(n),
@@ -752,9 +773,16 @@ def dexpinv_coefficients(degree: int) -> np.ndarray:
     return coeffs
 
 
-def _tableau(method) -> Tableau:
+def _tableau(method) -> Tableau | Products:
     """The method form's numbers as the compiled steps read them (writable C arrays, as numba's
     types for them in the loops' copies)."""
+    if isinstance(method, ExpProductForm):
+        return Products(
+            np.require(method.weights, float, ["C", "W"]),
+            np.require(method.bounds, np.int64, ["C", "W"]),
+            np.require(method.c, float, ["C", "W"]),
+            False,
+        )
     cayley = method.family == "rkmk" and method.coordinates == "cayley"
     degree = method.degree if method.family == "rkmk" and not cayley else 0
     return Tableau(
@@ -776,8 +804,10 @@ class Engine:
     of the tops): a run split into segments gives the bits of one that is not.
     """
 
-    def __init__(self, layout: _Layout, method, batch: tuple[int, ...], adaptive: bool, stage_module: str = ""):
+    def __init__(self, layout: _Layout, method, batch: tuple[int, ...], adaptive: bool, stage_module: str = "",
+                 group=None):  # fmt: skip
         self.layout, self.method, self.batch = layout, method, batch
+        self.group = group  # the system's group: a product of exponentials' increments compose in it
         self.N = math.prod(batch)
         units = getattr(layout, "units", self.N)  # bodies, or blocks of bodies in SIMD lanes
         module = stage_module or layout.module  # a map's own stage code (MapForm.module_for)
@@ -815,6 +845,8 @@ class Engine:
                 kind = "adaptive " + kind + " (whole controller loop)"
             if getattr(m, "keeps_energy", False):
                 kind += ", energy kept"
+        elif isinstance(m, ExpProductForm):
+            kind = "product of exponentials (commutator-free, Crouch–Grossman)"
         elif isinstance(m, MapForm):
             kind = {
                 "moser_veselov": "Moser–Veselov map",
@@ -848,8 +880,18 @@ class Engine:
         return self.layout.user(Y, self.batch)
 
     def increments(self, U: np.ndarray):
-        """The steps' increments ``(m, N, du)`` as elements of the user's algebra."""
-        return self.layout.increments(U, self.batch)
+        """The steps' increments ``(m, N, du)`` as elements of the user's algebra: for a product
+        of exponentials the log of the product of the exponentials of its step's exponents, the
+        numpy path's ``group.log(g₁g₂…)``."""
+        if not isinstance(self.method, ExpProductForm):
+            return self.layout.increments(U, self.batch)
+        blocks = self.method.outputs
+        parts = U.reshape(U.shape[:-1] + (blocks, U.shape[-1] // blocks))
+        group, g = self.group, None
+        for j in range(blocks):
+            element = group.exp(self.layout.increments(np.ascontiguousarray(parts[..., j, :]), self.batch))
+            g = element if g is None else group.multiply(g, element)
+        return group.log(g)
 
     # -- fixed steps -------------------------------------------------------------------------
     def advance(self, internal: dict, k_from: int, k_to: int, plan, save_steps, project: bool, with_start=False,
@@ -987,11 +1029,11 @@ def engine_for(
     if form is None:
         return None, f"{_label(system)} declares no compiled form"
     meth = method.compiled()
-    if meth is None or not isinstance(meth, (RKMKForm, ClassicalForm, MapForm)):
+    if meth is None or not isinstance(meth, (RKMKForm, ClassicalForm, MapForm, ExpProductForm)):
         what = "adaptive " if adaptive else ""
         return None, (
             f"{method.name!r} has no compiled {what}form (compiled: RKMK in exp coordinates with truncated dexp⁻¹ "
-            "or in Cayley coordinates, their embedded pairs, classical RK)"
+            "or in Cayley coordinates, their embedded pairs, products of exponentials, classical RK)"
         )
     if adaptive and not (meth.family == "rkmk" and meth.pair):
         return None, f"{method.name!r} has no compiled adaptive form (compiled: RKMK embedded pairs)"
@@ -1041,7 +1083,7 @@ def engine_for(
             reason = "" if decline is None else decline(layout, layout.start(y0, math.prod(batch)), h)
             if reason:
                 return None, reason
-        return Engine(layout, meth, batch, adaptive, stage_module), ""
+        return Engine(layout, meth, batch, adaptive, stage_module, system.group), ""
 
 
 def _as_top_n(form: Top3Form) -> TopNForm:

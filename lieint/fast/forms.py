@@ -18,9 +18,11 @@ System forms:
   name :class:`HeavyTop3Form` and :class:`Chaplygin3Form`, their ensembles in SIMD lanes.
 
 Method forms: :class:`RKMKForm` (explicit Runge–Kutta–Munthe-Kaas in exponential or Cayley
-coordinates, fixed-step or an embedded pair), :class:`ClassicalForm` (classical explicit RK
-on the embedding space) and :class:`MapForm` (a method whose step is a map of its own — the
-Moser–Veselov family, the splittings — with stage code for some system forms only).
+coordinates, fixed-step or an embedded pair), :class:`ExpProductForm` (products of exponentials
+of frozen stage generators: the commutator-free and Crouch–Grossman methods),
+:class:`ClassicalForm` (classical explicit RK on the embedding space) and :class:`MapForm` (a
+method whose step is a map of its own — the Moser–Veselov family, the splittings — with stage
+code for some system forms only).
 """
 
 from __future__ import annotations
@@ -35,6 +37,7 @@ __all__ = [
     "BUILTIN_PIECES",
     "Chaplygin3Form",
     "ClassicalForm",
+    "ExpProductForm",
     "HeavyTop3Form",
     "LazyPieces",
     "MapForm",
@@ -77,6 +80,40 @@ class RKMKForm:
     @property
     def pair(self) -> bool:
         return self.b_hat is not None
+
+
+@dataclass(frozen=True, eq=False)
+class ExpProductForm:
+    """A method that steps by products of exponentials of linear combinations of its frozen stage
+    generators (:class:`lieint.methods.commutator_free.CommutatorFree`: the commutator-free and
+    Crouch–Grossman methods), on every system form RKMK runs on::
+
+        Y_i = ρ(exp(h Σ_k W[e_i,J] ξ_k), … ρ(exp(h Σ_k W[e_i,1] ξ_k), y₀) …),  ξ_i = ξ(Y_i),
+        y₁  = ρ(exp(h Σ_k W[e_J] ξ_k), … ρ(exp(h Σ_k W[e_1] ξ_k), y₀) …).
+
+    ``weights`` (E, s) holds one row per exponential, stage after stage and then the step's;
+    ``bounds`` (s + 2,) says which: stage i applies the rows ``bounds[i]:bounds[i + 1]`` in order,
+    the step the rows ``bounds[s]:bounds[s + 1]``. A Crouch–Grossman method is the case of one
+    nonzero weight per row. A step's increment (what dense output interpolates) is the list of
+    the step's exponents ``h Σ_k W[e] ξ_k``, one after another: their product is the step's group
+    element, logged when an interpolant is built (as on the numpy path)."""
+
+    c: np.ndarray
+    weights: np.ndarray
+    bounds: np.ndarray
+
+    family = "cf"
+    coordinates = None
+    pair = False
+
+    @property
+    def stages(self) -> int:
+        return int(np.asarray(self.c).size)
+
+    @property
+    def outputs(self) -> int:
+        """The step's exponentials (each contributes one exponent to the increment)."""
+        return int(self.bounds[-1] - self.bounds[-2])
 
 
 @dataclass(frozen=True, eq=False)

@@ -34,7 +34,7 @@ import numpy as np
 from numba import njit
 
 from ._jit import compiled_copies
-from .generic_step import _classical_step, lie_step, lie_step_uncounted, move, move_uncounted, step_work
+from .generic_step import _classical_step, lie_step, lie_step_uncounted, move, move_uncounted, products_step, step_work
 
 __all__ = ["NAMESPACES"]
 
@@ -98,6 +98,33 @@ def form_lie_step(fx, y, par, meth, h, y1, inc, aux, scr):
         j += 1
     aux[0] = _norm2(KW[0])
     return meth.b.shape[0]
+
+
+@njit(cache=True)
+def form_products_scratch(fx, meth, par, d):
+    """The stage generators ``(W, v, a)``, two states (a stage's, the action's result) and the
+    work arrays of :func:`lieint.fast.generic_step.step_work`."""
+    dims = fx[1]
+    n, nv, m, work_size = dims[0], dims[1], dims[2], dims[3]
+    s = meth.c.shape[0]
+    S, Sv, ua, aug, work = step_work(n, nv, m, work_size)
+    return (np.zeros((s, n, n)), np.zeros((s, nv)), np.zeros((s, m)), np.empty(d), np.empty(d), S, Sv, ua, aug, work)
+
+
+@njit(cache=True)
+def form_products_step(fx, y, par, meth, h, y1, inc, aux, scr):
+    """One step of a product of exponentials through the system's generator and action
+    (:func:`lieint.fast.generic_step.products_step`); ``inc`` = the step's exponents,
+    ``aux[0] = ‖W‖_F²`` of ``ξ(y)`` (the first stage)."""
+    pieces, dims = fx
+    gen = pieces.generator
+    act = pieces.action
+    products_step(
+        gen, act, y, par, dims[1], meth.weights, meth.bounds, h, scr[0], scr[1], scr[2], scr[3], scr[4], y1, scr[5],
+        scr[6], scr[7], scr[8], scr[9], inc,
+    )  # fmt: skip
+    aux[0] = _norm2(scr[0][0])
+    return meth.c.shape[0]
 
 
 @njit(cache=True)
@@ -172,4 +199,6 @@ NAMESPACES = {
     "rkmk": {**_COMMON, "step": form_lie_step, "embedded": form_embedded},
     "rkmk_uncounted": {**_COMMON, "step": _UNCOUNTED["form_lie_step"], "embedded": _UNCOUNTED["form_embedded"]},
     "rk": {**_COMMON, "step": form_rk_step, "embedded": form_embedded},
+    # products of exponentials (no pairs: the embedded solution and the error norm never compile)
+    "cf": {**_COMMON, "scratch": form_products_scratch, "step": form_products_step, "embedded": form_embedded},
 }

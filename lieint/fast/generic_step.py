@@ -24,7 +24,7 @@ from .se_algebra import (
     out_of_range_3,
 )
 
-__all__ = ["lie_step", "lie_step_uncounted", "move", "move_uncounted", "step_work"]
+__all__ = ["lie_step", "lie_step_uncounted", "move", "move_uncounted", "products_step", "step_work"]
 
 
 @njit(cache=True, **NO_REFCOUNT)
@@ -83,6 +83,60 @@ def lie_step(gen, act, y, par, nv, tab, b, h, coeffs, KW, Kv, Ka, y_stage, y1, c
             dexpinv(uW, uv, kW, kv, coeffs, tW, tv, P, nw)
     move(act, y, par, nv, KW, Kv, Ka, b, h, y1, cayley, S, Sv, ua, aug, work)
     return True
+
+
+@njit(cache=True)
+def products_step(gen, act, y, par, nv, weights, bounds, h, KW, Kv, Ka, y_stage, y_next, y1, S, Sv, ua, aug, work,
+                  inc):  # fmt: skip
+    """One step of a product of exponentials (:class:`lieint.fast.forms.ExpProductForm`) from y
+    into ``y1``: stage i moves a copy of y by its exponentials one after the other and evaluates
+    ξ there, the step moves y by its own; ``inc`` receives the step's exponents ``(W, v, a)``
+    flattened, one after another. ``y_stage`` and ``y_next`` hold states (the action writes
+    into a state of its own); ``S, Sv, ua, aug, work``: :func:`step_work`'s arrays (nothing is
+    allocated here). No dexp⁻¹: never out of range."""
+    s = bounds.shape[0] - 2
+    n = KW.shape[1]
+    d = y.shape[0]
+    uW, Q = S[0], S[1]
+    uv, t = Sv[0], Sv[1]
+    m = ua.shape[0]
+    uW_flat, KW_flat = uW.reshape(n * n), KW.reshape(KW.shape[0], n * n)
+    for i in range(s):
+        for j in range(d):
+            y_stage[j] = y[j]
+        for e in range(bounds[i], bounds[i + 1]):
+            row = weights[e]
+            _combine(uW_flat, KW_flat, row, i, h)
+            _combine(uv, Kv, row, i, h)
+            if not _combine(ua, Ka, row, i, h):
+                continue
+            coordinate_map(uW, uv, nv, Q, t, False, aug)
+            act(Q, t, ua, y_stage, par, y_next, work)
+            for j in range(d):
+                y_stage[j] = y_next[j]
+        gen(y_stage, par, KW[i], Kv[i], Ka[i], work)
+    for j in range(d):
+        y1[j] = y[j]
+    first = bounds[s]
+    size = n * n + nv + m
+    for e in range(first, bounds[s + 1]):
+        row = weights[e]
+        _combine(uW_flat, KW_flat, row, s, h)
+        _combine(uv, Kv, row, s, h)
+        nonzero = _combine(ua, Ka, row, s, h)
+        o = size * (e - first)
+        for j in range(n * n):
+            inc[o + j] = uW_flat[j]
+        for j in range(nv):
+            inc[o + n * n + j] = uv[j]
+        for j in range(m):
+            inc[o + n * n + nv + j] = ua[j]
+        if not nonzero:
+            continue
+        coordinate_map(uW, uv, nv, Q, t, False, aug)
+        act(Q, t, ua, y1, par, y_next, work)
+        for j in range(d):
+            y1[j] = y_next[j]
 
 
 @njit(cache=True)

@@ -529,6 +529,83 @@ def form_energy_embedded(fx, y, par, meth, weights, h, yh, scr):
     yh[12] = y[12]
 
 
+# -- products of exponentials (commutator-free, Crouch–Grossman: lieint.fast.forms.ExpProductForm) --
+
+
+@njit(cache=True, inline="always")
+def _exponent(u, K, weights, row, upto, h):
+    """``u = Σ_{j < upto} (h w_j) K[j]``, ``w = weights[row]``, over the nonzero weights in the order
+    of j (the numpy path's combination); returns whether any weight was nonzero."""
+    u[0] = 0.0
+    u[1] = 0.0
+    u[2] = 0.0
+    any_weight = False
+    for j in range(upto):
+        if weights[row, j] != 0.0:
+            any_weight = True
+            w = h * weights[row, j]
+            u[0] += w * K[j, 0]
+            u[1] += w * K[j, 1]
+            u[2] += w * K[j, 2]
+    return any_weight
+
+
+@njit(cache=True)
+def _products_step(pi, R, Iinv, weights, bounds, h, K, u, Q, tR, inc):
+    """One step of a product of exponentials in place on pi (3,) and R (3, 3): stage i turns Π by
+    its exponentials one after the other (its ξ depends on Π alone), the step turns Π and R by
+    its own; ``inc`` receives the step's exponents, three entries each."""
+    s = bounds.shape[0] - 2
+    for i in range(s):
+        p0, p1, p2 = pi[0], pi[1], pi[2]
+        for e in range(bounds[i], bounds[i + 1]):
+            if not _exponent(u, K, weights, e, i, h):
+                continue
+            _rodrigues(u, Q)
+            # Π ← QᵀΠ
+            q0 = Q[0, 0] * p0 + Q[1, 0] * p1 + Q[2, 0] * p2
+            q1 = Q[0, 1] * p0 + Q[1, 1] * p1 + Q[2, 1] * p2
+            q2 = Q[0, 2] * p0 + Q[1, 2] * p1 + Q[2, 2] * p2
+            p0, p1, p2 = q0, q1, q2
+        K[i, 0], K[i, 1], K[i, 2] = Iinv[0] * p0, Iinv[1] * p1, Iinv[2] * p2
+    first = bounds[s]
+    for e in range(first, bounds[s + 1]):
+        o = 3 * (e - first)
+        if not _exponent(u, K, weights, e, s, h):
+            inc[o], inc[o + 1], inc[o + 2] = 0.0, 0.0, 0.0
+            continue
+        inc[o], inc[o + 1], inc[o + 2] = u[0], u[1], u[2]
+        _rodrigues(u, Q)
+        p0, p1, p2 = pi[0], pi[1], pi[2]
+        for r in range(3):
+            pi[r] = Q[0, r] * p0 + Q[1, r] * p1 + Q[2, r] * p2
+        for r in range(3):
+            for c2 in range(3):
+                tR[r, c2] = R[r, 0] * Q[0, c2] + R[r, 1] * Q[1, c2] + R[r, 2] * Q[2, c2]
+        for r in range(3):
+            for c2 in range(3):
+                R[r, c2] = tR[r, c2]
+
+
+@njit(cache=True)
+def form_products_scratch(fx, meth, par, d):
+    """:func:`form_scratch`'s arrays for s = the method's stages (the error norm's are unused)."""
+    s = meth.c.shape[0]
+    return (np.zeros((s, 3)), np.zeros(3), np.zeros((3, 3)), np.zeros(3), np.zeros((3, 3)))
+
+
+@njit(cache=True)
+def form_products_step(fx, y, par, meth, h, y1, inc, aux, scr):
+    """One step of a product of exponentials (:func:`_products_step`) of one body; ``aux[0] = |w|²``
+    of the first stage. Never out of range: there is no dexp⁻¹."""
+    K, u, Q, tR = scr[0], scr[1], scr[2], scr[4]
+    for i in range(12):
+        y1[i] = y[i]
+    _products_step(_pi(y1), _att(y1), par[0:3], meth.weights, meth.bounds, h, K, u, Q, tR, inc)
+    aux[0] = K[0, 0] * K[0, 0] + K[0, 1] * K[0, 1] + K[0, 2] * K[0, 2]
+    return meth.c.shape[0]
+
+
 #: the names of :mod:`lieint.fast.loop` this form binds, per method family
 NAMESPACES = {
     family: {
@@ -543,6 +620,9 @@ NAMESPACES = {
     }
     for family, stepper in (("rkmk", form_lie_step), ("rk", form_rk_step))
 }
+#: products of exponentials (no pairs: the controller loop, the embedded solution and the error
+#: norm are never compiled for them)
+NAMESPACES["cf"] = {**NAMESPACES["rkmk"], "scratch": form_products_scratch, "step": form_products_step}
 NAMESPACES["rkmk_energy"] = {
     **NAMESPACES["rkmk"],
     "scratch": form_energy_scratch,

@@ -62,7 +62,7 @@ from ._jit import NO_REFCOUNT
 from .cayley import cayley_into
 from .products import mm_small_into
 from .skew import _project, expm_skew, so_ad_radius_exceeds
-from .topn_step import _act_into, _classical_step, _combine, _exp_into, _lie_step
+from .topn_step import _act_into, _classical_step, _combine, _exp_into, _lie_step, _products_step
 
 __all__ = ["NAMESPACES", "expm_skew", "inertia_factors", "inertia_factors_of", "so_ad_radius_exceeds"]
 
@@ -226,6 +226,28 @@ def form_lie_step(fx, y, par, meth, h, y1, inc, aux, scr):
 
 
 @njit(cache=True)
+def form_products_scratch(fx, meth, par, d):
+    """The stage generators K (s, n, n) and the step's scratch W (8, n, n), E (5, n, n)."""
+    n = _dims(par)[0]
+    s = meth.c.shape[0]
+    return (np.zeros((s, n, n)), np.zeros((8, n, n)), np.zeros((5, n, n)))
+
+
+@njit(cache=True)
+def form_products_step(fx, y, par, meth, h, y1, inc, aux, scr):
+    """One step of a product of exponentials (:func:`lieint.fast.topn_step._products_step`);
+    ``inc`` = the step's exponents, ``aux[0] = ‖M ∘ Ã‖_F²`` (ξ of the first stage)."""
+    n, r = _dims(par)
+    M = _M(par, n)
+    for i in range(y.shape[0]):
+        y1[i] = y[i]
+    A, R = _parts(y1, n, r)
+    aux[0] = _generator_norm2(A, M)
+    _products_step(A, R, r > 0, M, meth.weights, meth.bounds, h, scr[0], scr[1], scr[2], inc)
+    return meth.c.shape[0]
+
+
+@njit(cache=True)
 def form_rk_step(fx, y, par, meth, h, y1, inc, aux, scr):
     """One classical RK step on ``Ã' = [Ã, Ω̃]``, ``R̃' = R̃Ω̃``."""
     n, r = _dims(par)
@@ -304,3 +326,6 @@ NAMESPACES = {
     }
     for family, stepper in (("rkmk", form_lie_step), ("rk", form_rk_step))
 }
+#: products of exponentials (no pairs: the controller loop, the embedded solution and the error
+#: norm are never compiled for them)
+NAMESPACES["cf"] = {**NAMESPACES["rkmk"], "scratch": form_products_scratch, "step": form_products_step}

@@ -239,6 +239,60 @@ def _lie_step(A, R, orient, M, tab, b, h, coeffs, cayley, K, W, E, reduce=False)
 
 
 @njit(cache=True)
+def _products_step(A, R, orient, M, weights, bounds, h, K, W, E, inc):
+    """One step of a product of exponentials (:class:`lieint.fast.forms.ExpProductForm`) of
+    ``(A, R)`` in place: stage i moves Ã by its exponentials one after the other (ξ = M ∘ Ã depends
+    on Ã alone), the step moves Ã and R̃ by its own; ``inc`` receives the step's exponents (n²
+    entries each). ``K`` (stages, n, n) holds the stage generators, ``W`` (8, n, n) and ``E``
+    (5, n, n) are scratch: a step allocates nothing. No dexp⁻¹: never out of range."""
+    s = bounds.shape[0] - 2
+    n = A.shape[0]
+    u, Q, C, tmp, Om, Y = W[0], W[1], W[2], W[3], W[4], W[5]
+    QT = Q.T
+    small = n <= 8  # no BLAS behind the products: the copies without reference counts
+    unrolled = 4 <= n <= 6  # the skew operations unrolled (lieint.fast.small_skew's sizes)
+    for i in range(s):
+        for a in range(n):
+            for c in range(n):
+                Y[a, c] = A[a, c]
+        for e in range(bounds[i], bounds[i + 1]):
+            if not _combine(u, K, weights, e, i, h):
+                continue
+            _exp_into(u, Q, E)
+            if unrolled:
+                congruence_skew_into(Q, Y, M, Y, Om)
+            elif small:
+                _act_small(Q, QT, Y, M, Y, Om, C, tmp)
+            else:
+                _act_into(Q, QT, Y, M, Y, Om, C, tmp)
+        for a in range(n):  # ξ_i = Ω̃(Y_i)
+            for c in range(n):
+                K[i, a, c] = Y[a, c] * M[a, c]
+    first = bounds[s]
+    for e in range(first, bounds[s + 1]):
+        o = n * n * (e - first)
+        if not _combine(u, K, weights, e, s, h):
+            for j in range(n * n):
+                inc[o + j] = 0.0
+            continue
+        j = o
+        for a in range(n):
+            for c in range(n):
+                inc[j] = u[a, c]
+                j += 1
+        _exp_into(u, Q, E)
+        if unrolled:
+            congruence_skew_into(Q, A, M, A, Om)
+        elif small:
+            _act_small(Q, QT, A, M, A, Om, C, tmp)
+        else:
+            _act_into(Q, QT, A, M, A, Om, C, tmp)
+        if orient:
+            mm_small_into(R, Q, C)
+            R[:, :] = C
+
+
+@njit(cache=True)
 def _field(A, R, M, orient):
     """The vector field in the principal frame, ``(Ã', R̃') = ([Ã, Ω̃], R̃Ω̃)`` with
     ``Ω̃ = M ∘ Ã`` (the bracket exactly skew); R̃' is R itself without orientation."""

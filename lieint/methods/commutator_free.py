@@ -27,6 +27,12 @@ Methods (order, stages, exponentials per step):
 
 A Crouch–Grossman method is the special case with one frozen generator per exponential
 (``y₁ = ρ(exp(h b_s ξ_s), … ρ(exp(h b_1 ξ_1), y₀))``).
+
+Every method here runs compiled wherever RKMK does — the Euler top of any dimension, the heavy
+top, the free body, both balls; fixed steps, batches, dense output, events, ``t_eval`` — from
+its weights as data (:meth:`CommutatorFree.compiled`, :class:`lieint.fast.forms.ExpProductForm`:
+one stage function per system form serves every such method); the numpy path below is the
+reference it is tested against.
 """
 
 from __future__ import annotations
@@ -37,6 +43,7 @@ from functools import partial
 import numpy as np
 
 from ..dense import Increment
+from ..fast.forms import ExpProductForm
 from .base import Method, MethodSpec, StepResult
 from .registry import register
 from .tableau import ButcherTableau
@@ -128,6 +135,19 @@ class CommutatorFree(Method):
             # ρ(g₂, ρ(g₁, y)) = ρ(g₁g₂, y) for a right action: the step's element is g₁g₂…
             g = gl if g is None else group.multiply(g, gl)
         return StepResult(y1, None, len(self.c), None, dense=Increment(g=g))
+
+    def compiled(self):
+        """The compiled engine's form (:class:`lieint.fast.forms.ExpProductForm`): the weight
+        vectors of every exponential as rows, stage after stage and then the step's; None for a
+        subclass that changes the step (it integrates something else)."""
+        if not self.steps_as(CommutatorFree, ("step",)):
+            return None
+        rows = [w for stage in self.stages for w in stage] + list(self.output)
+        counts = [len(stage) for stage in self.stages] + [len(self.output)]
+        bounds = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+        s = len(self.c)
+        weights = np.array(rows, dtype=float).reshape(len(rows), s)
+        return ExpProductForm(np.asarray(self.c, dtype=float), weights, bounds)
 
 
 def _combine(group, weights, xis: list, h: float):

@@ -106,3 +106,14 @@ def test_import_is_light():
     code = f"import sys, lieint; print(int(any(m.split('.')[0] in {heavy} for m in sys.modules)))"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.strip() == "0"  # heavy dependencies are imported only where used
+
+
+def test_warmup_lists_its_systems_and_refuses_an_unknown_one(capsys):
+    """``lieint warmup`` reaches its command (not the top-level help): ``--list`` names the
+    systems it compiles for, an unknown system is an error naming the choices."""
+    assert main(["warmup", "--list"]) == 0
+    listed = capsys.readouterr().out.split()
+    assert {"euler_top", "heavy_top", "chaplygin_ball"} <= set(listed) and "COMMAND" not in listed
+    assert main(["warmup", "no_such_body"]) == 2
+    err = capsys.readouterr().err
+    assert "unknown system(s) ['no_such_body']" in err and "euler_top" in err

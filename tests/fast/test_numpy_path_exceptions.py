@@ -31,11 +31,6 @@ NUMPY_PATH: dict[str, frozenset] = {
     "splitting6": frozenset({"euler_top n=4", "heavy_top n=3", "heavy_top n=4"}),
     # the implicit Lie–Poisson midpoint
     "lie_midpoint": frozenset({"euler_top n=3", "euler_top n=4", "heavy_top n=3", "heavy_top n=4"}),
-    # commutator-free and Crouch–Grossman methods: everywhere
-    "cf3": ALL,
-    "cf4": ALL,
-    "cg3": ALL,
-    "cg4a": ALL,
 }
 #: what backend_reason says of each kind of exception
 REASONS = ("has no compiled",)
@@ -44,8 +39,6 @@ REASONS = ("has no compiled",)
 DOC_NAMES = {
     "splitting": "splittings",
     "lie_midpoint": "midpoint",
-    "cf": "commutator-free",
-    "cg": "Crouch–Grossman",
 }
 
 

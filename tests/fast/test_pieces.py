@@ -12,6 +12,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from bodies import at_rest, first_step_round_off, initial, initial_batch, spd, variants
+from conftest import EVERY_FORM
 
 import lieint
 from lieint.catalog import _builtin
@@ -20,9 +21,10 @@ from lieint.methods.registry import get_method, method_specs
 
 
 def _compiled(adaptive: bool) -> list[tuple[str, str | None]]:
-    """(name, coordinates) of every registered method and coordinate map with a compiled
-    tableau form (RKMK, classical RK: what compiled pieces step; a map with stage code of its
-    own, such as Moser–Veselov on the 3D top, is tested in tests/fast)."""
+    """(name, coordinates) of every registered method and coordinate map with a compiled form
+    that compiled pieces step (RKMK, products of exponentials, classical RK: conftest's
+    ``EVERY_FORM``; a map with stage code of its own, such as Moser–Veselov on the 3D top, is
+    tested in tests/fast)."""
     out = []
     for name, spec in method_specs().items():
         for coordinates in spec.coordinates or (None,):
@@ -31,7 +33,7 @@ def _compiled(adaptive: bool) -> list[tuple[str, str | None]]:
             # the energy-keeping pairs run compiled on the 3D top only (tests/adaptive/), the maps
             # (Moser–Veselov, splittings) on the tops' forms only (tests/fast/test_compiled_*.py)
             family = getattr(form, "family", None)
-            if family in ("rkmk", "rk") and method.adaptive == adaptive and not getattr(form, "keeps_energy", False):
+            if family in EVERY_FORM and method.adaptive == adaptive and not getattr(form, "keeps_energy", False):
                 out.append((name, coordinates))
     return out
 
@@ -74,7 +76,7 @@ def test_compiled_and_generic_agree_for_every_method(n, name):
     state's size (RKMK in exp coordinates: the same stages, exp and dexp⁻¹ by other formulas)."""
     system = variants(n)[name]
     y0 = initial(system, np.random.default_rng(1))
-    assert ("rkmk4", "cayley") in FIXED and ("rk4", None) in FIXED
+    assert {("rkmk4", "cayley"), ("rk4", None), ("cf4", None), ("cg4a", None)} <= set(FIXED)
     for method, coordinates in FIXED:
         for project in (False, True):
             kw = dict(t_span=(0.0, 0.4), h=0.02, method=method, coordinates=coordinates, project=project)

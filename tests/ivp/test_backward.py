@@ -14,7 +14,7 @@ import warnings
 
 import numpy as np
 import pytest
-from conftest import fitted_slope
+from conftest import EVERY_FORM, fitted_slope
 from scipy.integrate import solve_ivp
 from scipy.linalg import expm
 
@@ -186,7 +186,7 @@ def compiled_names() -> list[str]:
     names = []
     for name in lieint.method_names():
         form = lieint.get_method(name).compiled()
-        if getattr(form, "family", None) in ("rkmk", "rk") and system_of(name)[0] is TOP:
+        if getattr(form, "family", None) in EVERY_FORM and system_of(name)[0] is TOP:
             names.append(name)
     return names
 

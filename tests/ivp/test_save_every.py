@@ -84,18 +84,18 @@ def test_compiled_path_streamed_in_segments(tmp_path, reference, every):
 @pytest.mark.parametrize(
     "extra, backend",
     [
-        ('method = "cf4"', "numpy"),
+        ('method = "lie_midpoint"', "numpy"),
         ("", "lie"),
         ('method = "rk4"', "lie"),
         ("", "lanes"),
         ("", "topn"),
     ],
-    ids=["generic-cf4", "lie-kernel-rkmk4", "lie-kernel-rk4", "compiled-ensemble-lanes", "compiled-4d-top"],
+    ids=["generic-lie-midpoint", "lie-kernel-rkmk4", "lie-kernel-rk4", "compiled-ensemble-lanes", "compiled-4d-top"],
 )
 @pytest.mark.parametrize("every", [1, 7, 1000])
 @pytest.mark.slow
 def test_every_back_end_streamed(tmp_path, every, extra, backend):
-    """The generic path (commutator-free methods have no compiled form), the generic compiled kernel
+    """The generic path (the Lie–Poisson midpoint has no compiled form), the generic compiled kernel
     (a 4D heavy top), the SIMD lanes of ensembles and the compiled n-dimensional top (a 4D free
     top)."""
     n = 1_003

@@ -33,7 +33,7 @@ type = "fixed_point"
 omega = [[0.0, -0.3, 0.5, -0.2], [0.3, 0.0, -0.4, 0.6], [-0.5, 0.4, 0.0, -0.1], [0.2, -0.6, 0.1, 0.0]]
 
 [integrator]
-method = "cf4"  # commutator-free: the generic path (no compiled kernel), slow enough to be caught live
+method = "lie_midpoint"  # the generic path (no compiled kernel), slow enough to be caught live
 step = 0.002
 t_end = {t_end}
 save_every = 1
@@ -42,7 +42,8 @@ save_every = 1
 quantities = ["energy", "casimirs", "orientation"]
 """
 
-T_END = 8.0  # 4000 steps on the generic path: a few seconds, long enough to be caught live
+T_END = 28.0  # 14,000 steps on the generic path: a few seconds, long enough to be caught live
+PLANNED = 14_000  # T_END / step
 
 
 def scene_file(tmp_path, t_end=T_END, name="s.toml"):
@@ -168,7 +169,7 @@ def test_the_lock_of_a_killed_writer_is_released(tmp_path, reference):
     assert plot_run(out, tmp_path / "killed.png").exists()  # the SWMR flag is still set: read safely
     info = inspect_run(out)
     assert info.state == "interrupted" and info.resumable, info.text()
-    assert "interrupted at step" in info.text() and "of 4000; resumable" in info.text()
+    assert "interrupted at step" in info.text() and f"of {PLANNED}; resumable" in info.text()
     done = cli(["run", str(scene), "--out", str(out), "--resume", "--quiet"], tmp_path)
     assert done.returncode == 0, done.stderr
     assert "resuming at step" in done.stderr
@@ -184,7 +185,7 @@ def test_a_stopped_run_opens_with_plain_h5py_and_plots(tmp_path, reference):
     with h5py.File(out) as f:  # closed cleanly: no SWMR flag needed
         assert f.attrs["status"] == "interrupted" and f["t"].shape == (1001,)
     info = inspect_run(out)
-    assert info.exit_code == 3 and "interrupted at step 1000 of 4000; resumable" in info.text()
+    assert info.exit_code == 3 and f"interrupted at step 1000 of {PLANNED}; resumable" in info.text()
     assert plot_run(out).exists()
     lieint.run(scene, out, progress=False, resume=True)
     assert_identical(read_all(out), reference)
@@ -524,7 +525,7 @@ def test_small_refusals_are_clear(tmp_path, capsys):
     # a step far too large (exponential coordinates: beyond the dexp⁻¹ radius), held in memory:
     # the failure is a message, not a traceback
     big = tmp_path / "big.toml"
-    text = re.sub(r'method = "cf4".*', 'method = "rkmk4"', scene.read_text())
+    text = re.sub(r'method = "lie_midpoint".*', 'method = "rkmk4"', scene.read_text())
     big.write_text(text.replace("step = 0.002", "step = 50.0").replace("t_end = 0.1", "t_end = 1000.0"))
     code = main(["run", str(big)])
     err = capsys.readouterr().err

@@ -31,7 +31,7 @@ type = "fixed_point"
 omega = [[0.0, -0.3, 0.5, -0.2], [0.3, 0.0, -0.4, 0.6], [-0.5, 0.4, 0.0, -0.1], [0.2, -0.6, 0.1, 0.0]]
 
 [integrator]
-method = "cf4"  # commutator-free: the generic path (no compiled kernel), slow enough to be caught live
+method = "lie_midpoint"  # the generic path (no compiled kernel), slow enough to be caught live
 step = 0.002
 t_end = {t_end}
 project = true
@@ -90,7 +90,7 @@ def test_uninterrupted_run_writes_plain_hdf5(reference):
     data, attrs = reference
     assert attrs["status"] == "complete" and attrs["steps_done"] == attrs["planned_steps"] == 25_000
     assert attrs["lieint_version"] == lieint.__version__ and "4D top, long" in attrs["scene"]
-    assert attrs["method"] == "cf4" and len(attrs["scene_fingerprint"]) == 64
+    assert attrs["method"] == "lie_midpoint" and len(attrs["scene_fingerprint"]) == 64
     m = data["t"].size
     assert m == 25_000 // 7 + 2 and data["t"][-1] == 50.0
     assert np.all(np.diff(data["t"]) > 0)
