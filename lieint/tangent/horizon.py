@@ -39,7 +39,7 @@ class TrustHorizon:
     ----------
     t : ndarray, shape (m,)
         The times of the grid (``t0`` and the end of every step).
-    estimate : ndarray, shape (m, *b)
+    estimate : ndarray, shape (m, ...)
         The largest component of the propagated error estimate ``E(t)`` in tangent coordinates.
     tolerance : float
         The threshold asked for.
@@ -48,7 +48,7 @@ class TrustHorizon:
         the end of the run); a float for one body.
     y : dict of ndarray
         The final state.
-    error : ndarray, shape (*b, dim)
+    error : ndarray, shape (..., dim)
         The final error estimate ``E(T)`` (estimated ``y_h(T) − y(T)``, tangent coordinates).
     chart : TangentChart
         The tangent coordinates.

@@ -47,7 +47,7 @@ class Sensitivity:
         The final time.
     y : dict of ndarray
         The final state (the method's run, as :func:`lieint.integrate` computes it).
-    jacobian : ndarray, shape (*b, dim, p)
+    jacobian : ndarray, shape (..., dim, p)
         ``∂y(T)/∂θ``: row i a tangent coordinate (:attr:`chart`), column c a parameter
         component (:attr:`labels`).
     labels : list of str
