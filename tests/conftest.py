@@ -124,6 +124,15 @@ def assert_identical(a, b):
         assert np.array_equal(a[key], b[key]), key  # bit for bit
 
 
+def assert_same_sweep(a, b):
+    """Two opened sweep stores hold the same data variables, bit for bit (the chunk bookkeeping
+    aside)."""
+    names = [v for v in a.data_vars if not v.startswith("chunk_")]
+    assert names and set(names) == {v for v in b.data_vars if not v.startswith("chunk_")}
+    for name in names:
+        assert np.array_equal(a[name].values, b[name].values, equal_nan=False), name
+
+
 # -- scenes ---------------------------------------------------------------------------------
 #: the Dzhanibekov top with each flip recorded as an event (its flip times are known exactly)
 FLIPS = """

@@ -10,45 +10,13 @@ import time
 
 import numpy as np
 import pytest
+from conftest import assert_same_sweep
 
 zarr = pytest.importorskip("zarr")
 distributed = pytest.importorskip("distributed")
 xr = pytest.importorskip("xarray")
 
 import lieint  # noqa: E402
-
-# a heavy top runs on the generic (numpy) path: chunks of about half a second each
-HEAVY = """
-[scene]
-name = "heavy"
-[body]
-principal_moments = [1.0, 1.0, 0.5]
-mass = 1.0
-center_of_mass = [0.0, 0.0, 0.3]
-[support]
-type = "fixed_point"
-[forces]
-gravity = { magnitude = 9.81, incline = 0.0 }
-[initial]
-angular_velocity = [0.5, 0.0, 10.0]
-[integrator]
-method = "rkmk4"
-step = 0.002
-t_end = T_END
-save_every = 50
-[output]
-quantities = ["energy", "casimirs"]
-"""
-
-VARY = {"forces.gravity.incline": np.linspace(0.0, 0.7, 8)}
-
-
-def _same(a, b):
-    names = [v for v in a.data_vars if not v.startswith("chunk_")]
-    assert names and set(names) == {v for v in b.data_vars if not v.startswith("chunk_")}
-    for name in names:
-        assert np.array_equal(a[name].values, b[name].values, equal_nan=False), name
-
 
 # -- the client killed at random instants: nothing lost, nothing left running ---------------------------
 
@@ -141,7 +109,7 @@ def test_ten_kills_of_the_client_then_resume_give_the_uninterrupted_store_and_le
         assert not left, f"attempt {attempt}: worker processes {left} outlived their client by 10 s"
     done = subprocess.run([*cmd, str(out), "--resume"], capture_output=True, text=True, timeout=600)
     assert done.returncode == 0 and done.stderr == "", done.stderr
-    _same(lieint.sweeps.open_sweep(out), lieint.sweeps.open_sweep(tmp_path / "whole.zarr"))
+    assert_same_sweep(lieint.sweeps.open_sweep(out), lieint.sweeps.open_sweep(tmp_path / "whole.zarr"))
     assert any(0 < c < 12 for c in committed_before), f"no resume met a partly committed store: {committed_before}"
 
 

@@ -15,6 +15,7 @@ import time
 
 import numpy as np
 import pytest
+from conftest import assert_same_sweep
 
 zarr = pytest.importorskip("zarr")
 distributed = pytest.importorskip("distributed")
@@ -48,13 +49,6 @@ quantities = ["energy", "casimirs"]
 """
 
 VARY = {"forces.gravity.incline": np.linspace(0.0, 0.7, 8)}
-
-
-def _same(a, b):
-    names = [v for v in a.data_vars if not v.startswith("chunk_")]
-    assert names and set(names) == {v for v in b.data_vars if not v.startswith("chunk_")}
-    for name in names:
-        assert np.array_equal(a[name].values, b[name].values, equal_nan=False), name
 
 
 @pytest.fixture(scope="module")
@@ -133,7 +127,7 @@ def test_a_worker_killed_mid_sweep_changes_nothing(client, tmp_path, reference):
     assert report.status == "complete" and report.computed == 8
     ds = xr.open_zarr(out)
     assert ds["chunk_committed"].values.tolist() == [1] * 8
-    _same(ds, reference)
+    assert_same_sweep(ds, reference)
     client.wait_for_workers(2, timeout=60)  # the nanny restarted the killed worker
     assert set(client.run(os.getpid).values()) != set(before.values())
 
@@ -176,7 +170,7 @@ def test_resume_after_the_client_is_killed_skips_committed_chunks(client, tmp_pa
     )  # committed chunks were not recomputed
     whole = sweep(scene, ["forces.gravity.incline=0:0.7:4"], out=tmp_path / "whole.zarr", chunk=1, scheduler=client)
     assert whole.computed == 4
-    _same(ds, xr.open_zarr(tmp_path / "whole.zarr"))
+    assert_same_sweep(ds, xr.open_zarr(tmp_path / "whole.zarr"))
 
 
 def test_a_chunk_that_fails_stops_the_sweep_and_keeps_the_committed_ones(client, tmp_path):
