@@ -226,6 +226,16 @@ def _add_sweep_parser(sub) -> None:
         metavar="S",
         help="seconds allowed to reach --scheduler and check its versions (default: 20)",
     )
+    sw.add_argument(
+        "--megno",
+        action="store_true",
+        help="also store each member's MEGNO <Y> at the end (2: regular; grows: chaotic), on the exact tangent map",
+    )
+    sw.add_argument(
+        "--lyapunov",
+        action="store_true",
+        help="also store each member's largest Lyapunov exponent (from the same tangent vector as --megno)",
+    )
     sw.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
@@ -482,6 +492,7 @@ def _sweep(args) -> int:
             resume=args.resume,
             overwrite=args.overwrite,
             progress=False if args.quiet else "auto",
+            indicators=[name for name in ("megno", "lyapunov") if getattr(args, name)],
             connect_timeout=args.connect_timeout,
         )
     except NoSpaceError as exc:

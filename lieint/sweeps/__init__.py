@@ -7,7 +7,8 @@ Zarr store that ``xarray.open_zarr`` reads (:mod:`lieint.sweeps.store`).
 
 Modules: :mod:`~lieint.sweeps.keys` (scene keys such as ``body.principal_moments[0]``),
 :mod:`~lieint.sweeps.plan` (members and chunks, their sizes checked), :mod:`~lieint.sweeps.chunk`
-(one chunk, one worker), :mod:`~lieint.sweeps.store` (the Zarr store),
+(one chunk, one worker), :mod:`~lieint.sweeps.indicators` (MEGNO and the largest Lyapunov
+exponent per member), :mod:`~lieint.sweeps.store` (the Zarr store),
 :mod:`~lieint.sweeps.integrity` (checksums; what ``--overwrite`` may replace),
 :mod:`~lieint.sweeps.info` (``lieint info SWEEP.zarr``), :mod:`~lieint.sweeps.cluster` (where the
 chunks run, reached and checked first), :mod:`~lieint.sweeps.engine` (dask, the lock, commits).

@@ -44,6 +44,8 @@ def sweep(
     project: bool = False,
     save_every: int = 1,
     outputs: Sequence[str] = (),
+    indicators: Sequence[str] = (),
+    indicator_vector: ArrayLike | None = None,
     connect_timeout: float = 20.0,
 ) -> SweepReport:
     """Integrate a parameter and initial-condition sweep on dask and store it in Zarr.
@@ -102,6 +104,17 @@ def sweep(
     outputs : sequence of str, default ()
         Outputs or invariants of the systems to store besides the state (a scene names its
         own in ``[output]``).
+    indicators : sequence of str, default ()
+        Chaos indicators to store per member, from ``"megno"`` (⟨Y⟩ at the end of the run:
+        → 2 quasi-periodic, → 0 near a stable periodic orbit, grows like λt/2 if chaotic) and
+        ``"lyapunov"`` (the largest Lyapunov exponent from the same tangent vector), both as
+        :func:`lieint.megno` computes them on the exact tangent map of the sweep's method and
+        step (:mod:`lieint.sweeps.indicators`; not compiled, and several times the cost of the
+        integration). Each is a variable along ``member`` of the store: a MEGNO map of the grid.
+    indicator_vector : array_like, shape (dim,), optional
+        The initial tangent vector of every member, in the coordinates of
+        :func:`lieint.tangent.chart_of` (default: :func:`lieint.megno`'s for one body, so that
+        ``lieint.megno`` on one member reproduces its stored values).
     connect_timeout : float, default 20
         Seconds allowed to reach ``scheduler`` (an address), complete dask's handshake and check
         the versions of the scheduler and its workers — all before anything is created.
@@ -115,7 +128,8 @@ def sweep(
     ------
     SweepError
         A key the scene does not have, a value that makes the scene invalid, an adaptive method
-        (sweeps run fixed-step methods), an existing store without ``resume``/``overwrite``, a
+        (sweeps run fixed-step methods), an unknown indicator or one the method cannot give
+        (no tangent map), an existing store without ``resume``/``overwrite``, a
         store of another sweep or not a lieint sweep store (``overwrite`` replaces nothing
         else), a store another process is writing (its pid, host and start time), a scheduler
         that cannot be reached or runs other versions, or a chunk that failed on every retry;
@@ -160,11 +174,22 @@ def sweep(
             save_every=save_every,
             outputs=outputs,
             chunk=chunk,
+            indicators=indicators,
+            indicator_vector=indicator_vector,
         )
     else:
         if scene is None:
             raise SweepError("`scene` (a TOML file, an embedded scene's name, TOML text or a dict) is required")
-        plan = plan_from_scene(scene, vary, ensemble=ensemble, seed=seed, spread=spread, chunk=chunk)
+        plan = plan_from_scene(
+            scene,
+            vary,
+            ensemble=ensemble,
+            seed=seed,
+            spread=spread,
+            chunk=chunk,
+            indicators=indicators,
+            indicator_vector=indicator_vector,
+        )
     return run_sweep(
         plan,
         out,

@@ -47,6 +47,8 @@ class ChunkResult:
         Each requested invariant's drift (:mod:`lieint.drift`), ``(members,)``.
     meta : dict
         Method, back end, timings (s), steps, worker, host, process id, success, message.
+    indicators : dict
+        Each requested chaos indicator (:mod:`lieint.sweeps.indicators`), ``(members,)``.
     """
 
     index: int
@@ -57,6 +59,7 @@ class ChunkResult:
     series: dict[str, np.ndarray]
     drifts: dict[str, np.ndarray]
     meta: dict = field(default_factory=dict)
+    indicators: dict[str, np.ndarray] = field(default_factory=dict)
 
 
 def _groups(plan: SweepPlan, start: int, stop: int) -> list[tuple[int, int, int]]:
@@ -123,6 +126,7 @@ def compute_chunk(plan: SweepPlan, index: int, backend: str = "auto") -> ChunkRe
     ChunkResult
     """
     from ..systems.stacked import stack_systems
+    from .indicators import compute_indicators
 
     started = time.time()
     wall0, cpu0 = time.perf_counter(), time.process_time()
@@ -140,7 +144,7 @@ def compute_chunk(plan: SweepPlan, index: int, backend: str = "auto") -> ChunkRe
         runs.extend((s, {k: v[e0:e1] for k, v in y0.items()}) for (s, y0), e0, e1 in built)
 
     t = None
-    parts: list[tuple[dict, dict, dict]] = []
+    parts: list[tuple[dict, dict, dict, dict]] = []
     backends, reasons, notes = [], [], []
     nsteps, success, messages = 0, True, []
     cpu_steps = wall_steps = 0.0
@@ -158,6 +162,7 @@ def compute_chunk(plan: SweepPlan, index: int, backend: str = "auto") -> ChunkRe
         except DexpinvRangeError as exc:
             raise _name_the_member(exc, plan, system, y, first_member) from None
         first_member += system.batch_shape(y)[0] if system.batch_shape(y) else 1
+        indicators = compute_indicators(plan, system, y) if plan.indicators else {}
         if t is None:
             t = sol.t
         elif not np.array_equal(t, sol.t):  # pragma: no cover - fixed-step grids are shared
@@ -166,9 +171,13 @@ def compute_chunk(plan: SweepPlan, index: int, backend: str = "auto") -> ChunkRe
         names = list(plan.outputs)
         series = {k: np.swapaxes(np.asarray(v), 0, 1) for k, v in sol.outputs(names).items()}
         drifts = {k: np.asarray(sol.drift(k), dtype=float).reshape(-1) for k in names if k in system.invariants}
-        parts.append((states, series, drifts))
+        parts.append((states, series, drifts, indicators))
         backends.append(sol.stats.backend)
         reasons.append(sol.stats.backend_reason)
+        if plan.indicators:
+            from ..tangent.flow import BACKEND_REASON
+
+            reasons.append(f"{', '.join(plan.indicators)}: {BACKEND_REASON}")
         notes.extend(caught)
         nsteps = max(nsteps, sol.stats.nsteps)
         cpu_steps += sol.stats.cpu_time
@@ -200,4 +209,4 @@ def compute_chunk(plan: SweepPlan, index: int, backend: str = "auto") -> ChunkRe
         "message": "; ".join(messages) if messages else "ok",
         "warnings": "; ".join(sorted(set(notes))),
     }
-    return ChunkResult(index, start, stop, np.asarray(t), cat(0), cat(1), cat(2), meta)
+    return ChunkResult(index, start, stop, np.asarray(t), cat(0), cat(1), cat(2), meta, cat(3))

@@ -83,6 +83,8 @@ def inspect_sweep(path, timeout: float = 4.0) -> SweepInfo:
         f"h = {(plan.get('options') or {}).get('h', '?')}",
         f"  written by lieint {printable(str(attrs.get('lieint_version', '?')))}",
     ]
+    if plan.get("indicators"):
+        lines.insert(-1, "  indicators " + ", ".join(printable(str(n)) for n in plan["indicators"]) + " per member")
     check = verify_store(path, root, attrs, nchunks, deadline=deadline)
     status = str(attrs.get("status", "?"))
     holder = lock_holder(path) if status == "running" else None

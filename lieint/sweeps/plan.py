@@ -6,6 +6,8 @@ fastest) and the ensemble: member ``m`` is parameter point ``p = m // E`` and en
 ranges of ``chunk`` members. The plan is plain data (the scene's TOML data, the keys and values,
 the ensemble's count, seed and spread), so any worker rebuilds exactly the same systems and
 initial states from it, and a fingerprint of it tells a resumed store that it holds this sweep.
+
+A plan may also ask for chaos indicators per member (:mod:`lieint.sweeps.indicators`).
 """
 
 from __future__ import annotations
@@ -24,6 +26,7 @@ from typing import Any
 import numpy as np
 
 from ..limits import check
+from .indicators import check_indicators
 from .keys import SceneKey, SweepError, SweepKeyError, parse_key, parse_vary
 
 if sys.version_info >= (3, 11):
@@ -79,6 +82,9 @@ class SweepPlan:
     systems: list | None = None
     states: dict | None = None
     outputs: tuple[str, ...] = ()
+    #: chaos indicators per member (:data:`lieint.sweeps.indicators.INDICATORS`) and their initial tangent vector
+    indicators: tuple[str, ...] = ()
+    indicator_vector: tuple[float, ...] | None = None
     coords: dict[str, np.ndarray] = field(default_factory=dict)
     description: str = ""
     #: bytes the store holds per member and save time (state fields, outputs), and save times
@@ -108,7 +114,8 @@ class SweepPlan:
     def store_bytes(self) -> int:
         """Bytes of the store's member arrays, uncompressed (an upper bound of what it takes:
         Zstandard compresses trajectories little), plus the drifts and per-chunk metadata."""
-        return self.nmembers * (self.nsaves * self.row_bytes + 8 * (len(self.outputs) + 4)) + self.nchunks * 4096
+        per_member = 8 * (len(self.outputs) + len(self.indicators) + 4)
+        return self.nmembers * (self.nsaves * self.row_bytes + per_member) + self.nchunks * 4096
 
     @property
     def chunk_file_bytes(self) -> int:
@@ -179,6 +186,9 @@ class SweepPlan:
             "outputs": list(self.outputs),
             "version": __version__,
         }
+        if self.indicators:  # only then: the fingerprints of sweeps without indicators stay as they were
+            spec["indicators"] = list(self.indicators)
+            spec["indicator_vector"] = [float(x).hex() for x in self.indicator_vector]
         h.update(json.dumps(spec, sort_keys=True, default=str).encode())
         for v in self.variations:
             h.update(np.ascontiguousarray(v.values, dtype=float).tobytes())
@@ -212,7 +222,11 @@ class SweepPlan:
             "options": {
                 k: v if isinstance(v, (int, float, str, bool, type(None))) else repr(v) for k, v in self.options.items()
             },
-        }
+        } | (
+            {"indicators": list(self.indicators), "indicator_vector": list(self.indicator_vector)}
+            if self.indicators
+            else {}
+        )
 
 
 def _check_method(options: dict) -> None:
@@ -355,6 +369,8 @@ def plan_from_scene(
     seed: int = 0,
     spread: float | None = None,
     chunk: int | None = None,
+    indicators: Sequence[str] | None = None,
+    indicator_vector=None,
 ) -> SweepPlan:
     """Plan a sweep of a scene: the product of the varied values, times an ensemble.
 
@@ -371,6 +387,10 @@ def plan_from_scene(
         the scene's own, else required). Without ``ensemble`` the scene's own ``[ensemble]`` applies.
     chunk : int, optional
         Members per chunk (default: a multiple of the ensemble size giving about 32 chunks).
+    indicators : sequence of str, optional
+        Chaos indicators to store per member (:mod:`lieint.sweeps.indicators`).
+    indicator_vector : array_like, optional
+        Their initial tangent vector, the same for every member.
     """
     from ..scenes import SceneError, parse_scene
 
@@ -441,7 +461,11 @@ def plan_from_scene(
     _check_members(plan.npoints, size)
     plan.chunk = _check_chunk(chunk, _default_chunk(plan.npoints, size), plan.nmembers)
     _check_points(plan)
-    _check_chunk_sizes(plan, plan.build_point(0))
+    first = plan.build_point(0)
+    plan.indicators, plan.indicator_vector = check_indicators(
+        indicators, indicator_vector, first[0], opts, plan.outputs
+    )
+    _check_chunk_sizes(plan, first)
     return plan
 
 
@@ -482,6 +506,8 @@ def plan_from_systems(
     save_every: int = 1,
     outputs: Sequence[str] = (),
     chunk: int | None = None,
+    indicators: Sequence[str] | None = None,
+    indicator_vector=None,
 ) -> SweepPlan:
     """Plan a sweep of given systems × given initial states.
 
@@ -498,6 +524,9 @@ def plan_from_systems(
         Outputs or invariants of the systems to store as series (their drift too for invariants).
     chunk : int, optional
         Members per chunk.
+    indicators, indicator_vector : optional
+        Chaos indicators to store per member and their initial tangent vector
+        (:mod:`lieint.sweeps.indicators`).
     """
     from ..systems.base import LieGroupSystem
 
@@ -545,5 +574,6 @@ def plan_from_systems(
         description=type(first).__name__,
     )
     plan.chunk = _check_chunk(chunk, _default_chunk(plan.npoints, size), plan.nmembers)
+    plan.indicators, plan.indicator_vector = check_indicators(indicators, indicator_vector, first, opts, plan.outputs)
     _check_chunk_sizes(plan, (first, stacked))
     return plan

@@ -9,6 +9,7 @@ Layout (``xarray.open_zarr(SWEEP.zarr)`` reads it as one Dataset)::
     state_<field> (member, time, ...)    every state field at the save times
     <output> (member, time, ...)         each requested output or invariant
     drift_<invariant> (member)           each requested invariant's drift (lieint.drift)
+    megno, lyapunov (member)             the chaos indicators asked for (lieint.sweeps.indicators)
     chunk_committed (chunk)              1 once the chunk is committed
     chunk_sha256 (chunk)                 the size and SHA-256 of each of the chunk's files (JSON)
     chunk_stats (chunk, stat)            per chunk: start, stop, steps, cpu/wall time, pid, ...
@@ -41,6 +42,7 @@ from pathlib import Path
 import numpy as np
 
 from .chunk import ChunkResult
+from .indicators import INDICATORS
 from .integrity import (
     DamagedStoreError,
     StoreError,
@@ -335,12 +337,18 @@ class SweepStore:
         N, M = self.plan.nmembers, self.plan.chunk
         m = result.t.size
         coords = " ".join(attrs["coordinates_along_member"])
-        groups = (("state_", result.states, True), ("", result.series, True), ("drift_", result.drifts, False))
+        groups = (
+            ("state_", result.states, True),
+            ("", result.series, True),
+            ("drift_", result.drifts, False),
+            ("", result.indicators, False),
+        )
         names = [prefix + name for prefix, values, _ in groups for name in values] + ["time"]
         # the names first: a writer killed while creating them leaves arrays a resume removes
         self.root.attrs["arrays"] = sorted(set(attrs["arrays"]) | set(names))
         for prefix, values, timed in groups:
             for name, v in values.items():
+                described = {"description": INDICATORS[name]} if values is result.indicators else {}
                 trailing = v.shape[2:] if timed else ()
                 dims = ["member", "time"] if timed else ["member"]
                 dims += [f"{name}_{i}" for i in range(len(trailing))]
@@ -352,7 +360,7 @@ class SweepStore:
                     dtype="f8",
                     fill_value=np.nan,
                     dimension_names=dims,
-                    attributes={"coordinates": coords},
+                    attributes={"coordinates": coords} | described,
                     config=_always_written(),
                 )
         self._array("time", result.t, ["time"])
@@ -387,7 +395,12 @@ class SweepStore:
         self._ensure_result_arrays(result)
         sl = slice(result.start, result.stop)
         written = []
-        for prefix, values in (("state_", result.states), ("", result.series), ("drift_", result.drifts)):
+        for prefix, values in (
+            ("state_", result.states),
+            ("", result.series),
+            ("drift_", result.drifts),
+            ("", result.indicators),
+        ):
             for name, v in values.items():
                 self._array_of(prefix + name)[sl] = v
                 written.append(prefix + name)
