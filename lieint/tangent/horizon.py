@@ -28,7 +28,7 @@ from ..systems.base import LieGroupSystem
 from .coordinates import TangentChart
 from .flow import BACKEND_REASON, TangentStepper, step_schedule
 
-__all__ = ["TrustHorizon", "trust_horizon"]
+__all__ = ["ErrorPropagator", "TrustHorizon", "check_tolerance", "trust_horizon"]
 
 
 @dataclass(frozen=True)
@@ -67,6 +67,131 @@ class TrustHorizon:
     chart: TangentChart
     nsteps: int
     backend_reason: str = BACKEND_REASON
+
+
+def check_tolerance(tolerance) -> float:
+    """``tolerance`` as a float, or :class:`ValueError` naming it (a finite positive number)."""
+    number = isinstance(tolerance, (int, float, np.floating, np.integer)) and not isinstance(tolerance, bool)
+    if not (number and np.isfinite(tolerance) and tolerance > 0):
+        raise ValueError(f"`tolerance` must be a finite positive number; got {tolerance!r}.")
+    return float(tolerance)
+
+
+class ErrorPropagator:
+    """The recursion ``E_{k+1} = DΦ_h(y_k) E_k + l_k`` of the module docstring, one step at a time.
+
+    :func:`trust_horizon` steps it through a whole run; a streamed run (:func:`lieint.run`) steps
+    it beside its own segments.
+
+    Parameters
+    ----------
+    system : LieGroupSystem
+        The system.
+    y0 : dict of array_like
+        The state to start from (any batch of bodies), with ``E = 0`` there.
+    method : str or Method, default "rkmk4"
+        A method of known order with a tangent map.
+    coordinates : {"exp", "cayley"}, optional
+        The coordinate map of a Lie-group method.
+
+    Attributes
+    ----------
+    y : dict of ndarray
+        The state reached.
+    E : ndarray, shape (..., dim)
+        The error estimate there (tangent coordinates).
+    chart : TangentChart
+        The tangent coordinates.
+    batch : tuple of int
+        The batch shape of the bodies.
+
+    Raises
+    ------
+    ValueError, TypeError
+        A method without an order or a tangent map; a bad state.
+    """
+
+    def __init__(
+        self,
+        system: LieGroupSystem,
+        y0: dict[str, ArrayLike],
+        method: str | Method = "rkmk4",
+        *,
+        coordinates: str | None = None,
+    ):
+        self.stepper = TangentStepper(system, method, coordinates)
+        p = self.stepper.method.order
+        if not isinstance(p, int) or p < 1:
+            raise ValueError(
+                f"`method` {self.stepper.method.name!r} has no fixed order (got {p!r}); step doubling needs one."
+            )
+        self.system = system
+        self.richardson = 2.0**p / (2.0**p - 1.0)
+        self.y = system.validate_state(y0)
+        self.chart: TangentChart = self.stepper.chart
+        self.batch: tuple[int, ...] = system.batch_shape(self.y)
+        self.E = np.zeros(self.batch + (self.chart.dim,))
+        self._state = None
+        self._started = False
+
+    def restore(self, y: dict[str, ArrayLike], E: ArrayLike) -> None:
+        """Continue from a state and error estimate saved earlier (a resumed run).
+
+        Parameters
+        ----------
+        y : dict of array_like
+            The state reached.
+        E : array_like, shape (..., dim)
+            The error estimate there.
+        """
+        self.y = self.system.validate_state(y)
+        self.E = np.array(E, dtype=float)
+        self._started = False  # the method's state is rebuilt at the next step
+
+    def step(self, t: float, h: float, tolerance: float | None = None) -> np.ndarray:
+        """One step from ``t`` of size ``h``: the state and the error estimate move on.
+
+        Parameters
+        ----------
+        t : float
+            The time at the start of the step.
+        h : float
+            The step.
+        tolerance : float, optional
+            Named in the message when the estimate becomes non-finite.
+
+        Returns
+        -------
+        ndarray, shape b
+            The largest component of the error estimate after the step.
+
+        Raises
+        ------
+        FloatingPointError
+            The estimate became non-finite.
+        """
+        stepper, system, method_, chart, y = self.stepper, self.system, self.stepper.method, self.chart, self.y
+        with np.errstate(over="ignore", invalid="ignore"):
+            size = np.max(np.abs(self.E), axis=-1, keepdims=True)
+            size = np.where(size > 0, size, 1.0)
+            z = stepper.seed(y, (self.E / size)[None])
+            if not self._started:
+                self._state = stepper.init(t, z, h)
+                self._started = True
+            z, self._state = stepper.step(t, z, h, self._state)
+            y1, carried = stepper.split(z)
+            half = method_.step(system, t, y, 0.5 * h, method_.init(system, t, y, 0.5 * h)).y
+            half = method_.step(system, t + 0.5 * h, half, 0.5 * h, method_.init(system, t, half, 0.5 * h)).y
+            local = chart.read(y1, {name: (y1[name] - half[name])[None] for name in chart.names})[0]
+            E = carried[0] * size + self.richardson * local
+        self.y, self.E = y1, E
+        if not np.all(np.isfinite(E)):
+            where = f"the tolerance {tolerance:g}" if tolerance is not None else "any tolerance"
+            raise FloatingPointError(
+                f"the error estimate became non-finite by t = {t + h:g}; the run has long left {where} "
+                "(reduce the step or the horizon)."
+            )
+        return np.max(np.abs(E), axis=-1)
 
 
 def trust_horizon(
@@ -125,49 +250,18 @@ def trust_horizon(
     >>> run.horizon, bool(run.estimate[-1] < 1e-3)
     (inf, True)
     """
-    stepper = TangentStepper(system, method, coordinates)
-    p = stepper.method.order
-    if not isinstance(p, int) or p < 1:
-        raise ValueError(f"`method` {stepper.method.name!r} has no fixed order (got {p!r}); step doubling needs one.")
-    number = isinstance(tolerance, (int, float, np.floating, np.integer)) and not isinstance(tolerance, bool)
-    if not (number and np.isfinite(tolerance) and tolerance > 0):
-        raise ValueError(f"`tolerance` must be a finite positive number; got {tolerance!r}.")
+    propagator = ErrorPropagator(system, y0, method, coordinates=coordinates)
+    tolerance = check_tolerance(tolerance)
     if not isinstance(stop, (bool, np.bool_)):
         raise TypeError(f"`stop` must be True or False; got {stop!r}.")
-    y = system.validate_state(y0)
     t0, _, starts, sizes = step_schedule(t_span, h, steps)
-    chart = stepper.chart
-    batch = system.batch_shape(y)
-    richardson = 2.0**p / (2.0**p - 1.0)
-    method_ = stepper.method
-
-    E = np.zeros(batch + (chart.dim,))
-    times, estimates = [t0], [np.zeros(batch)]
-    state = None
-    with np.errstate(over="ignore", invalid="ignore"):
-        for k, (tk, hk) in enumerate(zip(starts, sizes, strict=True)):
-            tk, hk = float(tk), float(hk)
-            size = np.max(np.abs(E), axis=-1, keepdims=True)
-            size = np.where(size > 0, size, 1.0)
-            z = stepper.seed(y, (E / size)[None])
-            if k == 0:
-                state = stepper.init(t0, z, hk)
-            z, state = stepper.step(tk, z, hk, state)
-            y1, carried = stepper.split(z)
-            half = method_.step(system, tk, y, 0.5 * hk, method_.init(system, tk, y, 0.5 * hk)).y
-            half = method_.step(system, tk + 0.5 * hk, half, 0.5 * hk, method_.init(system, tk, half, 0.5 * hk)).y
-            local = chart.read(y1, {name: (y1[name] - half[name])[None] for name in chart.names})[0]
-            E = carried[0] * size + richardson * local
-            y = y1
-            times.append(tk + hk)
-            estimates.append(np.max(np.abs(E), axis=-1))
-            if not np.all(np.isfinite(E)):
-                raise FloatingPointError(
-                    f"the error estimate became non-finite by t = {tk + hk:g}; the run has long left the tolerance "
-                    f"{tolerance:g} (reduce the step or the horizon)."
-                )
-            if stop and np.all(np.max(estimates, axis=0) > tolerance):
-                break
+    times, estimates = [t0], [np.zeros(propagator.batch)]
+    for tk, hk in zip(starts, sizes, strict=True):
+        estimates.append(propagator.step(float(tk), float(hk), tolerance))
+        times.append(float(tk) + float(hk))
+        if stop and np.all(np.max(estimates, axis=0) > tolerance):
+            break
+    y, E, chart = propagator.y, propagator.E, propagator.chart
     t = np.array(times)
     estimate = np.stack(estimates)
     above = estimate > tolerance
