@@ -85,6 +85,18 @@ def _build_parser() -> argparse.ArgumentParser:
         metavar="NAME=VALUE",
         help="stop the run once the drift of invariant NAME exceeds VALUE (repeatable)",
     )
+    run.add_argument(
+        "--max-error-estimate",
+        type=positive_float,
+        metavar="E",
+        help="with --out: carry the run's estimated global error (as lieint.trust_horizon) and report when it first "
+        "exceeds E (printed, and recorded for lieint info); the run goes on",
+    )
+    run.add_argument(
+        "--stop-at-horizon",
+        action="store_true",
+        help="with --max-error-estimate: stop the run once every member's estimated error exceeds E",
+    )
     plot = sub.add_parser(
         "plot",
         help="draw a streamed run: invariant drifts, orientation or contact path, spread",
@@ -292,6 +304,11 @@ def _dispatch(args, parser) -> int:
     if args.command == "scenes":
         return _scenes(args)
     if args.command == "run":
+        if not args.out and (args.max_error_estimate is not None or args.stop_at_horizon):
+            flag = "--max-error-estimate" if args.max_error_estimate is not None else "--stop-at-horizon"
+            _error("run", f"{flag} applies to a streamed run (--out RUN.h5); for a run in memory use lieint analyze "
+                   "SCENE --max-error-estimate E")  # fmt: skip
+            return 2
         return _run_streamed(args) if args.out else _run(args)
     if args.command == "plot":
         return _plot(args)
@@ -357,6 +374,7 @@ def _scenes(args) -> int:
 
 def _run_streamed(args) -> int:
     from .runs import StoreError, run
+    from .runs.trust import describe_horizon as horizon_summary
     from .scenes import SceneError
 
     limits = {}
@@ -381,11 +399,15 @@ def _run_streamed(args) -> int:
             monitor_every=args.monitor_every,
             max_drift=limits,
             stop_after=args.stop_after,
+            max_error_estimate=args.max_error_estimate,
+            stop_at_horizon=args.stop_at_horizon,
         )
     except (SceneError, StoreError, ValueError) as exc:
         _error("run", exc)
         return 2
     print(printable_lines(f"{report.message} -> {report.path}"))
+    if report.trust_horizon is not None:
+        print(horizon_summary(report.trust_horizon))
     if report.status == "failed":
         _error("run", f"the run failed: {report.message}")
     for name, value in report.drifts.items():

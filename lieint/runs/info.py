@@ -230,7 +230,8 @@ def inspect_run(path, timeout: float = 4.0) -> RunInfo:
                 problems.append(why)
             else:
                 why, resumable = "", True
-        word = {"stopped": "stopped (--max-drift)", "failed": "failed"}.get(state, "interrupted")
+        stopped = "stopped (--max-drift or --stop-at-horizon)" if "trust_horizon" in attrs else "stopped (--max-drift)"
+        word = {"stopped": stopped, "failed": "failed"}.get(state, "interrupted")
         head = f"{word} at step {k}{of_n}; " + (
             "resumable: lieint run SCENE --out RUN.h5 --resume" if resumable else f"not resumable: {why}"
         )
@@ -246,5 +247,23 @@ def inspect_run(path, timeout: float = 4.0) -> RunInfo:
             f"could not check within the deadline ({' and '.join(unchecked)} read in {timeout:g} s; pass a longer "
             f"--timeout); as far as checked: {head}"
         )
+    lines.extend(_horizon_lines(attrs.get("trust_horizon")))
     lines.insert(1, f"  state      {printable(head)}")
     return RunInfo(path, state, resumable, lines, problems)
+
+
+def _horizon_lines(text) -> list[str]:
+    """The ``trust`` lines of a run carrying its error estimate (``--max-error-estimate``)."""
+    if text is None:
+        return []
+    from ..text import printable
+    from .trust import describe_horizon
+
+    try:
+        described = describe_horizon(json.loads(str(text)))
+    except (ValueError, KeyError, TypeError) as exc:
+        return [f"  horizon    its trust_horizon record is unreadable ({type(exc).__name__})"]
+    return [
+        f"  horizon    {printable(line.removeprefix('trust horizon: ').removeprefix('trust horizon '))}"
+        for line in described.splitlines()
+    ]

@@ -13,6 +13,7 @@ and Ctrl-C.
 
 from __future__ import annotations
 
+import json
 import math
 import os
 import signal
@@ -50,6 +51,8 @@ def run(
     monitor_every: int | None = None,
     max_drift: dict[str, float] | None = None,
     stop_after: int | None = None,
+    max_error_estimate: float | None = None,
+    stop_at_horizon: bool = False,
     stream: TextIO | None = None,
 ) -> RunReport:
     """Integrate a scene, streaming the saved series into an HDF5 file.
@@ -81,6 +84,16 @@ def run(
         member, :mod:`lieint.drift`) exceeds value.
     stop_after : int, optional
         Stop (resumable, like an interruption) after this many steps of this call.
+    max_error_estimate : float, optional
+        Carry the run's estimated global error beside it (:func:`lieint.trust_horizon`'s
+        estimate, on the run's grid: :mod:`lieint.runs.trust`) and report when it first
+        exceeds this tolerance, member by member: a line on ``stream`` when it happens, the
+        file's attribute ``trust_horizon`` (``lieint info``) and :attr:`RunReport.trust_horizon`.
+        Needs a fixed-step method of known order with a tangent map; costs one complex step and
+        two half steps of the generic numpy path per step, until every member has crossed.
+    stop_at_horizon : bool, default False
+        Stop the run (status "stopped", resumable) once every member has crossed
+        ``max_error_estimate``.
     stream : file, optional
         Where progress and monitor lines go (default ``sys.stderr``).
 
@@ -88,7 +101,7 @@ def run(
     -------
     RunReport
         ``status`` is "complete", "interrupted" (Ctrl-C or ``stop_after``), "stopped"
-        (``max_drift``), "failed" (the state became non-finite) or "no-space" (the disk is
+        (``max_drift``, ``stop_at_horizon``), "failed" (the state became non-finite) or "no-space" (the disk is
         full or the file-size limit was reached: the rows up to the last checkpoint are safe,
         resume once there is room).
 
@@ -107,6 +120,10 @@ def run(
 
     stream = sys.stderr if stream is None else stream
     _check_arguments(overwrite, resume, checkpoint_every, monitor_every, stop_after, checkpoint_seconds)
+    if not isinstance(stop_at_horizon, (bool, np.bool_)):
+        raise TypeError(f"`stop_at_horizon` must be True or False; got {stop_at_horizon!r}.")
+    if stop_at_horizon and max_error_estimate is None:
+        raise ValueError("`stop_at_horizon` needs `max_error_estimate` (the tolerance whose horizon stops the run).")
     if not isinstance(scene, Scene):
         scene = _resolve_scene(scene, load_scene)
     out = Path(out)
@@ -116,7 +133,7 @@ def run(
         raise StoreError(f"cannot create the output file {str(out)!r}: {str(out.parent)!r} is not a directory")
     with RunLock(out):  # held until the run has ended: one writer per run file
         _check_output(out, overwrite, resume)
-        streamed = StreamedRun(scene, out)
+        streamed = StreamedRun(scene, out, max_error_estimate, stop_at_horizon)
         limits = _check_limits(max_drift, streamed.invariant_names)
         if not resume:
             _check_room(streamed)
@@ -174,7 +191,8 @@ class _Session:
                 s.close()
         k = s.carry.k if s.carry is not None else 0
         drifts = s.monitor.largest() if s.monitor is not None else {}
-        return RunReport(s.out, status, k, total, rows, message, drifts)
+        horizon = json.loads(s.horizon.record()) if s.horizon is not None else None
+        return RunReport(s.out, status, k, total, rows, message, drifts, horizon)
 
     @staticmethod
     def _end_without_space(s: StreamedRun) -> None:
@@ -220,6 +238,12 @@ class _Session:
         k_start = s.carry.k
         last_ckpt_time, last_ckpt_step, last_monitor = time.monotonic(), s.carry.k, s.carry.k
         while not s.done:
+            if s.stop_at_horizon and s.horizon.done and s.carry.k >= s.horizon.k:
+                return "stopped", (
+                    f"every member's estimated global error exceeded --max-error-estimate {s.horizon.tolerance:g} by "
+                    f"t = {float(np.max(s.horizon.horizon)):.6g} (step {s.carry.k}); the run stopped there "
+                    "(--stop-at-horizon), the rows up to here are saved"
+                )
             k0, t0 = s.carry.k, s.carry.t
             tic = time.monotonic()
             seg = s.segment(self._budget(chunk, k_start, last_ckpt_step, last_monitor))
@@ -230,6 +254,14 @@ class _Session:
             k = s.carry.k
             if seg.failure:
                 return "failed", seg.failure
+            for member, t in s.crossed:
+                which = f"member {member}: " if s.horizon.horizon.size > 1 else ""
+                print(
+                    f"[trust horizon] {which}the estimated global error exceeds --max-error-estimate "
+                    f"{s.horizon.tolerance:g} at t = {t:.6g}",
+                    file=stream,
+                    flush=True,
+                )
             worst = s.monitor.largest()
             exceeded = [(n, worst[n], v) for n, v in self.limits.items() if not worst[n] <= v]
             if exceeded:

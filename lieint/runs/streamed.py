@@ -28,6 +28,7 @@ from ..scenes import Scene, build_system, scene_solver_options
 from ..scenes.engine import scene_events
 from .run_events import StreamedEvents
 from .store import Checkpoint, NoSpaceError, OutputFile, StoreError, available_room
+from .trust import RunHorizon
 
 __all__ = ["SEGMENT_BYTES", "RunReport", "StreamedRun", "scene_fingerprint"]
 
@@ -46,6 +47,9 @@ class RunReport:
     rows: int
     message: str
     drifts: dict[str, float] = field(default_factory=dict)
+    #: with ``max_error_estimate``: the tolerance, per member the time the estimated global
+    #: error first exceeded it (None: not reached), the largest estimate, the time estimated to
+    trust_horizon: dict | None = None
 
 
 def scene_fingerprint(scene: Scene) -> str:
@@ -77,9 +81,11 @@ class StreamedRun:
 
     Build it with :meth:`start` (a new file) or :meth:`resume` (continue from the checkpoint),
     then call :meth:`segment` until :attr:`done`, :meth:`checkpoint` when due, and :meth:`finish`.
+    With ``max_error_estimate`` it carries the run's trust horizon (:mod:`lieint.runs.trust`),
+    and with ``stop_at_horizon`` its segments end at the step where every member has crossed.
     """
 
-    def __init__(self, scene: Scene, out: Path):
+    def __init__(self, scene: Scene, out: Path, max_error_estimate: float | None = None, stop_at_horizon: bool = False):
         from .._version import __version__
 
         self.version = __version__
@@ -100,6 +106,19 @@ class StreamedRun:
         observer = self.events.observer if self.events is not None else None
         self.driver = Driver(self.system, method, (scene.t_start, scene.t_end), **options, observer=observer)
         self.y0 = self.driver.initial(y0)
+        #: the trust horizon carried beside the run (:mod:`lieint.runs.trust`), or None
+        self.horizon: RunHorizon | None = None
+        #: the members whose estimate crossed in the last segment, and when
+        self.crossed: list[tuple[int, float]] = []
+        #: end the run's segments at the step where every member has crossed
+        self.stop_at_horizon = bool(stop_at_horizon)
+        if max_error_estimate is not None:
+            if self.driver.kind != "fixed":
+                raise ValueError(
+                    f"`max_error_estimate` needs a fixed-step method (the estimate is carried on the run's grid of "
+                    f"step h); the scene's method {method.name!r} chooses its own steps"
+                )
+            self.horizon = RunHorizon(self.system, y0, method, self.driver.plan, max_error_estimate)
         self.batch_ndim = len(self.system.batch_shape(self.y0))
         declared = self.system.invariants
         self.invariant_names = [q for q in scene.outputs if q in declared]
@@ -214,7 +233,8 @@ class StreamedRun:
                 "batch_ndim": self.batch_ndim,
                 # which saved invariants measure a defect (plots show their size, not a drift)
                 "defects": ",".join(sorted(n for n, k in self.kinds.items() if k == "defect")),
-            },
+            }
+            | ({"trust_horizon": self.horizon.record()} if self.horizon is not None else {}),
             {g: {n: v[0] for n, v in a.items()} for g, a in rows.items() if a},
             self.driver.t0,
             self._dataset_attrs(),
@@ -234,6 +254,8 @@ class StreamedRun:
             reasons.append(f"it was written by lieint {attrs.get('lieint_version')}, this is {self.version}")
         if reasons:
             raise StoreError(f"refusing to resume from {str(self.checkpoint_file.path)!r}: " + "; ".join(reasons))
+        if self.horizon is not None:  # before the file is touched: a refusal leaves it as it was
+            self.horizon.restore(arrays, attrs)
         rows = int(attrs["rows"])
         self.k_checkpointed, self.rows_checkpointed = int(attrs["k"]), rows
         first = {k[6:]: v for k, v in arrays.items() if k.startswith("first:")}
@@ -290,7 +312,15 @@ class StreamedRun:
         not be written (a full disk, the file-size limit): the file then stays intact and the run
         ends as resumable instead of failing inside HDF5.
         """
-        seg = self.driver.advance(self.carry, self.room_for(max_steps))
+        steps = self.room_for(max_steps)
+        if self.horizon is not None:
+            # the estimate follows its own copy of the run, so it may go first: with
+            # stop_at_horizon the segment then ends exactly where the last member crossed
+            k = self.carry.k
+            self.crossed = self.horizon.advance(k + steps)
+            if self.stop_at_horizon and self.horizon.done:
+                steps = max(0, min(steps, self.horizon.k - k))
+        seg = self.driver.advance(self.carry, steps)
         self._write(seg)
         return seg
 
@@ -317,6 +347,10 @@ class StreamedRun:
         if self.events is not None and not replay:
             event_arrays, extra = self.events.checkpoint()
             arrays.update(event_arrays)
+        if self.horizon is not None:
+            horizon_arrays, horizon_attrs = self.horizon.checkpoint()
+            arrays.update(horizon_arrays)
+            extra = {**extra, **horizon_attrs}
         self.checkpoint_file.write(
             arrays,
             {
@@ -338,7 +372,8 @@ class StreamedRun:
 
     def _record_counts(self) -> None:
         c = self.carry
-        self.output.set_attrs(steps_done=c.k, nfev=c.nfev, nrejected=c.nrejected)
+        more = {"trust_horizon": self.horizon.record()} if self.horizon is not None else {}
+        self.output.set_attrs(steps_done=c.k, nfev=c.nfev, nrejected=c.nrejected, **more)
 
     def finish(self, status: str) -> None:
         """Record how the run ended; a complete run drops its checkpoint."""
