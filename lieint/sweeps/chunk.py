@@ -161,8 +161,11 @@ def compute_chunk(plan: SweepPlan, index: int, backend: str = "auto") -> ChunkRe
             sol, caught = _run(plan, system, y, backend)
         except DexpinvRangeError as exc:
             raise _name_the_member(exc, plan, system, y, first_member) from None
+        indicators = {}
+        if plan.indicators:
+            indicators, failed = compute_indicators(plan, system, y, first_member, stacked=system is stacked)
+            notes.extend(failed)
         first_member += system.batch_shape(y)[0] if system.batch_shape(y) else 1
-        indicators = compute_indicators(plan, system, y) if plan.indicators else {}
         if t is None:
             t = sol.t
         elif not np.array_equal(t, sol.t):  # pragma: no cover - fixed-step grids are shared

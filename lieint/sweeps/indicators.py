@@ -124,23 +124,55 @@ def check_indicators(
     return names, tuple(float(x) for x in v)
 
 
-def compute_indicators(plan, system, y: dict) -> dict[str, np.ndarray]:
+def compute_indicators(
+    plan, system, y: dict, first_member: int = 0, *, stacked: bool = False
+) -> tuple[dict[str, np.ndarray], list[str]]:
     """The plan's indicators of a batch of members, ``{name: (members,)}``.
+
+    A batch whose tangent run fails (a member's state or tangent vector becomes non-finite)
+    is run again member by member: the members that fail read NaN, and a note names them.
 
     Parameters
     ----------
     plan : SweepPlan
         The sweep's plan (its indicators, their vector, span, method and step).
     system : LieGroupSystem
-        The batch's system (possibly stacked).
+        The batch's system.
     y : dict
         The batch's initial states (one batch axis).
+    first_member : int, default 0
+        The sweep's index of the batch's first member (for the notes).
+    stacked : bool, default False
+        Whether ``system`` is stacked (per-member parameters): its members are not run apart.
 
     Returns
     -------
-    dict of ndarray
+    values : dict of ndarray
         One value per member of the batch, per indicator.
+    notes : list of str
+        The members whose indicators could not be computed, and why.
     """
+    try:
+        return _indicators(plan, system, y), []
+    except FloatingPointError as exc:
+        n = system.batch_shape(y)[0]
+        if stacked or n == 1:
+            values = {name: np.full(n, np.nan) for name in plan.indicators}
+            return values, [f"indicators of members {first_member}..{first_member + n - 1}: {exc}"]
+    values = {name: np.empty(n) for name in plan.indicators}
+    notes = []
+    for i in range(n):
+        try:
+            one = _indicators(plan, system, {k: v[i : i + 1] for k, v in y.items()})
+        except FloatingPointError as exc:
+            one = {name: np.full(1, np.nan) for name in plan.indicators}
+            notes.append(f"indicators of member {first_member + i}: {exc}")
+        for name in plan.indicators:
+            values[name][i] = one[name][0]
+    return values, notes
+
+
+def _indicators(plan, system, y: dict) -> dict[str, np.ndarray]:
     from ..analysis.chaos import megno
 
     options = plan.options

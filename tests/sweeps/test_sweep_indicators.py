@@ -143,3 +143,31 @@ def test_cli_sweep_megno(tmp_path, capsys):
     ds = open_sweep(out)
     assert "megno" in ds and "lyapunov" not in ds and ds["megno"].shape == (2,)
     assert np.all(np.isfinite(ds["megno"].values))
+
+
+def test_a_member_whose_tangent_run_fails_reads_nan_and_is_named(tmp_path, monkeypatch):
+    """A batch whose tangent run fails is run member by member; only the failing member is lost."""
+    import lieint.analysis.chaos as chaos
+
+    top = lieint.EulerTop.from_principal_moments([1.0, 2.0, 3.0], orientation=False)
+    y0 = top.initial_state(angular_velocity=[[0.3, 1.0, 0.4], [1.0, 0.3, 0.2], [0.2, 0.4, 1.0]])
+    bad = y0["A"][1]
+    real = chaos.megno
+
+    def failing(system, y, *args, **kwargs):
+        if np.any(np.all(np.isclose(y["A"], bad), axis=(-2, -1))):
+            raise FloatingPointError("the tangent vector became non-finite at t = 0.5; reduce `h` = 0.1.")
+        return real(system, y, *args, **kwargs)
+
+    monkeypatch.setattr(chaos, "megno", failing)
+    sweep(systems=top, y0=y0, t_span=(0.0, 1.0), h=0.1, out=tmp_path / "f.zarr", indicators=["megno"], chunk=3,
+          scheduler="synchronous", progress=False, backend="numpy")  # fmt: skip
+    ds = open_sweep(tmp_path / "f.zarr")
+    values = ds["megno"].values
+    assert np.isnan(values[1]) and np.all(np.isfinite(values[[0, 2]]))
+    for m in (0, 2):
+        one = {"A": y0["A"][m]}
+        assert abs(values[m] - real(top, one, (0.0, 1.0), 0.1).mean) <= 1e-12
+    assert "indicators of member 1: the tangent vector became non-finite" in str(
+        ds["chunk_info"].sel(info="warnings").values[0]
+    )
