@@ -199,7 +199,8 @@ def _add_sweep_parser(sub) -> None:
             "one batched ensemble on a dask worker (a LocalCluster by default, or an existing cluster with "
             "--scheduler), committed to one Zarr store that xarray.open_zarr reads with the varied keys as "
             "coordinates. Keys: body.principal_moments[0], body.mass, forces.gravity.incline, "
-            "initial.angular_velocity[2], ... An interrupted sweep continues with --resume."
+            "initial.angular_velocity[2], ... --megno and --lyapunov also store each member's chaos indicators (a "
+            "MEGNO map of the grid). An interrupted sweep continues with --resume."
         ),
     )
     sw.add_argument("scene", help="path of a scene TOML file, or the name of an embedded scene")

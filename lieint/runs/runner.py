@@ -34,6 +34,7 @@ from .streamed import RunReport, StreamedRun, human_bytes, scene_fingerprint
 __all__ = ["RunReport", "StreamedRun", "run", "scene_fingerprint"]
 
 _SEGMENT_SECONDS = 0.25  # aim for segments of about this wall time (progress, Ctrl-C latency)
+_CROSSING_LINES = 10  # trust-horizon lines printed per call (an ensemble may have thousands)
 
 
 # -- the run ---------------------------------------------------------------------------------------
@@ -101,9 +102,9 @@ def run(
     -------
     RunReport
         ``status`` is "complete", "interrupted" (Ctrl-C or ``stop_after``), "stopped"
-        (``max_drift``, ``stop_at_horizon``), "failed" (the state became non-finite) or "no-space" (the disk is
-        full or the file-size limit was reached: the rows up to the last checkpoint are safe,
-        resume once there is room).
+        (``max_drift``, ``stop_at_horizon``), "failed" (the state became non-finite) or
+        "no-space" (the disk is full or the file-size limit was reached: the rows up to the
+        last checkpoint are safe, resume once there is room).
 
     Examples
     --------
@@ -154,6 +155,7 @@ class _Session:
         self.checkpoint_every, self.checkpoint_seconds = checkpoint_every, checkpoint_seconds
         self.monitor_every, self.stop_after, self.limits = monitor_every, stop_after, limits
         self.stop = threading.Event()
+        self.crossings_shown = 0
 
     def run(self, resume: bool) -> RunReport:
         s = self.s
@@ -220,6 +222,24 @@ class _Session:
             f"Free space (or raise the limit) and {resume}."
         )
 
+    def _show_crossings(self, s: StreamedRun) -> None:
+        """A line for each member whose error estimate crossed in the last segment (the first
+        :data:`_CROSSING_LINES` of the call; a large ensemble's others are in the file)."""
+        for member, t in s.crossed:
+            self.crossings_shown += 1
+            if self.crossings_shown > _CROSSING_LINES:
+                if self.crossings_shown == _CROSSING_LINES + 1:
+                    print("[trust horizon] … the other members' horizons are recorded in the file (lieint info)",
+                          file=self.stream, flush=True)  # fmt: skip
+                continue
+            which = f"member {member}: " if s.horizon.horizon.size > 1 else ""
+            print(
+                f"[trust horizon] {which}the estimated global error exceeds --max-error-estimate "
+                f"{s.horizon.tolerance:g} at t = {t:.6g}",
+                file=self.stream,
+                flush=True,
+            )
+
     def _budget(self, chunk: int, k_start: int, last_ckpt_step: int, last_monitor: int) -> int:
         """Steps of the next segment: on time for the stop, a monitor line and a checkpoint."""
         k = self.s.carry.k
@@ -254,14 +274,7 @@ class _Session:
             k = s.carry.k
             if seg.failure:
                 return "failed", seg.failure
-            for member, t in s.crossed:
-                which = f"member {member}: " if s.horizon.horizon.size > 1 else ""
-                print(
-                    f"[trust horizon] {which}the estimated global error exceeds --max-error-estimate "
-                    f"{s.horizon.tolerance:g} at t = {t:.6g}",
-                    file=stream,
-                    flush=True,
-                )
+            self._show_crossings(s)
             worst = s.monitor.largest()
             exceeded = [(n, worst[n], v) for n, v in self.limits.items() if not worst[n] <= v]
             if exceeded:

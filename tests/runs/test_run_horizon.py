@@ -137,3 +137,18 @@ def test_cli_run_max_error_estimate(tmp_path, capsys):
     assert f"[trust horizon] the estimated global error exceeds --max-error-estimate 1e-05 at t = {t:.6g}" in (
         captured.err
     )
+
+
+def test_a_large_ensemble_prints_ten_crossings_and_records_them_all(tmp_path):
+    sc = scene(ensemble="[ensemble]\ncount = 12\nseed = 1\nspread = 0.3\n")
+    truth = direct(sc, tol=1e-7)
+    assert np.all(np.isfinite(truth.horizon))
+    lines = io.StringIO()
+    report = lieint.run(sc, tmp_path / "e.h5", progress=False, max_error_estimate=1e-7, stream=lines)
+    assert report.trust_horizon["horizon"] == truth.horizon.tolist()
+    shown = lines.getvalue()
+    assert shown.count("[trust horizon] member ") == 10
+    assert "the other members' horizons are recorded in the file (lieint info)" in shown
+    text = inspect_run(tmp_path / "e.h5").text()
+    assert f"horizon    12 of 12 members exceed 1e-07, the first at t = {min(truth.horizon):g}, the last at t = " \
+           f"{max(truth.horizon):g}" in text  # fmt: skip
