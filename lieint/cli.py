@@ -191,6 +191,14 @@ def _add_sweep_parser(sub) -> None:
     )
     warm.add_argument("systems", nargs="*", metavar="SYSTEM", help="which systems (default: all; see --list)")
     warm.add_argument("--list", action="store_true", help="list the systems warmup knows and exit")
+    warm.add_argument(
+        "--jobs",
+        type=positive_int,
+        default=None,
+        metavar="N",
+        help="processes compiling at once (default: one per usable CPU; numba compiles one kernel at a time in a "
+        "process)",
+    )
     sw = sub.add_parser(
         "sweep",
         help="integrate a parameter / initial-condition sweep of a scene on dask, into a Zarr store",
@@ -253,6 +261,8 @@ def _add_sweep_parser(sub) -> None:
 
 
 def _warmup(args) -> int:
+    import time
+
     from .warmup import WARMUP_SYSTEMS, warmup
 
     if args.list:
@@ -262,15 +272,19 @@ def _warmup(args) -> int:
     if unknown:
         print(f"lieint warmup: unknown system(s) {unknown}; choose from {list(WARMUP_SYSTEMS)}", file=sys.stderr)
         return 2
+    wall = time.perf_counter()
     print(f"{'system':16} {'method family':34} {'CPU s':>7} {'wall s':>7}  state")
 
     def report(item):
         state = "compiled" if item.compiled else "cached"
         print(f"{item.system:16} {item.family:34} {item.cpu:7.2f} {item.wall:7.2f}  {state}", flush=True)
 
-    items = warmup(args.systems or None, report=report)
+    items = warmup(args.systems or None, report=report, jobs=args.jobs)
     total = sum(item.cpu for item in items)
-    print(f"{len(items)} kernels ready ({total:.1f} s CPU); later runs load them from numba's disk cache.")
+    print(
+        f"{len(items)} kernels ready ({total:.1f} s CPU, {time.perf_counter() - wall:.1f} s wall); later runs load "
+        "them from numba's disk cache."
+    )
     return 0
 
 

@@ -79,6 +79,14 @@ def add_compare_parser(sub, scene=None):
         help="stop a method's sweep after a point taking more than S CPU seconds per call (listed as skipped; "
         "default: 1 s, with --full 5 s)",
     )
+    cmp.add_argument(
+        "--compile-jobs",
+        type=positive_int,
+        default=None,
+        metavar="N",
+        help="on a cold numba cache, compile the kernels of the compiled series before the study in N processes at "
+        "once (default: one per usable CPU; 1: in this process as each series starts)",
+    )
     cmp.add_argument("--full", action="store_true", help="the full sweep (6-8 points per method) and 5 repeats")
     cmp.add_argument("--t-end", type=positive_float, help="override the scenes' span (T = t_end - t_start)")
     cmp.add_argument("--out-dir", default="lieint-compare", help="where the tables and figures go")
@@ -151,6 +159,7 @@ def studies(args):
                 backend=args.backend,
                 max_seconds="auto" if args.max_seconds is None else args.max_seconds,
                 skip_inapplicable=several,  # over several scenes a named method may not apply to all
+                compile_jobs=getattr(args, "compile_jobs", None),
             ),
         )
 

@@ -78,6 +78,7 @@ def run_study(
     max_seconds: float | str | None = "auto",
     skip_inapplicable: bool = False,
     progress=None,
+    compile_jobs: int | None = None,
 ) -> Study:
     """Run the work–precision study of ``scene``.
 
@@ -106,6 +107,10 @@ def run_study(
         their reasons in ``metadata["not_applicable"]``, instead of raising ``ValueError``.
     progress : callable, optional
         Called with each :class:`StudyRow` as it is measured.
+    compile_jobs : int, optional
+        Processes compiling at once when numba's disk cache is cold (default: one per usable
+        CPU; 1 compiles in this process as each series starts). The kernels of every compiled
+        series are compiled before anything is timed; ``metadata["compiled_ahead"]`` says how.
 
     Returns
     -------
@@ -121,4 +126,5 @@ def run_study(
         max_seconds=max_seconds,
         skip_inapplicable=skip_inapplicable,
         progress=progress,
+        compile_jobs=compile_jobs,
     )

@@ -33,7 +33,7 @@ from ..methods.registry import get_method
 from .plan import ATOL_RATIO, GRID, PlanEntry, Variant
 from .reference import Reference, state_error
 
-__all__ = ["BUDGET", "StudyRow", "Timing", "measure_point", "timed"]
+__all__ = ["BUDGET", "StudyRow", "Timing", "measure_point", "point_calls", "timed"]
 
 #: seconds of timed calls after which a point stops repeating (slow points are timed fewer times)
 BUDGET = 2.0
@@ -135,29 +135,13 @@ def _compiled_declared(system, method) -> bool:
     return system.compiled() is not None and method.compiled() is not None
 
 
-def measure_point(
-    scene,
-    system,
-    y0: dict,
-    entry: PlanEntry,
-    variant: Variant,
-    setting,
-    reference: Reference,
-    scale: float,
-    *,
-    repeats: int = 3,
-    backend: str = "auto",
-    warm_up: bool = True,
-    budget: float = BUDGET,
-) -> StudyRow:
-    """Run and time one point, and measure its error against ``reference``.
-
-    ``warm_up`` runs one untimed call first (the same settings over the first
-    ``WARM_UP_FRACTION`` of the span); the study warms up once per series (the first point of
-    each method and variant), which is what first-call costs (compilation, imports) depend on.
-    ``budget``: seconds of timed calls after which the point stops repeating.
-    """
-    span = (scene.t_start, scene.t_end)
+def point_calls(
+    system, y0: dict, span: tuple[float, float], entry: PlanEntry, variant: Variant, setting, backend: str = "auto"
+):
+    """The two calls of one point of a study: ``fn()``, the timed run over the whole ``span``,
+    and ``warm_fn()``, the untimed warm-up with the same settings over the first
+    ``WARM_UP_FRACTION`` of it (at least ten steps of a fixed grid) — what a series' first
+    compilation happens in. Each returns the :class:`lieint.Solution`."""
     T = span[1] - span[0]
     grid = np.linspace(*span, GRID + 1)
     method = get_method(entry.method)
@@ -215,6 +199,35 @@ def measure_point(
             warnings.simplefilter("ignore")
             return run(span[0] + min(T, part), full=False)
 
+    return fn, warm_fn
+
+
+def measure_point(
+    scene,
+    system,
+    y0: dict,
+    entry: PlanEntry,
+    variant: Variant,
+    setting,
+    reference: Reference,
+    scale: float,
+    *,
+    repeats: int = 3,
+    backend: str = "auto",
+    warm_up: bool = True,
+    budget: float = BUDGET,
+) -> StudyRow:
+    """Run and time one point, and measure its error against ``reference``.
+
+    ``warm_up`` runs one untimed call first (the same settings over the first
+    ``WARM_UP_FRACTION`` of the span); the study warms up once per series (the first point of
+    each method and variant), which is what first-call costs (compilation, imports) depend on.
+    ``budget``: seconds of timed calls after which the point stops repeating.
+    """
+    span = (scene.t_start, scene.t_end)
+    T = span[1] - span[0]
+    method = get_method(entry.method)
+    fn, warm_fn = point_calls(system, y0, span, entry, variant, setting, backend)
     try:
         timing, sol = timed(fn, repeats, warm_up=warm_up, budget=budget, warm_fn=warm_fn)
     except (DexpinvRangeError, np.linalg.LinAlgError) as exc:  # the step is too large for this method

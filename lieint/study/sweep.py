@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+import functools
+import time
 from dataclasses import dataclass, field, replace
 
 from ..scenes import Scene, build_system
 from .machine import machine_info, set_threads
-from .measure import BUDGET, QUICK_BUDGET, WARM_UP_FRACTION, StudyRow, measure_point
+from .measure import BUDGET, QUICK_BUDGET, WARM_UP_FRACTION, StudyRow, _compiled_declared, measure_point, point_calls
 from .plan import PlanEntry, study_plan
 from .reference import RESOLVED, Reference, reference_for, state_scale
 
@@ -92,6 +94,61 @@ def _warm_kernel(scene, system, y0, entry: PlanEntry, variant, backend: str) -> 
     )
 
 
+def _warm_series(scene: Scene, entry: PlanEntry, variant, setting, backend: str) -> None:
+    """A series' warm-up call in a process of its own (:func:`compile_ahead`): the system is
+    built there again from the (prepared) scene."""
+    system, y0 = build_system(scene)
+    point_calls(system, y0, (scene.t_start, scene.t_end), entry, variant, setting, backend)[1]()
+
+
+def compile_ahead(scene: Scene, system, y0: dict, plan: list[PlanEntry], backend: str, jobs: int | None) -> dict:
+    """Compile the kernels of the study's compiled series before anything is timed, in ``jobs``
+    processes at once when the disk cache turns out to be cold.
+
+    The first compiled series warms up here; if numba had to compile for it, the cache is cold
+    and the warm-ups of one series per other kernel run in fresh processes, one per core
+    (:func:`lieint.warmup.compile_in_processes`), which fill the cache that the timed calls then
+    load. Nothing is timed meanwhile, so the processes do not disturb a measurement. Returns what
+    it did (``metadata["compiled_ahead"]``)."""
+    from ..fast import _jit
+    from ..methods.registry import get_method
+    from ..warmup import compile_in_processes
+
+    # one series per kernel: the methods of one compiled family and kind (the energy-keeping
+    # pairs apart) run one loop's kernel, their coefficients being data; two processes compiling
+    # the same kernel at once would only race to write it
+    series, kernels = [], set()
+    for entry in plan:
+        method = get_method(entry.method)
+        if backend != "auto" or not _compiled_declared(system, method):
+            continue
+        for variant in entry.variants:
+            kernel = (method.compiled().family, entry.kind, entry.family.endswith("energy"), variant.project)
+            if kernel not in kernels:
+                kernels.add(kernel)
+                series.append((entry, variant, entry.settings[0]))
+    done = {"series": len(series), "processes": 0, "wall": 0.0}
+    if not series:
+        return done
+    wall = time.perf_counter()
+    before = _jit.compilations()
+    entry, variant, setting = series[0]
+    try:
+        point_calls(system, y0, (scene.t_start, scene.t_end), entry, variant, setting, backend)[1]()
+    except Exception:  # the series' own first point reports it
+        pass
+    if _jit.compilations() > before and len(series) > 1:
+        # the controller loops first: the longest compilations, started while the pool is widest
+        rest = sorted(series[1:], key=lambda one: one[0].kind != "adaptive")
+        tasks = [functools.partial(_warm_series, scene, *one, backend) for one in rest]
+        from ..warmup import usable_cpus
+
+        done["processes"] = min(usable_cpus() if jobs is None else jobs, len(tasks))
+        compile_in_processes(tasks, jobs)
+    done["wall"] = time.perf_counter() - wall
+    return done
+
+
 def run_study_full(
     scene: Scene,
     *,
@@ -103,6 +160,7 @@ def run_study_full(
     max_seconds: float | str | None = "auto",
     skip_inapplicable: bool = False,
     progress=None,
+    compile_jobs: int | None = None,
 ) -> Study:
     """Run the study of ``scene``; see :func:`lieint.study.run_study` for the parameters."""
     if isinstance(max_seconds, str) and max_seconds == "auto":
@@ -121,6 +179,7 @@ def run_study_full(
     used_threads = set_threads(threads)
     rows, skipped = [], []
     try:
+        ahead = compile_ahead(scene, system, y0, plan, backend, compile_jobs)
         for entry in plan:
             for variant in entry.variants:
                 for i, setting in enumerate(entry.settings):
@@ -163,10 +222,12 @@ def run_study_full(
         "backend_requested": backend,
         "repeats": repeats,
         "sweep": "quick" if quick else "full",
+        "compiled_ahead": ahead,
         "timing": (
             "warm: one untimed call per method and variant first, over the first "
             f"{WARM_UP_FRACTION:g} of the span with the same settings (compilation, caches; its wall time "
-            "is cold_wall of the series' first point), then up to `repeats` timed calls of "
+            "is cold_wall of the series' first point; on a cold numba cache the compiled series were "
+            "compiled before, in parallel processes: compiled_ahead), then up to `repeats` timed calls of "
             f"lieint.integrate over the whole span (fewer when they exceed {QUICK_BUDGET if quick else BUDGET:g} s); "
             "CPU = process time of all threads, wall = elapsed"
         ),
