@@ -175,7 +175,8 @@ def pytest_collection_modifyitems(config, items):
     whichever process is free: a long file taken last keeps one process busy while the other
     waits (the collection order is alphabetical, and two of the longest files sit near its end).
     Taking the long files first is the classic longest-first schedule; the count of ``slow``
-    marks is the file's measured weight (a test is marked slow for taking >= 14 s).
+    marks is the file's measured weight (a test is marked slow when it takes seconds with a warm
+    cache, so that the fast tier keeps to two minutes on two cores).
     """
     weight: dict[str, int] = {}
     for item in items:

@@ -74,7 +74,9 @@ def _energy_methods():
     return [(name, c) for name, c in registered_methods() if name.endswith("+energy")]
 
 
-@pytest.mark.parametrize("label", sorted(ENERGY_SYSTEMS))
+@pytest.mark.parametrize(
+    "label", [pytest.param(x, marks=pytest.mark.slow) if x == "heavy_top n=4" else x for x in sorted(ENERGY_SYSTEMS)]
+)
 def test_compiled_beyond_the_3d_top_takes_the_generic_paths_steps(label):
     """Every registered energy pair, in exponential and Cayley coordinates, on each compiled form:
     compiled, the generic path's accepted and rejected steps and states (up to the controller's

@@ -67,7 +67,8 @@ def _cases():
     }
 
 
-@pytest.mark.parametrize("name", list(_cases()))
+# the 4D top's case takes seconds (its MEGNO over the longest run): the full suite's
+@pytest.mark.parametrize("name", [pytest.param(n, marks=pytest.mark.slow) if n == "4D top" else n for n in _cases()])
 def test_the_count_and_the_motion_agree(name):
     build, initial, integrals, expected_count, regime = _cases()[name]
     if integrals is not None:

@@ -266,6 +266,7 @@ def test_the_evaluations_reported_are_the_generator_solves():
         assert sol.stats.backend == "numba" and sol.stats.nfev == 10 * solves, name
 
 
+@pytest.mark.slow
 def test_the_first_compilation_of_the_kernel_is_announced(tmp_path):
     """In a fresh numba cache the Moser–Veselov kernel's compilation is announced on stderr."""
     script = textwrap.dedent(

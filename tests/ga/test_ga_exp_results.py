@@ -148,6 +148,7 @@ def test_solution_multivectors_of_fields_and_outputs(rng):
         sol.multivectors("casimirs")
 
 
+@pytest.mark.slow
 def test_multivectors_of_a_rotor_system_and_a_motor():
     top = ga.RotorForm(lieint.HeavyTop.lagrange(1.0, 0.5, 1.0, 0.3))
     sol = lieint.integrate(top, top.initial_state(angular_velocity=[0.1, 0.2, 5.0]), (0, 0.2), h=0.01)

@@ -320,7 +320,7 @@ def euler_poisson_rhs(t, z):
     return np.concatenate([(A @ Omega - Omega @ A).ravel(), (R @ Omega).ravel()])
 
 
-@pytest.mark.parametrize("backend", ["auto", "numpy"])
+@pytest.mark.parametrize("backend", ["auto", pytest.param("numpy", marks=pytest.mark.slow)])
 def test_events_backward_are_the_forward_ones_met_in_reverse(backend):
     """Forward to 60 and back from there: the three flips at the exact times, met in reverse
     order; a crossing's direction is read in the run's order (scipy's), so the backward run's
