@@ -218,7 +218,9 @@ def compile_in_processes(
     one kernel at a time (numba's compiler lock), so on a cold cache the first calls of many
     kernels take as many times one core. Here each task runs in a process of its own pool
     (started by ``spawn``: a fork would copy numba's and the BLAS's threads), the pool as wide as
-    ``jobs``, and the caller then finds the kernels in the cache. The tasks are for their side
+    ``jobs``, and the caller then finds the kernels in the cache. ``spawn`` imports the caller's
+    main module again in each process, so a script that calls this keeps its work under
+    ``if __name__ == "__main__":`` (as for any spawn pool). The tasks are for their side
     effect: a task that fails is left for the caller's own call of the same thing to report, and
     a pool that cannot start or breaks (a process killed, no memory) ends this quietly for the
     same reason.

@@ -78,7 +78,7 @@ def run_study(
     max_seconds: float | str | None = "auto",
     skip_inapplicable: bool = False,
     progress=None,
-    compile_jobs: int | None = None,
+    compile_jobs: int | None = 1,
 ) -> Study:
     """Run the work–precision study of ``scene``.
 
@@ -107,10 +107,13 @@ def run_study(
         their reasons in ``metadata["not_applicable"]``, instead of raising ``ValueError``.
     progress : callable, optional
         Called with each :class:`StudyRow` as it is measured.
-    compile_jobs : int, optional
-        Processes compiling at once when numba's disk cache is cold (default: one per usable
-        CPU; 1 compiles in this process as each series starts). The kernels of every compiled
-        series are compiled before anything is timed; ``metadata["compiled_ahead"]`` says how.
+    compile_jobs : int or None, default 1
+        Processes compiling at once when numba's disk cache is cold (None: one per usable CPU,
+        what ``lieint compare`` uses); the kernels of every compiled series are then compiled
+        before anything is timed, and ``metadata["compiled_ahead"]`` says how. With 1, each
+        series compiles in this process as it starts. The processes are started by ``spawn``,
+        which imports the caller's main module again: a script that asks for more than one
+        keeps its work under ``if __name__ == "__main__":``.
 
     Returns
     -------

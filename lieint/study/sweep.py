@@ -108,8 +108,8 @@ def compile_ahead(scene: Scene, system, y0: dict, plan: list[PlanEntry], backend
     The first compiled series warms up here; if numba had to compile for it, the cache is cold
     and the warm-ups of one series per other kernel run in fresh processes, one per core
     (:func:`lieint.warmup.compile_in_processes`), which fill the cache that the timed calls then
-    load. Nothing is timed meanwhile, so the processes do not disturb a measurement. Returns what
-    it did (``metadata["compiled_ahead"]``)."""
+    load. Nothing is timed meanwhile, so the processes do not disturb a measurement. With
+    ``jobs`` = 1 nothing happens here. Returns what it did (``metadata["compiled_ahead"]``)."""
     from ..fast import _jit
     from ..methods.registry import get_method
     from ..warmup import compile_in_processes
@@ -128,7 +128,7 @@ def compile_ahead(scene: Scene, system, y0: dict, plan: list[PlanEntry], backend
                 kernels.add(kernel)
                 series.append((entry, variant, entry.settings[0]))
     done = {"series": len(series), "processes": 0, "wall": 0.0}
-    if not series:
+    if not series or jobs == 1:  # one process: each series compiles as it starts, as it always did
         return done
     wall = time.perf_counter()
     before = _jit.compilations()
@@ -160,7 +160,7 @@ def run_study_full(
     max_seconds: float | str | None = "auto",
     skip_inapplicable: bool = False,
     progress=None,
-    compile_jobs: int | None = None,
+    compile_jobs: int | None = 1,
 ) -> Study:
     """Run the study of ``scene``; see :func:`lieint.study.run_study` for the parameters."""
     if isinstance(max_seconds, str) and max_seconds == "auto":

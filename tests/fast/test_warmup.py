@@ -105,7 +105,8 @@ def test_a_study_on_a_warm_cache_starts_no_process():
         h=0.01,
         method="rkmk4",
     )
-    study = run_study(embedded_scene("dzhanibekov"), methods=["rkmk4", "rk4"], repeats=1, max_seconds=0.5)
+    scene = embedded_scene("dzhanibekov")
+    study = run_study(scene, methods=["rkmk4", "rk4"], repeats=1, max_seconds=0.5, compile_jobs=None)
     ahead = study.metadata["compiled_ahead"]
     assert ahead["series"] == 2 and ahead["processes"] == 0  # rkmk4 and rk4: two kernels
     assert {row.backend for row in study.rows} == {"numba"}

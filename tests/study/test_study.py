@@ -338,9 +338,8 @@ def test_the_quick_sweep_stops_slow_series_sooner_and_warms_up_on_part_of_the_sp
     full = run_study(scene, methods=["rk4"], repeats=1, quick=False, max_seconds="auto")
     assert quick.metadata["max_seconds"] == 1.0 and full.metadata["max_seconds"] == 5.0
     # one warm-up per series over the first part of the span (at least ten steps), then whole
-    # spans; before them, the first compiled series' warm-up of compile_ahead (which finds out
-    # whether the cache is cold), once per study
+    # spans (compile_jobs = 1, the default: nothing is compiled ahead)
     short = [s for s in spans if s[1] < 2.0]
-    assert quick.metadata["compiled_ahead"]["series"] == full.metadata["compiled_ahead"]["series"] == 1
-    assert len(short) == 2 + 2 and all(0.1 <= s[1] < 2.0 for s in short)
+    assert quick.metadata["compiled_ahead"]["processes"] == full.metadata["compiled_ahead"]["processes"] == 0
+    assert len(short) == 2 and all(0.1 <= s[1] < 2.0 for s in short)
     assert len(spans) - len(short) == len(quick.rows) + len(full.rows)
