@@ -6,7 +6,6 @@ bit, per member), through an interruption and resume, and bad input refused by n
 
 import io
 import json
-import sys
 
 import h5py
 import numpy as np
@@ -16,11 +15,6 @@ import lieint
 import lieint.cli
 from lieint.runs.info import inspect_run
 from lieint.scenes import build_system, parse_scene
-
-if sys.version_info >= (3, 11):
-    import tomllib
-else:  # pragma: no cover
-    import tomli as tomllib
 
 #: the asymmetric top near its separatrix: rkmk4 at h = 0.1 loses 1e-5 by t ≈ 10
 TOP = """
@@ -45,7 +39,7 @@ TOL = 1e-5
 
 
 def scene(method="rkmk4", ensemble=""):
-    return parse_scene(tomllib.loads(TOP.replace("METHOD", method) + ensemble))
+    return parse_scene(TOP.replace("METHOD", method) + ensemble)
 
 
 def direct(sc, tol=TOL):
