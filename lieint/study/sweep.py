@@ -112,7 +112,7 @@ def compile_ahead(scene: Scene, system, y0: dict, plan: list[PlanEntry], backend
     ``jobs`` = 1 nothing happens here. Returns what it did (``metadata["compiled_ahead"]``)."""
     from ..fast import _jit
     from ..methods.registry import get_method
-    from ..warmup import compile_in_processes
+    from ..warmup import compile_in_processes, usable_cpus
 
     # one series per kernel: the methods of one compiled family and kind (the energy-keeping
     # pairs apart) run one loop's kernel, their coefficients being data; two processes compiling
@@ -141,8 +141,6 @@ def compile_ahead(scene: Scene, system, y0: dict, plan: list[PlanEntry], backend
         # the controller loops first: the longest compilations, started while the pool is widest
         rest = sorted(series[1:], key=lambda one: one[0].kind != "adaptive")
         tasks = [functools.partial(_warm_series, scene, *one, backend) for one in rest]
-        from ..warmup import usable_cpus
-
         done["processes"] = min(usable_cpus() if jobs is None else jobs, len(tasks))
         compile_in_processes(tasks, jobs)
     done["wall"] = time.perf_counter() - wall

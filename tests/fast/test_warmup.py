@@ -74,6 +74,15 @@ def test_a_failing_task_gives_none_and_the_others_their_values():
         assert (pid == os.getpid()) == (jobs == 1)  # one job: in this process
 
 
+def test_a_process_that_dies_ends_the_pool_quietly():
+    """A pool's process killed mid-task (here it exits at once) breaks the pool: what did not run
+    reads None and nothing is raised, the caller then compiling as it would have anyway."""
+    results = compile_in_processes([functools.partial(os._exit, 3), os.getpid], jobs=2)
+    assert results[0] is None
+    assert results[1] is None or results[1] != os.getpid()  # not run, or run in the pool
+    assert compile_in_processes([os.getpid], jobs=2)[0] == os.getpid()  # one task: in this process
+
+
 def test_finished_tasks_are_reported_with_their_index():
     seen = {}
     compile_in_processes([functools.partial(int, "1"), functools.partial(int, "2")], jobs=2, done=seen.__setitem__)
