@@ -295,4 +295,5 @@ def project_pose(y, out, oR, oC, n, normal, radius):
 
 @njit(cache=True)
 def copy_into(y, out):
-    out[:] = y
+    for i in range(y.shape[0]):  # not out[:] = y (lieint.fast.products.copy_matrix_into)
+        out[i] = y[i]

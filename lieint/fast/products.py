@@ -20,7 +20,16 @@ from numba import njit
 from ._jit import NO_REFCOUNT
 from .small_products import square_into
 
-__all__ = ["mm", "mm_into", "mm_loops", "mm_small_into", "mm_unrolled_into", "mv"]
+__all__ = [
+    "copy_matrix_into",
+    "copy_vector_into",
+    "mm",
+    "mm_into",
+    "mm_loops",
+    "mm_small_into",
+    "mm_unrolled_into",
+    "mv",
+]
 
 #: up to this size, matrix products run as loops: a BLAS call costs more than the arithmetic
 _SMALL = 8
@@ -52,9 +61,27 @@ def mm_into(A, B, out):
     n, k = A.shape
     m = B.shape[1]
     if n > _SMALL or k > _SMALL or m > _SMALL:
-        out[:, :] = np.ascontiguousarray(A) @ np.ascontiguousarray(B)
+        copy_matrix_into(np.ascontiguousarray(A) @ np.ascontiguousarray(B), out)
     else:
         _loops_into(A, B, out)
+
+
+# The copies below by loops, never by slice assignment (``out[:, :] = X``): numba's slice
+# assignment of an array compiles its shape-mismatch message (string formatting), about 2 s of
+# CPU time in every process that compiles a kernel for the first time, for a copy a loop does.
+@njit(cache=True, **NO_REFCOUNT)
+def copy_matrix_into(X, out):
+    """``out[:, :] = X`` by loops (X and out of one shape; out may not overlap X)."""
+    for a in range(X.shape[0]):
+        for c in range(X.shape[1]):
+            out[a, c] = X[a, c]
+
+
+@njit(cache=True, **NO_REFCOUNT)
+def copy_vector_into(x, out):
+    """``out[:] = x`` by a loop (x and out of one length)."""
+    for a in range(x.shape[0]):
+        out[a] = x[a]
 
 
 # inlined into its callers, not called: a product here may fall back on BLAS (which copies),

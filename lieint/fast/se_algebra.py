@@ -18,7 +18,7 @@ import numpy as np
 from numba import njit
 
 from ._jit import NO_REFCOUNT
-from .products import mm_unrolled_into
+from .products import copy_matrix_into, copy_vector_into, mm_unrolled_into
 from .skew import _cayley_se3_into, _finite, cayley_se_elim_into, exp_se3_into, expm_se, expm_skew, so_ad_radius_exceeds
 
 __all__ = [
@@ -43,11 +43,11 @@ def exponential(uW, uv, nv, Q, t):
     elif n == 3:
         exp_se3_into(uW, uv, Q, t)  # closed forms (uv of length 0 on SO(3))
     elif nv == 0:
-        Q[:, :] = expm_skew(uW)
+        copy_matrix_into(expm_skew(uW), Q)
     else:
         Q1, t1 = expm_se(uW, uv)
-        Q[:, :] = Q1
-        t[:] = t1
+        copy_matrix_into(Q1, Q)
+        copy_vector_into(t1, t)
 
 
 @njit(cache=True)

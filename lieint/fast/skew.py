@@ -15,7 +15,7 @@ import numpy as np
 from numba import njit
 
 from ._jit import NO_REFCOUNT, compiled_copies
-from .products import mm, mm_into, mm_small_into
+from .products import copy_matrix_into, mm, mm_into, mm_small_into
 
 __all__ = [
     "expm_se",
@@ -97,8 +97,10 @@ def expm_se(W, v):
     if n == 3:
         return _exp_se3(W, v)
     X = np.zeros((n + 1, n + 1))
-    X[:n, :n] = W
-    X[:n, n] = v
+    for a in range(n):
+        for c in range(n):
+            X[a, c] = W[a, c]
+        X[a, n] = v[a]
     X2 = mm(X, X)
     S = _scaled_taylor(X, X2, min(_onenorm(W), np.sqrt(_onenorm(X2[:n, :n]))), _THETAS_SE)
     return np.ascontiguousarray(S[:n, :n]), np.ascontiguousarray(S[:n, n])
@@ -295,7 +297,7 @@ def _scaled_taylor(u, u2, norm, thetas):
     n = u.shape[0]
     out = np.empty((n, n))
     work = np.empty((5, n, n))
-    work[0] = u2
+    copy_matrix_into(u2, work[0])
     _scaled_taylor_into(u, norm, thetas, out, work)
     return out
 
@@ -339,7 +341,7 @@ def _scaled_taylor_into(u, norm, thetas, out, work):
     for j in range(q - 1, -1, -1):
         if j < q - 1:
             mm_into(S, top, T)
-            S[:, :] = T
+            copy_matrix_into(T, S)
         c0, c1, c2 = c[j * p], c[j * p + 1], c[j * p + 2] if p >= 3 else 0.0
         c3 = c[j * p + 3] if p == 4 else 0.0
         for a in range(n):
@@ -352,7 +354,7 @@ def _scaled_taylor_into(u, norm, thetas, out, work):
                     S[a, b] += c3 * x3[a, b]
     for _ in range(s):
         mm_into(S, S, T)
-        S[:, :] = T
+        copy_matrix_into(T, S)
 
 
 @njit(cache=True)

@@ -60,7 +60,7 @@ from numba import njit
 
 from ._jit import NO_REFCOUNT
 from .cayley import cayley_into
-from .products import mm_small_into
+from .products import copy_matrix_into, mm_small_into
 from .skew import _project, expm_skew, so_ad_radius_exceeds
 from .topn_step import _act_into, _classical_step, _combine, _exp_into, _lie_step, _products_step
 
@@ -121,7 +121,7 @@ def _user(X, P, right_only, identity, out, tmp):
     """The user's frame of a principal-frame field: ``P X Pᵀ`` (A), or ``X Pᵀ`` (R, with
     ``right_only``); a copy when P is the identity."""
     if identity:
-        out[:, :] = X
+        copy_matrix_into(X, out)
     elif right_only:
         mm_small_into(X, P.T, out)
     else:
@@ -214,7 +214,9 @@ def form_lie_step(fx, y, par, meth, h, y1, inc, aux, scr):
         y1[i] = y[i]
     A, R = _parts(y1, n, r)
     aux[0] = _generator_norm2(A, M)  # ξ(y) = M ∘ Ã, the first stage
-    if not _lie_step(A, R, r > 0, M, meth.A, meth.b, h, meth.coeffs, meth.cayley, K, W, E):
+    # reduce=False passed, not left to its default: an omitted argument is a type of its own,
+    # and the energy pairs' call (reduce=True) would compile the whole step a second time
+    if not _lie_step(A, R, r > 0, M, meth.A, meth.b, h, meth.coeffs, meth.cayley, K, W, E, False):
         return -1
     u = W[0]
     j = 0
@@ -254,8 +256,8 @@ def form_rk_step(fx, y, par, meth, h, y1, inc, aux, scr):
     A, R = _parts(y, n, r)
     A1, R1 = _classical_step(A, R, r > 0, _M(par, n), meth.A, meth.b, h, scr[0], scr[1])
     B1, S1 = _parts(y1, n, r)
-    B1[:, :] = A1
-    S1[:, :] = R1
+    copy_matrix_into(A1, B1)
+    copy_matrix_into(R1, S1)
     return meth.b.shape[0]
 
 
@@ -307,9 +309,9 @@ def form_user_field(fx, yu, par, fu, scr):
     P, M = _P(par, n), _M(par, n)
     Om = P @ ((P.T @ A @ P) * M) @ P.T
     Om = 0.5 * (Om - Om.T)
-    dA[:, :] = A @ Om - Om @ A
+    copy_matrix_into(A @ Om - Om @ A, dA)
     if r > 0:
-        dR[:, :] = R @ Om
+        copy_matrix_into(R @ Om, dR)
 
 
 #: the names of :mod:`lieint.fast.loop` this form binds, per method family

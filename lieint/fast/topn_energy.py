@@ -29,7 +29,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .products import mm_small_into
+from .products import copy_matrix_into, mm_small_into
 from .topn import _M, _dims, _embedded, _parts, form_scratch
 from .topn import NAMESPACES as PLAIN
 from .topn_step import _exp_into, _lie_step
@@ -128,10 +128,10 @@ def _onto_level(A, R, orient, M, level0, V, E):
         return
     _turned_energy(A, M, eta, s, V, E)
     Q, B = V[1], V[2]
-    A[:, :] = B
+    copy_matrix_into(B, A)
     if orient:
         mm_small_into(R, Q, tmp)
-        R[:, :] = tmp
+        copy_matrix_into(tmp, R)
 
 
 @njit(cache=True)
@@ -159,7 +159,7 @@ def form_energy_step(fx, y, par, meth, h, y1, inc, aux, scr):
                 u[a, c] = h * lam * A[a, c]
         _exp_into(u, Q, E)
         mm_small_into(R, Q, tmp)
-        R[:, :] = tmp
+        copy_matrix_into(tmp, R)
     for i in range(f):
         y1[i] = turned[i]
     y1[f] = y[f]

@@ -22,6 +22,7 @@ from collections import namedtuple
 import numpy as np
 from numba import njit
 
+from .products import copy_matrix_into
 from .topn import (
     _dims,
     _parts,
@@ -151,9 +152,9 @@ def form_mv_step(fx, y, par, meth, h, y1, inc, aux, scr):
             for c in range(n):
                 A[a, c] += tmp[a, c]
         if r > 0:
-            R[:, :] = R + R @ K
+            copy_matrix_into(R + R @ K, R)
         if subs > 1:  # (I + T)(I + K) = I + (T + K + TK)
-            tmp[:, :] = total @ K
+            copy_matrix_into(total @ K, tmp)
             for a in range(n):
                 for c in range(n):
                     total[a, c] += K[a, c] + tmp[a, c]

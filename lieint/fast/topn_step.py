@@ -24,7 +24,7 @@ from numba import njit
 
 from ._jit import NO_REFCOUNT, compiled_copies
 from .cayley import cayley_into, dcayinv_into
-from .products import mm_small_into, mm_unrolled_into
+from .products import copy_matrix_into, mm_small_into, mm_unrolled_into
 from .skew import _bracket, _finite, expm_skew_small_into, so_ad_radius_exceeds
 from .small_skew import bracket_skew_into, congruence_skew_into, dcayinv_skew_into
 
@@ -234,7 +234,7 @@ def _lie_step(A, R, orient, M, tab, b, h, coeffs, cayley, K, W, E, reduce=False)
         _act_into(Q, QT, A, M, A, acc, C, tmp)
     if orient:
         mm_small_into(R, Q, C)
-        R[:, :] = C
+        copy_matrix_into(C, R)
     return True
 
 
@@ -289,7 +289,7 @@ def _products_step(A, R, orient, M, weights, bounds, h, K, W, E, inc):
             _act_into(Q, QT, A, M, A, Om, C, tmp)
         if orient:
             mm_small_into(R, Q, C)
-            R[:, :] = C
+            copy_matrix_into(C, R)
 
 
 @njit(cache=True)
