@@ -24,7 +24,6 @@ from numba import njit
 from ._jit import NO_REFCOUNT
 from .flat import (
     conj_flat_into,
-    copy_into,
     lyapunov,
     lyapunov_pairs,
     mat,
@@ -41,8 +40,8 @@ from .flat import (
     wedge,
 )
 from .pieces import CompiledPieces
+from .products import copy_vector_into, mv
 from .products import mm_loops as mm
-from .products import mv
 
 __all__ = ["CHAPLYGIN", "ROLLING_BALL"]
 
@@ -129,7 +128,7 @@ def _chaplygin_field(y, par, out, work):
 @njit(cache=True)
 def _chaplygin_projection(y, par, out, work):
     n = int(par[0])
-    copy_into(y, out)
+    copy_vector_into(y, out)
     put(out, 0, skew_part(mat(y, 0, n)))
     put(out, n * n, normalized(vec(y, n * n, n), 1.0))
     project_pose(y, out, int(par[1]), int(par[2]), n, vec(par, 5 + n * n, n), par[4])
@@ -285,7 +284,7 @@ def _ball_energy(y, par, work):
 @njit(cache=True)
 def _ball_projection(y, par, out, work):
     n = int(par[0])
-    copy_into(y, out)
+    copy_vector_into(y, out)
     put(out, 0, skew_part(mat(y, 0, n)))
     put(out, n * n, normalized(vec(y, n * n, n), 1.0))
     oG = int(par[3])

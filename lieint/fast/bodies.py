@@ -26,7 +26,6 @@ from numba import njit
 from ._jit import NO_REFCOUNT
 from .flat import (
     conj_flat_into,
-    copy_into,
     mat,
     normalized,
     project_pose,
@@ -38,8 +37,8 @@ from .flat import (
     wedge,
 )
 from .pieces import CompiledPieces
+from .products import copy_vector_into, mv
 from .products import mm_loops as mm
-from .products import mv
 
 __all__ = ["EULER_TOP", "FREE_BODY", "HEAVY_TOP"]
 
@@ -160,7 +159,7 @@ def _top_field(y, par, out, work):
 @njit(cache=True)
 def _top_projection(y, par, out, work):
     n = int(par[0])
-    copy_into(y, out)
+    copy_vector_into(y, out)
     put(out, 0, skew_part(mat(y, 0, n)))
     project_pose(y, out, int(par[1]), -1, n, np.empty(0), 0.0)
 
@@ -272,7 +271,7 @@ def _free_energy(y, par, work):
 @njit(cache=True)
 def _free_projection(y, par, out, work):
     n = int(par[0])
-    copy_into(y, out)
+    copy_vector_into(y, out)
     put(out, 0, skew_part(mat(y, 0, n)))
     project_pose(y, out, int(par[1]), -1, n, np.empty(0), 0.0)
 

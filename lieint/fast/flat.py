@@ -25,7 +25,6 @@ from .skew import _project
 
 __all__ = [
     "conj_flat_into",
-    "copy_into",
     "lyapunov",
     "lyapunov_pairs",
     "mat",
@@ -291,9 +290,3 @@ def project_pose(y, out, oR, oC, n, normal, radius):
         if oC >= 0:
             q = vec(y, oC, n)
             put(out, oC, q - (np.dot(q, normal) - radius) * normal)
-
-
-@njit(cache=True)
-def copy_into(y, out):
-    for i in range(y.shape[0]):  # not out[:] = y (lieint.fast.products.copy_matrix_into)
-        out[i] = y[i]

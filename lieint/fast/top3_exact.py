@@ -475,7 +475,7 @@ def _increments(moments, Pi, h, meth, K):
     Kstep = np.zeros((3, 3))
     pieces = np.zeros(Pi.shape[0], dtype=np.int64)
     for b in range(Pi.shape[0]):
-        y[:3] = Pi[b]
+        y[0], y[1], y[2] = Pi[b, 0], Pi[b, 1], Pi[b, 2]
         q0, q1, q2, q3, pieces[b] = _exact_step(moments, y, h, meth, y1, Kstep, table)
         rotation_minus_identity(q0, q1, q2, q3, K[b])
     return pieces

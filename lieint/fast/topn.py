@@ -290,7 +290,7 @@ def form_project(fx, y, par, out, scr):
         out[i] = y[i]
     if r > 0:
         R = _parts(out, n, r)[1]
-        R[:, :] = _project(R)
+        copy_matrix_into(_project(R), R)
 
 
 @njit(cache=True)
