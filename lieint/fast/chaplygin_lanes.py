@@ -28,16 +28,16 @@ from .fused import fma
 from .heavy_lanes import (
     INCREMENT_ROWS,
     _coefficients,
-    _combine,
     _dexpinv_pass,
     _rotated_back,
     _step_coefficients,
     _turn_quaternions,
 )
-from .lanes import _cross, block_lanes
-from .quaternions import rotation_into
+from .lanes import _combine, _cross, blocks_of, increment_rows, rows_of
+from .quaternions import matrices_from_lanes
+from .top3 import minus_hat
 
-__all__ = ["NAMESPACES", "blocks_from_state", "blocks_to_user", "increments_to_user"]
+__all__ = ["NAMESPACES", "blocks_from_state", "blocks_to_user", "increments_to_user", "move_centres", "project_poses"]
 
 #: rows of a block: Π (3), q (4), Γ (3), the centre (3)
 ROWS = 13
@@ -105,6 +105,43 @@ def _slope_into(p0, p1, p2, g0, g1, g2, par, K, st, l):
     K[st, 3, l], K[st, 4, l], K[st, 5, l] = r * v0, r * v1, r * v2
 
 
+@njit(cache=True, inline="always")
+def move_centres(u, qb, C, cb, cc, L):
+    """``c ← c + R t`` in every lane, ``t = φ₁(û_w) u_v = u_v + c_b u_w × u_v + c_c u_w × (u_w × u_v)``,
+    R the attitude q before the step (the translation of the right action on SE(3))."""
+    for l in range(L):
+        u0, u1, u2 = u[0, l], u[1, l], u[2, l]
+        v0, v1, v2 = u[3, l], u[4, l], u[5, l]
+        n0, n1, n2 = _cross(u0, u1, u2, v0, v1, v2)
+        m0, m1, m2 = _cross(u0, u1, u2, n0, n1, n2)
+        t0 = fma(cc[l], m0, fma(cb[l], n0, v0))
+        t1 = fma(cc[l], m1, fma(cb[l], n1, v1))
+        t2 = fma(cc[l], m2, fma(cb[l], n2, v2))
+        # R t = t + 2w (x × t) + 2 x × (x × t) for q = (w, x)
+        w, x0, x1, x2 = qb[0, l], qb[1, l], qb[2, l], qb[3, l]
+        e0, e1, e2 = _cross(x0, x1, x2, t0, t1, t2)
+        f0, f1, f2 = _cross(x0, x1, x2, e0, e1, e2)
+        C[0, l] = C[0, l] + fma(2.0, f0, fma(2.0 * w, e0, t0))
+        C[1, l] = C[1, l] + fma(2.0, f1, fma(2.0 * w, e1, t1))
+        C[2, l] = C[2, l] + fma(2.0, f2, fma(2.0 * w, e2, t2))
+
+
+@njit(cache=True, inline="always")
+def project_poses(qb, G, C, n0, n1, n2, r, track, L):
+    """Every lane's quaternion and Γ onto their unit spheres and, when the centre is tracked,
+    the centre back onto the plane ``⟨c, ν⟩ = r``."""
+    for l in range(L):
+        r0, r1, r2, r3 = qb[0, l], qb[1, l], qb[2, l], qb[3, l]
+        m = 1.0 / np.sqrt(fma(r3, r3, fma(r2, r2, fma(r1, r1, r0 * r0))))
+        qb[0, l], qb[1, l], qb[2, l], qb[3, l] = r0 * m, r1 * m, r2 * m, r3 * m
+        g0, g1, g2 = G[0, l], G[1, l], G[2, l]
+        m = 1.0 / np.sqrt(fma(g2, g2, fma(g1, g1, g0 * g0)))
+        G[0, l], G[1, l], G[2, l] = g0 * m, g1 * m, g2 * m
+        if track:
+            off = fma(C[2, l], n2, fma(C[1, l], n1, C[0, l] * n0)) - r
+            C[0, l], C[1, l], C[2, l] = C[0, l] - off * n0, C[1, l] - off * n1, C[2, l] - off * n2
+
+
 @njit(cache=True, error_model="numpy")  # no Python division checks: they would stop the SIMD passes
 def block_step(fx, y, par, meth, h, y1, inc, aux, scr):
     """One RKMK step (exponential coordinates on se(3)) of every lane of a block; −1 when a
@@ -145,21 +182,7 @@ def block_step(fx, y, par, meth, h, y1, inc, aux, scr):
         P[0, l], P[1, l], P[2, l] = _rotated_back(u0, u1, u2, P[0, l], P[1, l], P[2, l], ca[l], cb[l])
         G[0, l], G[1, l], G[2, l] = _rotated_back(u0, u1, u2, G[0, l], G[1, l], G[2, l], ca[l], cb[l])
     if pr[_TRACK] != 0.0:
-        for l in range(L):
-            u0, u1, u2 = u[0, l], u[1, l], u[2, l]
-            v0, v1, v2 = u[3, l], u[4, l], u[5, l]
-            n0, n1, n2 = _cross(u0, u1, u2, v0, v1, v2)
-            m0, m1, m2 = _cross(u0, u1, u2, n0, n1, n2)
-            t0 = fma(cc[l], m0, fma(cb[l], n0, v0))
-            t1 = fma(cc[l], m1, fma(cb[l], n1, v1))
-            t2 = fma(cc[l], m2, fma(cb[l], n2, v2))
-            # R t = t + 2w (x × t) + 2 x × (x × t) for q = (w, x), the attitude before the step
-            w, x0, x1, x2 = qb[0, l], qb[1, l], qb[2, l], qb[3, l]
-            e0, e1, e2 = _cross(x0, x1, x2, t0, t1, t2)
-            f0, f1, f2 = _cross(x0, x1, x2, e0, e1, e2)
-            C[0, l] = C[0, l] + fma(2.0, f0, fma(2.0 * w, e0, t0))
-            C[1, l] = C[1, l] + fma(2.0, f1, fma(2.0 * w, e1, t1))
-            C[2, l] = C[2, l] + fma(2.0, f2, fma(2.0 * w, e2, t2))
+        move_centres(u, qb, C, cb, cc, L)
     _turn_quaternions(u, qb, ch, sh, L)
     if inc.shape[0] >= INCREMENT_ROWS * row:
         for dd in range(INCREMENT_ROWS):
@@ -177,17 +200,7 @@ def block_project(fx, y, par, out, scr):
     for i in range(d):
         out[i] = y[i]
     _, qb, G, C = _views(out, row)
-    n0, n1, n2, r = par[_NORMAL], par[_NORMAL + 1], par[_NORMAL + 2], par[_RADIUS]
-    for l in range(row - 8):
-        r0, r1, r2, r3 = qb[0, l], qb[1, l], qb[2, l], qb[3, l]
-        m = 1.0 / np.sqrt(fma(r3, r3, fma(r2, r2, fma(r1, r1, r0 * r0))))
-        qb[0, l], qb[1, l], qb[2, l], qb[3, l] = r0 * m, r1 * m, r2 * m, r3 * m
-        g0, g1, g2 = G[0, l], G[1, l], G[2, l]
-        m = 1.0 / np.sqrt(fma(g2, g2, fma(g1, g1, g0 * g0)))
-        G[0, l], G[1, l], G[2, l] = g0 * m, g1 * m, g2 * m
-        if par[_TRACK] != 0.0:
-            off = fma(C[2, l], n2, fma(C[1, l], n1, C[0, l] * n0)) - r
-            C[0, l], C[1, l], C[2, l] = C[0, l] - off * n0, C[1, l] - off * n1, C[2, l] - off * n2
+    project_poses(qb, G, C, par[_NORMAL], par[_NORMAL + 1], par[_NORMAL + 2], par[_RADIUS], par[_TRACK] != 0.0, row - 8)
 
 
 @njit(cache=True)
@@ -217,71 +230,20 @@ NAMESPACES = {
 # -- conversions between the user's fields and the blocks ---------------------------------------
 
 
-@njit(cache=True)
-def _to_blocks(pi, q, gamma, center, L, Y):
-    """Blocks of L lanes ``Y`` (nblocks, 13 (L + 8)) from ``Π``, ``Γ``, the centre (N, 3) and
-    quaternions (4, N); a spare lane copies the block's first body."""
-    row = L + 8
-    N = pi.shape[0]
-    for blk in range(Y.shape[0]):
-        for l in range(row):
-            m = blk * L + l
-            if not (l < L and m < N):
-                m = blk * L
-            for i in range(3):
-                Y[blk, i * row + l] = pi[m, i]
-                Y[blk, (7 + i) * row + l] = gamma[m, i]
-                Y[blk, (10 + i) * row + l] = center[m, i]
-            for i in range(4):
-                Y[blk, (3 + i) * row + l] = q[i, m]
-
-
-@njit(cache=True)
-def _from_blocks(Y, L, N, orient, out_A, out_G, out_R, out_C):
-    """The user's A = −Π̂, Γ, R = R(q) and the centre of rows of blocks ``Y`` (m, nblocks, d)."""
-    row = L + 8
-    for r in range(Y.shape[0]):
-        for m in range(N):
-            blk, l = m // L, m % L
-            y = Y[r, blk]
-            p0, p1, p2 = y[l], y[row + l], y[2 * row + l]
-            A = out_A[r, m]
-            A[0, 0], A[0, 1], A[0, 2] = 0.0, p2, -p1
-            A[1, 0], A[1, 1], A[1, 2] = -p2, 0.0, p0
-            A[2, 0], A[2, 1], A[2, 2] = p1, -p0, 0.0
-            for i in range(3):
-                out_G[r, m, i] = y[(7 + i) * row + l]
-            if out_C.shape[1] > 0:
-                for i in range(3):
-                    out_C[r, m, i] = y[(10 + i) * row + l]
-            if orient:
-                rotation_into(y[3 * row + l], y[4 * row + l], y[5 * row + l], y[6 * row + l], out_R[r, m])
-
-
 def blocks_from_state(pi, q, gamma, center, N: int) -> np.ndarray:
     """The blocks of an ensemble of N balls (``Π``, ``Γ``, the centre (N, 3), quaternions (4, N))."""
-    L = block_lanes(N)
-    Y = np.empty((-(-N // L), ROWS * (L + 8)))
-    arrays = [np.ascontiguousarray(a, dtype=float) for a in (pi, q, gamma, center)]
-    _to_blocks(*arrays, L, Y)
-    return Y
+    return blocks_of(np.concatenate([pi, np.asarray(q).T, gamma, center], axis=1), N, ROWS)
 
 
 def blocks_to_user(Y, N: int, orientation: bool, center: bool):
     """``(A, Γ, R, c)`` of rows of blocks (m, nblocks, d) (R, c None where the state has none)."""
-    L = Y.shape[-1] // ROWS - 8
-    rows = np.ascontiguousarray(Y).reshape(-1, *Y.shape[-2:])
-    m = rows.shape[0]
-    out_A, out_G = np.empty((m, N, 3, 3)), np.empty((m, N, 3))
-    out_R = np.empty((m, N if orientation else 0, 3, 3))
-    out_C = np.empty((m, N if center else 0, 3))
-    _from_blocks(rows, L, N, bool(orientation), out_A, out_G, out_R, out_C)
-    return out_A, out_G, (out_R if orientation else None), (out_C if center else None)
+    X = rows_of(Y, N, ROWS)
+    A = minus_hat(X[..., :3])
+    R = matrices_from_lanes(np.swapaxes(X[..., 3:7], 1, 2)) if orientation else None
+    return A, X[..., 7:10].copy(), R, (X[..., 10:13].copy() if center else None)
 
 
 def increments_to_user(U, N: int):
     """The increments of rows of blocks (m, nblocks, 6 row) as ``(u_w, u_v)``, two ``(m, N, 3)``."""
-    row = U.shape[-1] // INCREMENT_ROWS
-    u = U.reshape(U.shape[0], -1, INCREMENT_ROWS, row)[..., : row - 8]
-    u = np.moveaxis(u, 2, -1).reshape(U.shape[0], -1, INCREMENT_ROWS)[:, :N]
+    u = increment_rows(U, N, INCREMENT_ROWS)
     return u[..., :3], u[..., 3:]

@@ -31,6 +31,7 @@ from .forms import (
     MapForm,
     PiecesForm,
     RKMKForm,
+    RollingBall3Form,
     Top3Form,
     TopNForm,
 )
@@ -182,6 +183,7 @@ class _Layout:
     d: int  # length of a body's flat state
     count: int  # components of the user's state per body (the error norm's N)
     exact_radius = False  # radius2 is the exact squared ad spectral radius (not a bound)
+    in_lanes = False  # a unit of the loop is a block of bodies in SIMD lanes
 
     def context(self):
         return 0
@@ -288,6 +290,7 @@ class _Top3LanesLayout(_Top3Layout):
     """An ensemble of 3D tops in SIMD lanes: blocks of bodies structure-of-arrays (Π rows and
     the attitude as quaternion rows; :mod:`lieint.fast.lanes`). A unit of the loop is a block."""
 
+    in_lanes = True
     module = "lieint.fast.lanes"
     label = "3D top in SIMD lanes (ensemble)"
     #: ensembles of at least this many bodies run RKMK in lanes
@@ -334,6 +337,7 @@ class _HeavyTop3LanesLayout(_Top3Layout):
     bodies structure-of-arrays in the principal frame of the top (Π, the attitude as quaternion
     rows, Γ). A unit of the loop is a block."""
 
+    in_lanes = True
     module = "lieint.fast.heavy_lanes"
     group = "se(3)"
     label = "3D heavy top in SIMD lanes (ensemble)"
@@ -399,6 +403,7 @@ class _Chaplygin3LanesLayout(_Layout):
     blocks of bodies structure-of-arrays in the user's frame (Π, the attitude as quaternion rows,
     Γ, the centre). A unit of the loop is a block."""
 
+    in_lanes = True
     module = "lieint.fast.chaplygin_lanes"
     label = "3D Chaplygin ball in SIMD lanes (ensemble)"
     exact_radius = True
@@ -463,6 +468,89 @@ class _Chaplygin3LanesLayout(_Layout):
         if not self.center:
             return hat(w).reshape(lead + (3, 3))
         return se_join(hat(w), v, algebra=True).reshape(lead + (4, 4))
+
+
+class _RollingBall3LanesLayout(_Layout):
+    """An ensemble of 3D rolling balls in SIMD lanes (:mod:`lieint.fast.rolling_lanes`): blocks of
+    bodies structure-of-arrays in the user's frame (ω, the attitude as quaternion rows, Γ, the
+    centre, G). A unit of the loop is a block."""
+
+    in_lanes = True
+    module = "lieint.fast.rolling_lanes"
+    label = "3D rolling ball in SIMD lanes (ensemble)"
+    exact_radius = True
+    #: ensembles of at least this many bodies run RKMK in lanes (benchmarks/ensembles.py)
+    FROM = 2
+
+    def __init__(self, form: RollingBall3Form, N: int):
+        from .lanes import block_lanes
+        from .rolling_lanes import PARAMS, ROWS
+
+        B = np.asarray(form.B_C, dtype=float)
+        J = np.trace(B) * np.eye(3) - B
+        self.orientation, self.center, self.tilted = bool(form.orientation), bool(form.center), form.mode == 2
+        self.params = np.concatenate(
+            [J.ravel(), [form.mass, form.radius], np.asarray(form.normal, dtype=float), [float(self.center)],
+             [float(form.mode), form.g_normal, form.g_norm], np.asarray(form.center_of_mass, dtype=float)]
+        )  # fmt: skip
+        assert self.params.size == PARAMS
+        self.group = "se(3)" if self.center else "so(3)"
+        # the ball's fields in its state's order (lieint.RollingBall): Ω, Γ, G on an incline, R, the centre
+        self.fields = ["Omega", "Gamma"] + ["G"] * self.tilted + ["R"] * self.orientation + ["center"] * self.center
+        self.count = 12 + (3 if self.tilted else 0) + (9 if self.orientation else 0) + (3 if self.center else 0)
+        self.N, self.L = N, block_lanes(N)
+        self.d = ROWS * (self.L + 8)
+        self.units = -(-N // self.L)
+
+    def start(self, y: dict, N: int) -> np.ndarray:
+        from .quaternions import lanes_from_matrices
+        from .rolling_lanes import blocks_from_state
+
+        W = y["Omega"].reshape(N, 3, 3)
+        omega = 0.5 * np.stack([W[:, 2, 1] - W[:, 1, 2], W[:, 0, 2] - W[:, 2, 0], W[:, 1, 0] - W[:, 0, 1]], axis=1)
+        R = y["R"].reshape(N, 3, 3) if self.orientation else np.broadcast_to(np.eye(3), (N, 3, 3))
+        center = y["center"].reshape(N, 3) if self.center else np.zeros((N, 3))
+        G = y["G"].reshape(N, 3) if self.tilted else np.zeros((N, 3))
+        return blocks_from_state(omega, lanes_from_matrices(R), y["Gamma"].reshape(N, 3), center, G, N)
+
+    def user(self, Y: np.ndarray, batch: tuple) -> dict:
+        from ..groups.bivectors import hat
+        from .quaternions import matrices_from_lanes
+        from .rolling_lanes import blocks_to_rows
+
+        lead = Y.shape[:-2]
+        X = blocks_to_rows(Y, self.N)
+        states = {"Omega": hat(X[..., :3]).reshape(lead + batch + (3, 3))}
+        states["Gamma"] = X[..., 7:10].reshape(lead + batch + (3,))
+        if self.tilted:
+            states["G"] = X[..., 13:16].reshape(lead + batch + (3,))
+        if self.orientation:
+            R = matrices_from_lanes(np.swapaxes(X[..., 3:7], 1, 2))
+            states["R"] = R.reshape(lead + batch + (3, 3))
+        if self.center:
+            states["center"] = X[..., 10:13].reshape(lead + batch + (3,))
+        return {name: np.ascontiguousarray(states[name]) for name in self.fields}
+
+    def user_flat(self, y: dict, N: int) -> np.ndarray:
+        return np.ascontiguousarray(np.concatenate([y[k].reshape(N, -1) for k in self.fields], axis=1))
+
+    def increments_size(self, method) -> int:
+        from .rolling_lanes import STEP_ROWS
+
+        return STEP_ROWS * (self.L + 8)
+
+    def increments(self, U: np.ndarray, batch: tuple):
+        """The steps' increments in the ball's algebra ``se(3) × so(3)`` (``so(3) × so(3)`` without
+        the centre): ``([[û_w, u_v], [0, 0]], δ̂)``."""
+        from ..groups.bivectors import hat
+        from ..groups.se import se_join
+        from .rolling_lanes import increments_to_user
+
+        w, v, delta = increments_to_user(U, self.N)
+        lead = U.shape[:-2] + batch
+        W, D = hat(w).reshape(lead + (3, 3)), hat(delta).reshape(lead + (3, 3))
+        pose = se_join(W, v.reshape(lead + (3,)), algebra=True) if self.center else W
+        return pose, D
 
 
 class _TopNLayout(_Layout):
@@ -870,7 +958,7 @@ class Engine:
 
     @property
     def lanes(self) -> bool:
-        return isinstance(self.layout, (_Top3LanesLayout, _HeavyTop3LanesLayout, _Chaplygin3LanesLayout))
+        return self.layout.in_lanes
 
     def user_state(self, internal: dict) -> dict:
         return {k: v[0] for k, v in self.layout.user(internal["Y"][None], self.batch).items()}
@@ -1064,7 +1152,10 @@ def engine_for(
         layout = _PiecesEnergyLayout(form, system, True, project)
     elif isinstance(form, PiecesForm):
         N = math.prod(batch)
-        lanes = {HeavyTop3Form: _HeavyTop3LanesLayout, Chaplygin3Form: _Chaplygin3LanesLayout}.get(type(form.lanes))
+        lanes = {
+            HeavyTop3Form: _HeavyTop3LanesLayout, Chaplygin3Form: _Chaplygin3LanesLayout,
+            RollingBall3Form: _RollingBall3LanesLayout,
+        }.get(type(form.lanes))  # fmt: skip
         if lanes and not adaptive and meth.family == "rkmk" and meth.coordinates == "exp" and N >= lanes.FROM:
             layout = lanes(form.lanes, N)
         else:

@@ -220,7 +220,7 @@ class PiecesForm:
     fields: dict
     group: str = ""
     #: the same system as a form for ensembles in SIMD lanes (:class:`HeavyTop3Form`,
-    #: :class:`Chaplygin3Form`), or None
+    #: :class:`Chaplygin3Form`, :class:`RollingBall3Form`), or None
     lanes: Any = field(default=None, repr=False)
 
     def __post_init__(self):
@@ -264,6 +264,26 @@ class Chaplygin3Form:
     Mr2: float
     radius: float
     normal: np.ndarray
+    orientation: bool
+    center: bool
+
+
+@dataclass(frozen=True, eq=False)
+class RollingBall3Form:
+    """The 3D rolling ball for ensembles in SIMD lanes (:mod:`lieint.fast.rolling_lanes`): its mass
+    tensor about the centre ``B_C``, the mass M, the radius r, the centre of mass X_G, the plane's
+    normal ν, the gravity mode (0 none, 1 along ν, 2 tilted: G a field), ``⟨g, ν⟩``, ``|g|``,
+    whether the state carries R and the centre. Declared as :attr:`PiecesForm.lanes` of the ball's
+    pieces."""
+
+    B_C: np.ndarray
+    mass: float
+    radius: float
+    center_of_mass: np.ndarray
+    normal: np.ndarray
+    mode: int
+    g_normal: float
+    g_norm: float
     orientation: bool
     center: bool
 

@@ -31,7 +31,7 @@ import numpy as np
 from numba import njit
 
 from .fused import fma
-from .lanes import _cross, _half_angle, _rodrigues, block_lanes
+from .lanes import _combine, _cross, _half_angle, _rodrigues, blocks_of, increment_rows
 from .quaternions import rotation_into
 
 __all__ = ["NAMESPACES", "blocks_from_state", "blocks_to_user", "increments_to_user"]
@@ -112,27 +112,6 @@ def _rotated_back(u0, u1, u2, x0, x1, x2, a, b):
     c0, c1, c2 = _cross(u0, u1, u2, x0, x1, x2)
     e0, e1, e2 = _cross(u0, u1, u2, c0, c1, c2)
     return fma(b, e0, fma(-a, c0, x0)), fma(b, e1, fma(-a, c1, x1)), fma(b, e2, fma(-a, c2, x2))
-
-
-@njit(cache=True, inline="always")
-def _combine(u, K, weights, row, hk, m, L):
-    """``u = Σ_{j<m} (hk w_j) K_j`` (six rows) over the non-zero weights ``w_j = weights[row, j]``,
-    in the order of j; returns whether any weight was non-zero (u is left unset otherwise)."""
-    first = True
-    for j in range(m):
-        w = hk * weights[row, j]
-        if w == 0.0:
-            continue
-        if first:
-            for d in range(INCREMENT_ROWS):
-                for l in range(L):
-                    u[d, l] = w * K[j, d, l]
-            first = False
-        else:
-            for d in range(INCREMENT_ROWS):
-                for l in range(L):
-                    u[d, l] = fma(w, K[j, d, l], u[d, l])
-    return not first
 
 
 @njit(cache=True, inline="always")
@@ -319,25 +298,6 @@ NAMESPACES = {
 
 
 @njit(cache=True)
-def _to_blocks(pi, q, gamma, L, Y):
-    """Blocks of L lanes ``Y`` (nblocks, 10 (L + 8)) from ``Π`` (N, 3), quaternions (4, N) and
-    ``Γ`` (N, 3); a lane beyond the ensemble (or the block's padding) copies the block's first
-    body."""
-    row = L + 8
-    N = pi.shape[0]
-    for blk in range(Y.shape[0]):
-        for l in range(row):
-            m = blk * L + l
-            if not (l < L and m < N):
-                m = blk * L
-            for i in range(3):
-                Y[blk, i * row + l] = pi[m, i]
-                Y[blk, (7 + i) * row + l] = gamma[m, i]
-            for i in range(4):
-                Y[blk, (3 + i) * row + l] = q[i, m]
-
-
-@njit(cache=True)
 def _from_blocks(Y, L, N, P, identity, orient, out_A, out_G, out_R):
     """The user's A, Γ (and R) of rows of blocks ``Y`` (m, nblocks, d): ``A = −(P Π)^``,
     ``Γ = P Γ̃``, ``R = R(q) Pᵀ``."""
@@ -378,10 +338,7 @@ def _from_blocks(Y, L, N, P, identity, orient, out_A, out_G, out_R):
 def blocks_from_state(pi, q, gamma, N: int) -> np.ndarray:
     """The blocks of an ensemble of N heavy tops (``Π`` (N, 3) and ``Γ`` (N, 3) in the principal
     frame, quaternions (4, N) of ``R P``)."""
-    L = block_lanes(N)
-    Y = np.empty((-(-N // L), ROWS * (L + 8)))
-    _to_blocks(np.ascontiguousarray(pi), np.ascontiguousarray(q), np.ascontiguousarray(gamma), L, Y)
-    return Y
+    return blocks_of(np.concatenate([pi, np.asarray(q).T, gamma], axis=1), N, ROWS)
 
 
 def blocks_to_user(Y, N: int, P, identity: bool, orientation: bool):
@@ -400,10 +357,7 @@ def blocks_to_user(Y, N: int, P, identity: bool, orientation: bool):
 def increments_to_user(U, N: int, P, identity: bool):
     """The increments of rows of blocks (m, nblocks, 6 row) as the user's ``(u_w, u_v)``, two
     ``(m, N, 3)`` arrays."""
-    row = U.shape[-1] // INCREMENT_ROWS
-    L = row - 8
-    u = U.reshape(U.shape[0], -1, INCREMENT_ROWS, row)[..., :L]  # (m, blocks, 6, L)
-    u = np.moveaxis(u, 2, -1).reshape(U.shape[0], -1, INCREMENT_ROWS)[:, :N]
+    u = increment_rows(U, N, INCREMENT_ROWS)
     w, v = u[..., :3], u[..., 3:]
     if identity:
         return w, v

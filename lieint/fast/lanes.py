@@ -38,7 +38,10 @@ from . import LANES_BLOCK
 from .fused import fma
 from .quaternions import rotation_into
 
-__all__ = ["NAMESPACES", "block_lanes", "blocks_from_state", "blocks_to_user", "increments_to_user"]
+__all__ = [
+    "NAMESPACES", "block_lanes", "blocks_from_state", "blocks_of", "blocks_to_rows", "blocks_to_user", "increment_rows",
+    "increments_to_user", "rows_of", "rows_to_blocks",
+]  # fmt: skip
 
 _BLOCK = LANES_BLOCK
 #: the row length of the block's arrays: the block and 8 doubles (64 bytes) of padding
@@ -128,21 +131,21 @@ def _dexpinv2_lane(u, c1, c2, K, st, l):
 
 @njit(cache=True, inline="always")
 def _combine(u, K, weights, row, hk, m, L):
-    """``u = Σ_{j<m} (hk w_j) K_j`` over the non-zero weights ``w_j = weights[row, j]``,
-    accumulated in the order of j; returns whether any weight was non-zero (u is left unset
-    otherwise)."""
+    """``u = Σ_{j<m} (hk w_j) K_j`` (every row of u) over the non-zero weights
+    ``w_j = weights[row, j]``, accumulated in the order of j; returns whether any weight was
+    non-zero (u is left unset otherwise). Every lanes kernel's stage and step combinations."""
     first = True
     for j in range(m):
         w = hk * weights[row, j]
         if w == 0.0:
             continue
         if first:
-            for d in range(3):
+            for d in range(u.shape[0]):
                 for l in range(L):
                     u[d, l] = w * K[j, d, l]
             first = False
         else:
-            for d in range(3):
+            for d in range(u.shape[0]):
                 for l in range(L):
                     u[d, l] = fma(w, K[j, d, l], u[d, l])
     return not first
@@ -409,6 +412,56 @@ def _from_blocks(Y, L, N, P, identity, orient, out_A, out_R):
                         R[i, j] = r0 * P[j, 0] + r1 * P[j, 1] + r2 * P[j, 2]
 
 
+@njit(cache=True)
+def rows_to_blocks(X, L, Y):
+    """Blocks of L lanes ``Y`` (nblocks, rows (L + 8)) from the bodies' rows ``X`` (N, rows): row
+    k of a block holds entry k of its bodies; a spare lane copies the block's first body."""
+    row = L + 8
+    N, rows = X.shape
+    for blk in range(Y.shape[0]):
+        for l in range(row):
+            m = blk * L + l
+            if not (l < L and m < N):
+                m = blk * L
+            for k in range(rows):
+                Y[blk, k * row + l] = X[m, k]
+
+
+@njit(cache=True)
+def blocks_to_rows(Y, L, N, X):
+    """The bodies' rows ``X`` (m, N, rows) of rows of blocks ``Y`` (m, nblocks, rows (L + 8))."""
+    row = L + 8
+    for r in range(Y.shape[0]):
+        for m in range(N):
+            blk, l = m // L, m % L
+            for k in range(X.shape[2]):
+                X[r, m, k] = Y[r, blk, k * row + l]
+
+
+def blocks_of(X, N: int, rows: int) -> np.ndarray:
+    """The blocks of an ensemble of N bodies from their rows ``X`` (N, rows)."""
+    L = block_lanes(N)
+    Y = np.empty((-(-N // L), rows * (L + 8)))
+    rows_to_blocks(np.ascontiguousarray(X, dtype=float), L, Y)
+    return Y
+
+
+def rows_of(Y, N: int, rows: int) -> np.ndarray:
+    """The bodies' rows (m, N, rows) of rows of blocks (m, nblocks, rows (L + 8))."""
+    L = Y.shape[-1] // rows - 8
+    blocks = np.ascontiguousarray(Y).reshape(-1, *Y.shape[-2:])
+    X = np.empty((blocks.shape[0], N, rows))
+    blocks_to_rows(blocks, L, N, X)
+    return X
+
+
+def increment_rows(U, N: int, rows: int) -> np.ndarray:
+    """The bodies' increments (m, N, rows) of rows of blocks' increments (m, nblocks, rows (L + 8))."""
+    m, blocks, row = U.shape[0], U.shape[-2], U.shape[-1] // rows
+    u = U.reshape(m, blocks, rows, row)[..., : row - 8]  # (m, blocks, rows, L)
+    return np.moveaxis(u, 2, -1).reshape(m, blocks * (row - 8), rows)[:, :N]
+
+
 def blocks_from_state(pi, q, N: int) -> np.ndarray:
     """The blocks of an ensemble of N bodies (``Π`` (N, 3) in the principal frame, quaternions
     (4, N) of ``R P``)."""
@@ -431,8 +484,5 @@ def blocks_to_user(Y, N: int, P, identity: bool, orientation: bool):
 
 def increments_to_user(U, N: int, P, identity: bool):
     """The increments of rows of blocks (m, nblocks, 3 row) as the user's vectors (m, N, 3)."""
-    row = U.shape[-1] // 3
-    L = row - 8
-    u = U.reshape(U.shape[0], -1, 3, row)[..., :L]  # (m, blocks, 3, L)
-    u = np.moveaxis(u, 2, -1).reshape(U.shape[0], -1, 3)[:, :N]
+    u = increment_rows(U, N, 3)
     return u if identity else u @ np.asarray(P).T

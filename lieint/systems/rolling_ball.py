@@ -31,7 +31,7 @@ from .._validation import (
     check_vector,
     describe,
 )
-from ..fast.forms import BUILTIN_PIECES, PiecesForm
+from ..fast.forms import BUILTIN_PIECES, PiecesForm, RollingBall3Form
 from ..groups.bivectors import hat, inner, skew_part, wedge
 from ..groups.se import SE, se_join, se_split
 from ..groups.so import SO, project_to_so
@@ -392,12 +392,13 @@ class RollingBall(RollingPose, LieGroupSystem):
 
         The rolling ball's pieces in :mod:`lieint.fast.balls`; parameters n, the offsets of R, the centre and G, M, r,
         the gravity mode (0 none, 1 along ν with ``G = ⟨g, ν⟩Γ``, 2 tilted: G a field),
-        ``⟨g, ν⟩``, ``|g|``, ``B_C``, ``X_G``, ν and g (the energy); the vector factor carries ``δΩ`` (n²).
+        ``⟨g, ν⟩``, ``|g|``, ``B_C``, ``X_G``, ν and g (the energy); the vector factor carries ``δΩ`` (n²);
+        for n = 3 also the form of its ensembles in SIMD lanes (:class:`lieint.fast.forms.RollingBall3Form`).
 
         Returns
         -------
-        dict or None
-            The declaration, or None (n = 2, or a subclass with other dynamics).
+        PiecesForm or None
+            The form, or None (n = 2, or a subclass with other dynamics).
         """
         if self.n < 3 or not self.dynamics_as(RollingBall, _DYNAMICS):
             return None
@@ -408,7 +409,15 @@ class RollingBall(RollingPose, LieGroupSystem):
         head += [self.mass, self.radius, mode, self._g_normal, gnorm]
         g = np.zeros(self.n) if self.gravity is None else self.gravity
         params = np.concatenate([head, self.B_C.ravel(), self.center_of_mass, self.normal, g])
-        return PiecesForm(BUILTIN_PIECES.rolling_ball, params, self.n, self.track_center, self.n * self.n, self.fields)
+        lanes = None
+        if self.n == 3:  # ensembles of the 3D ball run in SIMD lanes
+            lanes = RollingBall3Form(
+                self.B_C, self.mass, self.radius, self.center_of_mass, self.normal, mode, self._g_normal, gnorm,
+                "R" in self.fields, self.track_center,
+            )  # fmt: skip
+        return PiecesForm(
+            BUILTIN_PIECES.rolling_ball, params, self.n, self.track_center, self.n * self.n, self.fields, lanes=lanes
+        )
 
     # -- the LieGroupSystem contract ---------------------------------------------------
     def generator(self, t: float | np.ndarray, y: State) -> np.ndarray | tuple[np.ndarray, ...]:
