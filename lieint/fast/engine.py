@@ -623,6 +623,55 @@ class _TopNLayout(_Layout):
         return u.reshape(U.shape[:-2] + batch + (n, n))
 
 
+class _Top4LanesLayout(_TopNLayout):
+    """An ensemble of 4D tops in SIMD lanes (:mod:`lieint.fast.top4_lanes`): blocks of bodies
+    structure-of-arrays in the principal frame, the momentum in the coordinates of
+    so(3) ⊕ so(3) and the attitude as a pair of unit quaternions. A unit of the loop is a block."""
+
+    in_lanes = True
+    module = "lieint.fast.top4_lanes"
+    exact_radius = True
+    #: ensembles of at least this many bodies run RKMK in lanes (benchmarks/ensembles.py)
+    FROM = 2
+
+    def __init__(self, form: TopNForm, N: int):
+        from .lanes import block_lanes
+        from .top4_lanes import ROWS, generator_matrix
+
+        super().__init__(form)
+        self.params = np.ascontiguousarray(generator_matrix(self.M).ravel())
+        self.label = "4D top in SIMD lanes (ensemble)"
+        self.N, self.L = N, block_lanes(N)
+        self.d = ROWS * (self.L + 8)  # count stays the user's components
+        self.units = -(-N // self.L)
+
+    def start(self, y: dict, N: int) -> np.ndarray:
+        from .top4_lanes import blocks_from_state
+
+        Y = super().start(y, N)
+        R = Y[:, 16:].reshape(N, 4, 4) if self.orientation else np.broadcast_to(np.eye(4), (N, 4, 4))
+        return blocks_from_state(Y[:, :16].reshape(N, 4, 4), R, N)
+
+    def user(self, Y: np.ndarray, batch: tuple) -> dict:
+        from .top4_lanes import blocks_to_principal
+
+        A, R = blocks_to_principal(Y, self.N)
+        parts = [A.reshape(A.shape[:2] + (16,))] + ([R.reshape(R.shape[:2] + (16,))] if self.orientation else [])
+        flat = np.concatenate(parts, axis=-1).reshape(Y.shape[:-2] + (self.N, 16 + self.r * self.r))
+        return super().user(flat, batch)
+
+    def increments_size(self, method) -> int:
+        from .top4_lanes import INCREMENT_ROWS
+
+        return INCREMENT_ROWS * (self.L + 8)
+
+    def increments(self, U: np.ndarray, batch: tuple):
+        from .top4_lanes import increments_to_principal
+
+        u = increments_to_principal(U, self.N)
+        return super().increments(u.reshape(U.shape[:-2] + (self.N, 16)), batch)
+
+
 class _TopNEnergyLayout(_TopNLayout):
     """The n-D top under an energy-keeping pair: ``(Ã, R̃)``, then the level H₀ every accepted
     step ends on (:mod:`lieint.fast.topn_energy`)."""
@@ -1147,7 +1196,12 @@ def engine_for(
         else:
             layout = _Top3LanesLayout(form, N) if lanes else _Top3Layout(form)
     elif isinstance(form, TopNForm):
-        layout = _TopNEnergyLayout(form, system) if keeps_energy else _TopNLayout(form)
+        N = math.prod(batch)
+        lanes = form.n == 4 and not adaptive and meth.family == "rkmk" and meth.coordinates == "exp"
+        if keeps_energy:
+            layout = _TopNEnergyLayout(form, system)
+        else:
+            layout = _Top4LanesLayout(form, N) if lanes and N >= _Top4LanesLayout.FROM else _TopNLayout(form)
     elif isinstance(form, PiecesForm) and keeps_energy:
         layout = _PiecesEnergyLayout(form, system, True, project)
     elif isinstance(form, PiecesForm):

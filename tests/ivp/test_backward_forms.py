@@ -1,6 +1,7 @@
-"""Backward runs on every compiled form of the engine (the 3D top, its SIMD lanes, the n-D top, the
-compiled pieces of the heavy top, the free body and the balls): the compiled engine and the numpy
-path take the same steps backward, and a run forward and back returns to y0 within its error."""
+"""Backward runs on every compiled form of the engine (the 3D top, the n-D top, the compiled pieces
+of the heavy top, the free body and the balls, and the SIMD lanes of the ensembles of the 3D top,
+the 3D heavy top and balls and the 4D top): the compiled engine and the numpy path take the same
+steps backward, and a run forward and back returns to y0 within its error."""
 
 from __future__ import annotations
 
@@ -21,10 +22,15 @@ def _systems() -> dict[str, tuple]:
         "euler_top n=3, 64 bodies": (top3, initial_batch(top3, rng, 64)),
         "euler_top n=4": (lieint.EulerTop(np.diag([0.6, 0.9, 1.2, 1.5])), None),
     }
+    top4 = lieint.EulerTop(np.diag([0.6, 0.9, 1.2, 1.5]))
+    out["euler_top n=4, 8 bodies"] = (top4, initial_batch(top4, rng, 8))
     for n in (3, 4):
         for name, system in variants(n).items():
             if "/" not in name:
                 out[f"{name} n={n}"] = (system, None)
+            lanes = ("heavy_top", "chaplygin_ball", "rolling_ball/offset", "rolling_ball/offset, incline")
+            if n == 3 and name in lanes:
+                out[f"{name} n=3, 8 bodies"] = (system, initial_batch(system, rng, 8))  # in SIMD lanes (rkmk4)
     return {label: (s, initial(s, rng) if y is None else y) for label, (s, y) in out.items()}
 
 
@@ -49,6 +55,8 @@ def test_backward_on_every_compiled_form(label, method, options):
     assert (forward.stats.backend, fast.stats.backend, slow.stats.backend) == ("numba", "numba", "numpy"), (
         fast.stats.backend_reason
     )
+    if "bodies" in label and "h" in options:  # the ensembles' fixed steps run in SIMD lanes
+        assert "SIMD lanes" in forward.stats.backend_reason and "SIMD lanes" in fast.stats.backend_reason
     assert fast.t[-1] == slow.t[-1] == 0.0 and np.all(np.diff(fast.t) < 0)
     assert (fast.stats.nsteps, fast.stats.nrejected) == (slow.stats.nsteps, slow.stats.nrejected)
     scale = max(float(np.abs(v).max()) for v in y0.values())
