@@ -68,9 +68,15 @@ def range_error(k: int, plan, where: str = "so(3)") -> DexpinvRangeError:
 
 def _unsolved(k: int, plan, family: str = "moser_veselov") -> RuntimeError:
     """The error a run of a map raises when its step ``k`` failed: Newton's method did not solve a
-    Moser–Veselov equation (the numpy path's message, with the step), or the exact flow's
-    quadrature of the precession angle did not settle however finely the step was cut."""
+    Moser–Veselov equation (the numpy path's message, with the step), the midpoint's fixed-point
+    iteration did not converge, or the exact flow's quadrature of the precession angle did not
+    settle however finely the step was cut."""
     h = plan.step_size(k)
+    if family == "midpoint":
+        return RuntimeError(
+            f"implicit midpoint step h = {h:g} at t = {plan.time(k):.6g} (step {k + 1}): the fixed-point iteration "
+            "did not converge; take a smaller `h`."
+        )
     if family == "exact_flow":
         return RuntimeError(
             f"exact_flow step h = {h:g}: the precession angle's quadrature did not settle at step {k + 1} "
@@ -172,7 +178,9 @@ def _increment_blocks(method) -> int:
     of exponentials), none (classical RK: dense output interpolates the state arrays)."""
     if isinstance(method, ExpProductForm):
         return method.outputs
-    return 1 if method.family == "rkmk" or isinstance(method, MapForm) else 0
+    if isinstance(method, MapForm):
+        return 1 if method.increment else 0
+    return 1 if method.family == "rkmk" else 0
 
 
 class _Layout:
@@ -989,6 +997,7 @@ class Engine:
                 "moser_veselov": "Moser–Veselov map",
                 "splitting": "splitting into exact rotations",
                 "exact_flow": "exact flow (double-double short steps)",
+                "midpoint": "implicit midpoint (fixed-point iteration)",
             }.get(m.family, m.family)
         else:
             kind = "classical RK"
@@ -1184,6 +1193,9 @@ def engine_for(
         return None, "the ensemble is empty"
     if keeps_energy and meth.coordinates == "cayley" and isinstance(form, Top3Form):
         form = _as_top_n(form)  # the spin's flow and the reduced stages are the n-D top's energy form's
+    generic = getattr(form, "generic", None)
+    if isinstance(meth, MapForm) and not meth.covers(form) and generic is not None and meth.covers(generic):
+        form = generic  # a map with stage code for compiled pieces only (the midpoint): the tops' pieces
     if meth.coordinates == "cayley" and isinstance(form, Top3Form):
         form = form.generic  # the 3D top's Cayley coordinates: through its compiled pieces
         if form is None:
@@ -1213,7 +1225,9 @@ def engine_for(
         if lanes and not adaptive and meth.family == "rkmk" and meth.coordinates == "exp" and N >= lanes.FROM:
             layout = lanes(form.lanes, N)
         else:
-            layout = _PiecesLayout(form, system, adaptive or meth.family == "rk", project)
+            # the vector field compiles only for the runs that call it: classical RK, the midpoint,
+            # an adaptive run's first trial step
+            layout = _PiecesLayout(form, system, adaptive or meth.family in ("rk", "midpoint"), project)
     else:
         return None, f"no engine for the compiled form {type(form).__name__}"
     if isinstance(meth, MapForm) and not meth.covers(form):

@@ -136,7 +136,7 @@ class ClassicalForm:
 @dataclass(frozen=True, eq=False)
 class MapForm:
     """A method whose step is a map of its own, not a tableau: the Moser–Veselov family, the
-    splittings into exact rotations.
+    splittings into exact rotations, the exact flow, the implicit midpoint.
 
     ``family`` names the map (``"moser_veselov"``, ``"splitting"``); ``modules`` maps the system forms the map
     has stage code for (by class name, ``"Top3Form"``) to the module holding it
@@ -146,7 +146,9 @@ class MapForm:
     series (0: the plain map) and ``coefficients`` the function ``moments -> (s, d)`` giving
     their coefficients (:func:`lieint.methods.modified_mv.modified_coefficients`); ``planes``
     the coordinate planes ``(i, j)`` of a splitting's rotations in the order of its Strang step
-    (principal frame of the 3D top).
+    (principal frame of the 3D top); ``increment`` whether a step has an increment in the
+    algebra for dense output (a map that is no Lie-group method, the midpoint, has none: dense
+    output interpolates its states, as classical RK's).
     """
 
     family: str
@@ -155,6 +157,7 @@ class MapForm:
     degree: int = 0
     coefficients: Any = None
     planes: tuple = ()
+    increment: bool = True
 
     coordinates = None
     pair = False

@@ -88,9 +88,20 @@ class LieMidpoint(Method):
                 f"with structure {sorted(structure)}."
             )
 
+    def compiled(self):
+        """The compiled engine's form: a map with stage code for compiled pieces
+        (:mod:`lieint.fast.midpoint`; the free tops run there through their pieces)."""
+        from ..fast.forms import MapForm
+
+        return MapForm("midpoint", COMPILED_MIDPOINT, increment=False)
+
     def step(self, system, t: float, y: dict, h: float, state=None) -> StepResult:
         ym, nfev = implicit_midpoint(system.vector_field, t, y, h)
         return StepResult({name: 2.0 * ym[name] - y[name] for name in y}, None, nfev, None)
+
+
+#: where the midpoint has compiled stage code: system form (class name) -> module
+COMPILED_MIDPOINT = {"PiecesForm": "lieint.fast.midpoint"}
 
 
 def _build(coordinates: str | None = None) -> LieMidpoint:

@@ -29,8 +29,6 @@ NUMPY_PATH: dict[str, frozenset] = {
     "splitting2": frozenset({"euler_top n=4", "heavy_top n=3", "heavy_top n=4"}),
     "splitting4": frozenset({"euler_top n=4", "heavy_top n=3", "heavy_top n=4"}),
     "splitting6": frozenset({"euler_top n=4", "heavy_top n=3", "heavy_top n=4"}),
-    # the implicit Lie–Poisson midpoint
-    "lie_midpoint": frozenset({"euler_top n=3", "euler_top n=4", "heavy_top n=3", "heavy_top n=4"}),
 }
 #: what backend_reason says of each kind of exception
 REASONS = ("has no compiled",)
@@ -38,7 +36,6 @@ REASONS = ("has no compiled",)
 #: how docs/architecture.md's table names each listed method
 DOC_NAMES = {
     "splitting": "splittings",
-    "lie_midpoint": "midpoint",
 }
 
 
