@@ -18,8 +18,8 @@ import numpy as np
 from numba import njit
 
 from ._jit import NO_REFCOUNT
-from .products import copy_matrix_into, copy_vector_into, mm_unrolled_into
-from .skew import _cayley_se3_into, _finite, cayley_se_elim_into, exp_se3_into, expm_se, expm_skew, so_ad_radius_exceeds
+from .products import mm_unrolled_into
+from .skew import _cayley_se3_into, _finite, cayley_se_elim_into, exp_se3_into, expm_so_se_into, so_ad_radius_exceeds
 
 __all__ = [
     "coordinate_map",
@@ -36,18 +36,25 @@ __all__ = [
 def exponential(uW, uv, nv, Q, t):
     """``(Q, t) = exp(uW, uv)`` on SE(n) (``nv = n``) or ``Q = exp uW`` on SO(n), written into
     Q and t; NaN when u is not finite (the driver reports the non-finite state)."""
-    n = uW.shape[0]
     if not (_finite(uW) and _finite(uv)):
-        Q[:, :] = np.nan
-        t[:] = np.nan
-    elif n == 3:
+        _nan_into(Q, t)
+    elif uW.shape[0] == 3:
         exp_se3_into(uW, uv, Q, t)  # closed forms (uv of length 0 on SO(3))
-    elif nv == 0:
-        copy_matrix_into(expm_skew(uW), Q)
     else:
-        Q1, t1 = expm_se(uW, uv)
-        copy_matrix_into(Q1, Q)
-        copy_vector_into(t1, t)
+        # expm_skew's or expm_se's bits (uv of length nv) through one compiled Taylor kernel:
+        # the group is known only at run time, and compiling both wrappers cost seconds
+        expm_so_se_into(uW, uv, Q, t)
+
+
+@njit(cache=True, **NO_REFCOUNT)
+def _nan_into(Q, t):
+    """NaN into Q and t (a non-finite u: the driver reports the non-finite state), by loops:
+    numba's slice assignment compiles its broadcasting for a copy a loop does."""
+    for i in range(Q.shape[0]):
+        for j in range(Q.shape[1]):
+            Q[i, j] = np.nan
+    for i in range(t.shape[0]):
+        t[i] = np.nan
 
 
 @njit(cache=True)

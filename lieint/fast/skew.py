@@ -22,6 +22,7 @@ __all__ = [
     "expm_skew",
     "expm_skew_into",
     "expm_skew_small_into",
+    "expm_so_se_into",
     "so_ad_radius_exceeds",
 ]
 
@@ -104,6 +105,50 @@ def expm_se(W, v):
     X2 = mm(X, X)
     S = _scaled_taylor(X, X2, min(_onenorm(W), np.sqrt(_onenorm(X2[:n, :n]))), _THETAS_SE)
     return np.ascontiguousarray(S[:n, :n]), np.ascontiguousarray(S[:n, n])
+
+
+@njit(cache=True)
+def expm_so_se_into(W, v, Q, t):
+    """:func:`expm_skew` of W into Q when v has length 0 (so(n)), :func:`expm_se` of ``(W, v)``
+    into Q and t otherwise (se(n), n ≠ 3): the same bits through one compiled Taylor kernel.
+
+    Both are :func:`_scaled_taylor_into` of a matrix X — W itself, or the homogeneous
+    ``[[W, v], [0, 0]]`` with the translation's thresholds — so a caller that takes both
+    (:func:`lieint.fast.se_algebra.exponential`, whose group is known only at run time)
+    compiles the kernel once, not the two wrappers with their own allocations and copies."""
+    n = W.shape[0]
+    m = v.shape[0]
+    k = n + 1 if m > 0 else n
+    X = np.zeros((k, k))
+    for a in range(n):
+        for c in range(n):
+            X[a, c] = W[a, c]
+    for a in range(m):
+        X[a, n] = v[a]
+    work = np.empty((5, k, k))
+    mm_into(X, X, work[0])
+    # θ₁ ≤ min(‖W‖₁, ‖W²‖₁^{1/2}); W² is the top left block of X² (X's last row is zero)
+    norm = min(_onenorm(W), np.sqrt(_onenorm_block(work[0], n)))
+    S = np.empty((k, k))
+    _scaled_taylor_into(X, norm, _THETAS_SE if m > 0 else _THETAS, S, work)
+    for a in range(n):
+        for c in range(n):
+            Q[a, c] = S[a, c]
+    for a in range(m):
+        t[a] = S[a, n]
+
+
+@njit(cache=True)
+def _onenorm_block(X, n):
+    """:func:`_onenorm` of the top left n × n block of X (the same sums in the same order)."""
+    best = 0.0
+    for j in range(n):
+        acc = 0.0
+        for i in range(n):
+            acc += abs(X[i, j])
+        if acc > best:
+            best = acc
+    return best
 
 
 @njit(cache=True)
