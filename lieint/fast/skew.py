@@ -428,14 +428,30 @@ def so_ad_radius_exceeds(u):
                 big = abs(x)
     if np.sqrt(ss) < _TWO_PI:
         return 0
-    v = u * (1.0 / big)
-    w = v @ v
+    # the products by loops, not by ``@``: a test of a bound needs no BLAS, and each ``@``
+    # compiled its own dispatch to it (half a second of a cold run's compilation)
+    scale = 1.0 / big
+    v = np.empty((n, n))
+    for i in range(n):
+        for j in range(n):
+            v[i, j] = u[i, j] * scale
     ss = 0.0
-    for x in w.ravel():
-        ss += x * x
+    for i in range(n):
+        for j in range(n):
+            acc = 0.0
+            for k in range(n):
+                acc += v[i, k] * v[k, j]
+            ss += acc * acc
     if big * np.sqrt(2.0 * np.sqrt(ss)) < _TWO_PI:
         return 0
-    lam = np.linalg.eigvalsh(v.T @ v)
+    G = np.empty((n, n))  # vᵀv
+    for i in range(n):
+        for j in range(n):
+            acc = 0.0
+            for k in range(n):
+                acc += v[k, i] * v[k, j]
+            G[i, j] = acc
+    lam = np.linalg.eigvalsh(G)
     theta = big * np.sqrt(max(lam[n - 1], 0.0))
     if n >= 3:  # so(2) turns one plane: θ₂ = 0
         theta += big * np.sqrt(max(lam[n - 3], 0.0))
