@@ -21,7 +21,7 @@ import numpy as np
 from numba import njit
 
 from ._jit import NO_REFCOUNT, compiled_copies
-from .se_algebra import cayley_map, dcayinv, dexpinv, exp_map, exp_map_3, out_of_range, out_of_range_3
+from .se_algebra import cayley_map, dcayinv, dexpinv, exp_map, exp_map_3, exp_map_n, out_of_range, out_of_range_3
 
 __all__ = [
     "lie_step",
@@ -38,8 +38,9 @@ __all__ = [
 #: rebound in their copies (never read at run time)
 CAYLEY = False
 #: φ of :func:`lie_step` and :func:`move` (:mod:`lieint.fast.se_algebra`'s maps), rebound with
-#: :data:`CAYLEY` in their copies
-coordinate_map = exp_map
+#: :data:`CAYLEY` in their copies; the exponential at n ≠ 3 here (n = 3 runs the copy with the
+#: closed forms, :data:`lie_step_uncounted`)
+coordinate_map = exp_map_n
 
 
 @njit(cache=True, **NO_REFCOUNT)

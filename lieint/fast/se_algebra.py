@@ -6,8 +6,8 @@ An element is ``(W, v, a)``: W ∈ so(n), v ∈ Rⁿ the translation (length 0 o
 functions here take the rotation and translation parts ``(uW, uv)``:
 
 * :func:`exponential` into preallocated ``(Q, t)``, and the coordinate maps φ the step takes
-  (:func:`exp_map`, :func:`exp_map_3`, :func:`cayley_map`: one per set of coordinates, so that
-  a step compiled for one never compiles the other's code);
+  (:func:`exp_map`, :func:`exp_map_n`, :func:`exp_map_3`, :func:`cayley_map`: one per set of
+  coordinates and range of n, so that a step compiled for one never compiles another's code);
 * :func:`out_of_range`, the generic path's dexp⁻¹ range test on the rotation part;
 * :func:`dexpinv`, the truncated series ``Σ_d (B_d/d!) ad_{−u}^d k`` with
   ``ad_{−u}(W, v) = ([−uW, W], −uW v + W uv)``, and :func:`dcayinv`, the exact
@@ -29,6 +29,7 @@ __all__ = [
     "dexpinv",
     "exp_map",
     "exp_map_3",
+    "exp_map_n",
     "exponential",
     "out_of_range",
     "out_of_range_3",
@@ -155,6 +156,17 @@ def exp_map(uW, uv, nv, Q, t, aug):
         exp_se3_into(uW, uv, Q, t)
     else:
         exponential(uW, uv, nv, Q, t)
+
+
+@njit(cache=True, inline="always")
+def exp_map_n(uW, uv, nv, Q, t, aug):
+    """:func:`exp_map` at n ≠ 3, the Taylor kernel only (the step at n = 3 is a copy of its own,
+    with :func:`exp_map_3`): neither the closed forms nor :func:`exponential`'s call to compile
+    and link; NaN when u is not finite."""
+    if _finite(uW) and _finite(uv):
+        expm_so_se_into(uW, uv, Q, t)
+    else:
+        _nan_into(Q, t)
 
 
 @njit(cache=True, inline="always")
