@@ -77,7 +77,9 @@ def form_scratch(fx, meth, par, d):
             work)  # fmt: skip
 
 
-@njit(cache=True)
+# inlined into the loop's copies, as the stage code is into it (lieint.fast.generic_step): one
+# function less to compile on its own, which optimized the whole step's code once more
+@njit(cache=True, inline="always")
 def form_lie_step(fx, y, par, meth, h, y1, inc, aux, scr):
     """One RKMK step through the system's generator and action; ``inc`` = ``(W, v, a)`` of the
     step, ``aux[0] = ‖W‖_F²`` of ``ξ(y)`` (the first stage)."""

@@ -70,7 +70,12 @@ def step_work(n, nv, m, work_size):
     return np.empty((5, n, n)), np.empty((4, nv)), np.empty(m), np.empty((n, 2 * n + 1)), np.empty(work_size)
 
 
-@njit(cache=True)
+# lie_step and move are inlined into their callers (numba's inlining, before typing), form_lie_step
+# and the embedded solution: a function compiled on its own optimizes once more all the code it
+# links (its callees'), so each level of calls cost a cold run that again (with form_lie_step,
+# 2 s of a cold 4D heavy top's CPU time). Their copies without reference counts are called, not
+# inlined: an inlined body counts references as its caller does.
+@njit(cache=True, inline="always")
 def lie_step(gen, act, y, par, nv, tab, b, h, coeffs, KW, Kv, Ka, y_stage, y1, S, Sv, ua, aug, work):
     """One RKMK step from y into ``y1`` in exponential (dexp⁻¹ truncated at ``coeffs``) or, in
     the copies with :data:`CAYLEY`, Cayley coordinates (exact dcay⁻¹); False when a stage leaves
@@ -156,7 +161,7 @@ def products_step(gen, act, y, par, nv, weights, bounds, h, KW, Kv, Ka, y_stage,
             y1[j] = y_next[j]
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")  # inlined, as lie_step (see there)
 def move(act, y, par, nv, KW, Kv, Ka, w, h, out, S, Sv, ua, aug, work):
     """``out = ρ(φ(h Σ_j w_j k_j), y)``: the step's new state (weights b) or an embedded
     solution (weights b̂), in :func:`step_work`'s arrays (φ: ``coordinate_map``)."""
