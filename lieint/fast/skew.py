@@ -15,7 +15,7 @@ import numpy as np
 from numba import njit
 
 from ._jit import NO_REFCOUNT, compiled_copies
-from .products import copy_matrix_into, mm, mm_into, mm_small_into
+from .products import copy_matrix_into, mm, mm_into, mm_small_into, mm_unrolled_into
 
 __all__ = [
     "expm_se",
@@ -110,12 +110,17 @@ def expm_se(W, v):
 @njit(cache=True)
 def expm_so_se_into(W, v, Q, t):
     """:func:`expm_skew` of W into Q when v has length 0 (so(n)), :func:`expm_se` of ``(W, v)``
-    into Q and t otherwise (se(n), n ≠ 3): the same bits through one compiled Taylor kernel.
+    into Q and t otherwise (se(n), n ≠ 3), through one compiled Taylor kernel whose products
+    never reach BLAS: the same bits while X (below) is at most 8 × 8, round-off apart above.
 
     Both are :func:`_scaled_taylor_into` of a matrix X — W itself, or the homogeneous
     ``[[W, v], [0, 0]]`` with the translation's thresholds — so a caller that takes both
     (:func:`lieint.fast.se_algebra.exponential`, whose group is known only at run time)
-    compiles the kernel once, not the two wrappers with their own allocations and copies."""
+    compiles the kernel once, not the two wrappers with their own allocations and copies. Its
+    products are :func:`lieint.fast.products.mm_unrolled_into` (unrolled up to 8 × 8, where they
+    beat both loops and BLAS; loops above), not :func:`mm_into`, whose BLAS fallback for larger
+    matrices (numba's product with its checks, and the copies) cost a cold run a second to
+    compile."""
     n = W.shape[0]
     m = v.shape[0]
     k = n + 1 if m > 0 else n
@@ -126,11 +131,11 @@ def expm_so_se_into(W, v, Q, t):
     for a in range(m):
         X[a, n] = v[a]
     work = np.empty((5, k, k))
-    mm_into(X, X, work[0])
+    mm_unrolled_into(X, X, work[0])
     # θ₁ ≤ min(‖W‖₁, ‖W²‖₁^{1/2}); W² is the top left block of X² (X's last row is zero)
     norm = min(_onenorm(W), np.sqrt(_onenorm_block(work[0], n)))
     S = np.empty((k, k))
-    _scaled_taylor_into(X, norm, _THETAS_SE if m > 0 else _THETAS, S, work)
+    _scaled_taylor_no_blas_into(X, norm, _THETAS_SE if m > 0 else _THETAS, S, work)
     for a in range(n):
         for c in range(n):
             Q[a, c] = S[a, c]
@@ -540,6 +545,12 @@ def _gram_defect(R):
             worst = abs(x)
     return E, worst
 
+
+#: :func:`_scaled_taylor_into` with the products that never reach BLAS (:func:`mm_unrolled_into`):
+#: :func:`expm_so_se_into`'s
+_scaled_taylor_no_blas_into = compiled_copies([_scaled_taylor_into], {"mm_into": mm_unrolled_into}, "_no_blas")[
+    "_scaled_taylor_into"
+]
 
 #: :func:`expm_skew_into` with the unrolled products (:func:`mm_small_into`): the n-dimensional
 #: top's kernels take them, every other kernel keeps the loops (which do not dominate those
