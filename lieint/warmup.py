@@ -85,7 +85,8 @@ _RUNS = (
     ("RKMK, exponential coordinates", dict(method="rkmk4", h=0.01)),
     ("RKMK, Cayley coordinates", dict(method="rkmk4", h=0.01, coordinates="cayley")),
     ("embedded pair (controller loop)", dict(method="rkmk45", rtol=1e-6, atol=1e-9)),
-    # the default adaptive method (its energy family; Cayley coordinates share the kernel)
+    # the default adaptive method (its energy family; the tops' Cayley coordinates share the
+    # kernel, the compiled pieces' have stage code of their own: lieint.fast.generic_step)
     ("energy-keeping pair (controller loop)", dict(method="rkmk853+energy", rtol=1e-6, atol=1e-9)),
     ("classical RK", dict(method="rk4", h=0.01)),
     ("commutator-free, Crouch–Grossman", dict(method="cf4", h=0.01)),

@@ -29,14 +29,16 @@ NO_REFCOUNT = {"_nrt": False}
 
 def compiled_copies(dispatchers, replacements: dict, suffix: str, **options) -> dict:
     """Compiled copies of numba ``dispatchers`` whose global names in ``replacements`` are bound
-    to other functions (a product, say), and whose calls among themselves go to the copies;
-    keyed by the originals' names, compiled with ``njit(cache=True, **options)``.
+    to other functions (a product, say) or values, and whose calls among themselves go to the
+    copies; keyed by the originals' names, compiled with ``njit(cache=True, **options)``.
 
     One source, two sets of machine code: the n-dimensional top's kernels take the exponential
     with the unrolled products (:data:`lieint.fast.skew.expm_skew_small_into`) and, for n ≤ 8,
     stage functions whose products never reach BLAS, without reference counts
-    (:mod:`lieint.fast.topn_step`). Each copy has its own qualified name, so numba caches it
-    beside the original."""
+    (:mod:`lieint.fast.topn_step`). A global is a compile-time constant to numba, which drops
+    the branches a constant decides before typing them: the generic step's copies per
+    coordinates compile only their own coordinate map (:mod:`lieint.fast.generic_step`). Each
+    copy has its own qualified name, so numba caches it beside the original."""
     scopes, copies = [], {}
     for dispatcher in dispatchers:
         f = dispatcher.py_func

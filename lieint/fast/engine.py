@@ -728,9 +728,13 @@ class _PiecesLayout(_Layout):
         self.needs_field, self.needs_projection = needs_field, needs_projection
 
     def family(self, method) -> str:
-        """RKMK in Cayley coordinates, or at n = 3, steps through the copy of the stage code
-        without reference counts (its own family: a run compiles the one it uses)."""
-        if method.family == "rkmk" and (method.coordinates == "cayley" or self.n == 3):
+        """RKMK in Cayley coordinates, or in exponential coordinates at n = 3, steps through a
+        copy of the stage code without reference counts, one per coordinates (each its own
+        family: a run compiles the one it uses, and the coordinates are the copy's compile-time
+        constant, :mod:`lieint.fast.generic_step`)."""
+        if method.family == "rkmk" and method.coordinates == "cayley":
+            return "rkmk_cayley"
+        if method.family == "rkmk" and self.n == 3:
             return "rkmk_uncounted"
         return method.family
 
@@ -780,7 +784,9 @@ class _PiecesEnergyLayout(_PiecesLayout):
         self.dim = _orbit_dimension(self.n, self.nv, self.m, self.orbit.size)
 
     def family(self, method) -> str:
-        return "rkmk_energy_uncounted" if super().family(method) == "rkmk_uncounted" else "rkmk_energy"
+        plain = super().family(method)  # the plain form's copy the pair's step goes through
+        copies = {"rkmk_uncounted": "rkmk_energy_uncounted", "rkmk_cayley": "rkmk_energy_cayley"}
+        return copies.get(plain, "rkmk_energy")
 
     def context(self):
         bundle = self.pieces.bundle_for(self.needs_field, self.needs_projection, energy=True)

@@ -34,7 +34,17 @@ import numpy as np
 from numba import njit
 
 from ._jit import compiled_copies
-from .generic_step import _classical_step, lie_step, lie_step_uncounted, move, move_uncounted, products_step, step_work
+from .generic_step import (
+    _classical_step,
+    lie_step,
+    lie_step_cayley,
+    lie_step_uncounted,
+    move,
+    move_cayley,
+    move_uncounted,
+    products_step,
+    step_work,
+)
 
 __all__ = ["NAMESPACES"]
 
@@ -67,7 +77,9 @@ def form_scratch(fx, meth, par, d):
             work)  # fmt: skip
 
 
-@njit(cache=True)
+# inlined into the loop's copies, as the stage code is into it (lieint.fast.generic_step): one
+# function less to compile on its own, which optimized the whole step's code once more
+@njit(cache=True, inline="always")
 def form_lie_step(fx, y, par, meth, h, y1, inc, aux, scr):
     """One RKMK step through the system's generator and action; ``inc`` = ``(W, v, a)`` of the
     step, ``aux[0] = ‖W‖_F²`` of ``ξ(y)`` (the first stage)."""
@@ -78,8 +90,7 @@ def form_lie_step(fx, y, par, meth, h, y1, inc, aux, scr):
     gen = pieces.generator
     act = pieces.action
     ok = lie_step(
-        gen, act, y, par, nv, meth.A, meth.b, h, meth.coeffs, KW, Kv, Ka, y_stage, y1, meth.cayley, S, Sv, ua, aug,
-        work,
+        gen, act, y, par, nv, meth.A, meth.b, h, meth.coeffs, KW, Kv, Ka, y_stage, y1, S, Sv, ua, aug, work
     )  # fmt: skip
     if not ok:
         return -1
@@ -140,8 +151,7 @@ def form_rk_step(fx, y, par, meth, h, y1, inc, aux, scr):
 def form_embedded(fx, y, par, meth, weights, h, yh, scr):
     pieces, dims = fx
     act = pieces.action
-    move(act, y, par, dims[1], scr[0], scr[1], scr[2], weights, h, yh, meth.cayley, scr[5], scr[6], scr[7], scr[8],
-         scr[9])  # fmt: skip
+    move(act, y, par, dims[1], scr[0], scr[1], scr[2], weights, h, yh, scr[5], scr[6], scr[7], scr[8], scr[9])
 
 
 @njit(cache=True)
@@ -177,13 +187,15 @@ def form_user_field(fx, yu, par, fu, scr):
     field(yu, par, fu, scr[9])
 
 
-#: the step and the embedded solution without reference counts, for Cayley coordinates at every n
-#: and exponential coordinates at n = 3, where the coordinate map allocates nothing (each view of
-#: a stage and each call counted references: ~100 atomic operations a step, 18 % of a 3D heavy
-#: top's RKMK6 run); a family of its own, so that a run compiles the one copy it uses
+#: the step and the embedded solution without reference counts, for exponential coordinates at
+#: n = 3 and Cayley coordinates at every n, where the coordinate map allocates nothing (each view
+#: of a stage and each call counted references: ~100 atomic operations a step, 18 % of a 3D heavy
+#: top's RKMK6 run); a family per coordinates (their stage code differs at compile time:
+#: :mod:`lieint.fast.generic_step`), so that a run compiles the one copy it uses
 _UNCOUNTED = compiled_copies(
     [form_lie_step, form_embedded], {"lie_step": lie_step_uncounted, "move": move_uncounted}, "_uncounted"
 )
+_CAYLEY = compiled_copies([form_lie_step, form_embedded], {"lie_step": lie_step_cayley, "move": move_cayley}, "_cayley")
 
 _COMMON = {
     "prepare": form_prepare,
@@ -193,11 +205,13 @@ _COMMON = {
     "radius2": form_radius2,
     "user_field": form_user_field,
 }
-#: the names of :mod:`lieint.fast.loop` this form binds, per method family ("rkmk_uncounted":
-#: RKMK in Cayley coordinates, or at n = 3)
+#: the names of :mod:`lieint.fast.loop` this form binds, per method family ("rkmk": RKMK in
+#: exponential coordinates, "rkmk_uncounted": the same at n = 3, "rkmk_cayley": in Cayley
+#: coordinates)
 NAMESPACES = {
     "rkmk": {**_COMMON, "step": form_lie_step, "embedded": form_embedded},
     "rkmk_uncounted": {**_COMMON, "step": _UNCOUNTED["form_lie_step"], "embedded": _UNCOUNTED["form_embedded"]},
+    "rkmk_cayley": {**_COMMON, "step": _CAYLEY["form_lie_step"], "embedded": _CAYLEY["form_embedded"]},
     "rk": {**_COMMON, "step": form_rk_step, "embedded": form_embedded},
     # products of exponentials (no pairs: the embedded solution and the error norm never compile)
     "cf": {**_COMMON, "scratch": form_products_scratch, "step": form_products_step, "embedded": form_embedded},

@@ -33,8 +33,8 @@ from numba import njit
 from ._jit import compiled_copies
 from .generic import NAMESPACES as PLAIN
 from .generic import form_embedded, form_lie_step, form_scratch
-from .generic_step import lie_step_uncounted, move_uncounted
-from .se_algebra import coordinate_map
+from .generic_step import lie_step_cayley, lie_step_uncounted, move_cayley, move_uncounted
+from .se_algebra import exp_map
 
 __all__ = ["EPSILON", "NAMESPACES"]
 
@@ -97,7 +97,7 @@ def _gap(fx, y, par, s, level0, scr):
         uv[a] = s * etav[a]
     for a in range(ua.shape[0]):
         ua[a] = s * etaa[a]
-    coordinate_map(uW, uv, nv, Q, t, False, aug)
+    exp_map(uW, uv, nv, Q, t, aug)
     act, energy = pieces.action, pieces.energy
     act(Q, t, ua, y, par, trial, work)
     return energy(trial, par, work) - level0
@@ -220,18 +220,25 @@ def form_energy_user_field(fx, yu, par, fu, scr):
     field(yu, par, fu, scr[9])
 
 
-#: the step and the embedded solution on the plain form's copy without reference counts
-#: (Cayley coordinates at every n, exponential coordinates at n = 3: :mod:`lieint.fast.generic`)
-_UNCOUNTED = compiled_copies(
-    [form_energy_step, form_energy_embedded],
-    {
-        "form_lie_step": PLAIN["rkmk_uncounted"]["step"],
-        "form_embedded": PLAIN["rkmk_uncounted"]["embedded"],
-        "lie_step": lie_step_uncounted,
-        "move": move_uncounted,
-    },
-    "_uncounted",
-)
+#: the step and the embedded solution on the plain form's copies without reference counts
+#: (exponential coordinates at n = 3, Cayley coordinates at every n: :mod:`lieint.fast.generic`),
+#: one per coordinates
+_COPIES = {
+    family: compiled_copies(
+        [form_energy_step, form_energy_embedded],
+        {
+            "form_lie_step": PLAIN[f"rkmk_{family}"]["step"],
+            "form_embedded": PLAIN[f"rkmk_{family}"]["embedded"],
+            "lie_step": lie_step,
+            "move": move,
+        },
+        f"_{family}",
+    )
+    for family, lie_step, move in (
+        ("uncounted", lie_step_uncounted, move_uncounted),
+        ("cayley", lie_step_cayley, move_cayley),
+    )
+}
 
 _COMMON = {
     "prepare": PLAIN["rkmk"]["prepare"],
@@ -241,13 +248,16 @@ _COMMON = {
     "radius2": form_energy_radius2,
     "user_field": form_energy_user_field,
 }
-#: the names of :mod:`lieint.fast.loop` this form binds, per method family (``_uncounted``: the
-#: plain form's stage code without reference counts, Cayley coordinates or n = 3)
+#: the names of :mod:`lieint.fast.loop` this form binds, per method family (the plain form's
+#: stage code, ``_uncounted``: at n = 3, ``_cayley``: in Cayley coordinates)
 NAMESPACES = {
     "rkmk_energy": {**_COMMON, "step": form_energy_step, "embedded": form_energy_embedded},
-    "rkmk_energy_uncounted": {
-        **_COMMON,
-        "step": _UNCOUNTED["form_energy_step"],
-        "embedded": _UNCOUNTED["form_energy_embedded"],
+    **{
+        f"rkmk_energy_{family}": {
+            **_COMMON,
+            "step": copies["form_energy_step"],
+            "embedded": copies["form_energy_embedded"],
+        }
+        for family, copies in _COPIES.items()
     },
 }

@@ -5,7 +5,9 @@ An element is ``(W, v, a)``: W ∈ so(n), v ∈ Rⁿ the translation (length 0 o
 (abelian: its exponential is the identity map and its dexp⁻¹ and dcay⁻¹ the identity), so the
 functions here take the rotation and translation parts ``(uW, uv)``:
 
-* :func:`exponential` and :func:`coordinate_map` (exp or Cayley) into preallocated ``(Q, t)``;
+* :func:`exponential` into preallocated ``(Q, t)``, and the coordinate maps φ the step takes
+  (:func:`exp_map`, :func:`exp_map_n`, :func:`exp_map_3`, :func:`cayley_map`: one per set of
+  coordinates and range of n, so that a step compiled for one never compiles another's code);
 * :func:`out_of_range`, the generic path's dexp⁻¹ range test on the rotation part;
 * :func:`dexpinv`, the truncated series ``Σ_d (B_d/d!) ad_{−u}^d k`` with
   ``ad_{−u}(W, v) = ([−uW, W], −uW v + W uv)``, and :func:`dcayinv`, the exact
@@ -18,14 +20,16 @@ import numpy as np
 from numba import njit
 
 from ._jit import NO_REFCOUNT
-from .products import copy_matrix_into, copy_vector_into, mm_unrolled_into
-from .skew import _cayley_se3_into, _finite, cayley_se_elim_into, exp_se3_into, expm_se, expm_skew, so_ad_radius_exceeds
+from .products import mm_unrolled_into
+from .skew import _cayley_se3_into, _finite, cayley_se_elim_into, exp_se3_into, expm_so_se_into, so_ad_radius_exceeds
 
 __all__ = [
-    "coordinate_map",
-    "coordinate_map_uncounted",
+    "cayley_map",
     "dcayinv",
     "dexpinv",
+    "exp_map",
+    "exp_map_3",
+    "exp_map_n",
     "exponential",
     "out_of_range",
     "out_of_range_3",
@@ -36,18 +40,25 @@ __all__ = [
 def exponential(uW, uv, nv, Q, t):
     """``(Q, t) = exp(uW, uv)`` on SE(n) (``nv = n``) or ``Q = exp uW`` on SO(n), written into
     Q and t; NaN when u is not finite (the driver reports the non-finite state)."""
-    n = uW.shape[0]
     if not (_finite(uW) and _finite(uv)):
-        Q[:, :] = np.nan
-        t[:] = np.nan
-    elif n == 3:
+        _nan_into(Q, t)
+    elif uW.shape[0] == 3:
         exp_se3_into(uW, uv, Q, t)  # closed forms (uv of length 0 on SO(3))
-    elif nv == 0:
-        copy_matrix_into(expm_skew(uW), Q)
     else:
-        Q1, t1 = expm_se(uW, uv)
-        copy_matrix_into(Q1, Q)
-        copy_vector_into(t1, t)
+        # expm_skew's or expm_se's bits (uv of length nv) through one compiled Taylor kernel:
+        # the group is known only at run time, and compiling both wrappers cost seconds
+        expm_so_se_into(uW, uv, Q, t)
+
+
+@njit(cache=True, **NO_REFCOUNT)
+def _nan_into(Q, t):
+    """NaN into Q and t (a non-finite u: the driver reports the non-finite state), by loops:
+    numba's slice assignment compiles its broadcasting for a copy a loop does."""
+    for i in range(Q.shape[0]):
+        for j in range(Q.shape[1]):
+            Q[i, j] = np.nan
+    for i in range(t.shape[0]):
+        t[i] = np.nan
 
 
 @njit(cache=True)
@@ -131,26 +142,56 @@ def dcayinv(uW, uv, kW, kv, tW, tv, new):
         kv[a] += tv[a]
 
 
-# inlined into the step, not called: for n = 3 and in Cayley coordinates it calls only functions
-# without reference counts, where a call of its own would count one on each of its six arrays
+# The coordinate maps φ(u) into Q and t, one per set of coordinates and inlined into the step
+# (not called: where the step runs without reference counts, a call of its own would count one on
+# each of its six arrays). ``aug`` is an ``(n, 2n + 1)`` work array for the Cayley map's
+# elimination (n ≠ 3). A step takes one of them as a compile-time constant
+# (lieint.fast.generic_step), so it compiles only its own coordinates' code.
+
+
 @njit(cache=True, inline="always")
-def coordinate_map(uW, uv, nv, Q, t, cayley, aug):
-    """φ(u) into Q and t: the exponential or the Cayley map (``aug``: an ``(n, 2n + 1)`` work
-    array for the Cayley map's elimination, n ≠ 3)."""
-    if cayley and _finite(uW) and _finite(uv):
-        if uW.shape[0] == 3:
-            _cayley_se3_into(uW, uv, Q, t)
-        else:
-            cayley_se_elim_into(uW, uv, Q, t, aug)
-    elif uW.shape[0] == 3 and _finite(uW) and _finite(uv):
+def exp_map(uW, uv, nv, Q, t, aug):
+    """The exponential φ(u) = exp u into Q and t, at every n; NaN when u is not finite."""
+    if uW.shape[0] == 3 and _finite(uW) and _finite(uv):
         exp_se3_into(uW, uv, Q, t)
     else:
         exponential(uW, uv, nv, Q, t)
 
 
-# The step's copy without reference counts (lieint.fast.generic.lie_step_uncounted) takes these
-# two in place of out_of_range and coordinate_map: it runs in Cayley coordinates at every n and in
-# exponential coordinates at n = 3, where neither allocates.
+@njit(cache=True, inline="always")
+def exp_map_n(uW, uv, nv, Q, t, aug):
+    """:func:`exp_map` at n ≠ 3, the Taylor kernel only (the step at n = 3 is a copy of its own,
+    with :func:`exp_map_3`): neither the closed forms nor :func:`exponential`'s call to compile
+    and link; NaN when u is not finite."""
+    if _finite(uW) and _finite(uv):
+        expm_so_se_into(uW, uv, Q, t)
+    else:
+        _nan_into(Q, t)
+
+
+@njit(cache=True, inline="always")
+def exp_map_3(uW, uv, nv, Q, t, aug):
+    """:func:`exp_map` at n = 3 (the closed forms), allocating nothing (not called at other n)."""
+    if _finite(uW) and _finite(uv):
+        exp_se3_into(uW, uv, Q, t)
+    else:
+        _nan_into(Q, t)
+
+
+@njit(cache=True, inline="always")
+def cayley_map(uW, uv, nv, Q, t, aug):
+    """The Cayley map φ(u) = cay u into Q and t, at every n, allocating nothing; NaN when u is
+    not finite."""
+    if not (_finite(uW) and _finite(uv)):
+        _nan_into(Q, t)
+    elif uW.shape[0] == 3:
+        _cayley_se3_into(uW, uv, Q, t)
+    else:
+        cayley_se_elim_into(uW, uv, Q, t, aug)
+
+
+# The step's copy for exponential coordinates at n = 3 (lieint.fast.generic_step.lie_step_uncounted)
+# takes this in place of out_of_range, with exp_map_3: it runs without reference counts.
 
 
 @njit(cache=True, **NO_REFCOUNT)
@@ -162,21 +203,3 @@ def out_of_range_3(uW, nv):
         for j in range(3):
             ss += uW[i, j] * uW[i, j]
     return np.sqrt(0.5 * ss) >= 2.0 * np.pi
-
-
-@njit(cache=True, inline="always")
-def coordinate_map_uncounted(uW, uv, nv, Q, t, cayley, aug):
-    """:func:`coordinate_map` in Cayley coordinates (any n) and in exponential coordinates at
-    n = 3, allocating nothing; NaN when u is not finite."""
-    if not (_finite(uW) and _finite(uv)):
-        for i in range(Q.shape[0]):
-            for j in range(Q.shape[1]):
-                Q[i, j] = np.nan
-        for i in range(t.shape[0]):
-            t[i] = np.nan
-    elif cayley and uW.shape[0] != 3:
-        cayley_se_elim_into(uW, uv, Q, t, aug)
-    elif cayley:
-        _cayley_se3_into(uW, uv, Q, t)
-    else:
-        exp_se3_into(uW, uv, Q, t)

@@ -15,13 +15,14 @@ import numpy as np
 from numba import njit
 
 from ._jit import NO_REFCOUNT, compiled_copies
-from .products import copy_matrix_into, mm, mm_into, mm_small_into
+from .products import copy_matrix_into, mm, mm_into, mm_small_into, mm_unrolled_into
 
 __all__ = [
     "expm_se",
     "expm_skew",
     "expm_skew_into",
     "expm_skew_small_into",
+    "expm_so_se_into",
     "so_ad_radius_exceeds",
 ]
 
@@ -104,6 +105,55 @@ def expm_se(W, v):
     X2 = mm(X, X)
     S = _scaled_taylor(X, X2, min(_onenorm(W), np.sqrt(_onenorm(X2[:n, :n]))), _THETAS_SE)
     return np.ascontiguousarray(S[:n, :n]), np.ascontiguousarray(S[:n, n])
+
+
+@njit(cache=True)
+def expm_so_se_into(W, v, Q, t):
+    """:func:`expm_skew` of W into Q when v has length 0 (so(n)), :func:`expm_se` of ``(W, v)``
+    into Q and t otherwise (se(n), n ≠ 3), through one compiled Taylor kernel whose products
+    never reach BLAS: the same bits while X (below) is at most 8 × 8, round-off apart above.
+
+    Both are :func:`_scaled_taylor_into` of a matrix X — W itself, or the homogeneous
+    ``[[W, v], [0, 0]]`` with the translation's thresholds — so a caller that takes both
+    (:func:`lieint.fast.se_algebra.exponential`, whose group is known only at run time)
+    compiles the kernel once, not the two wrappers with their own allocations and copies. Its
+    products are :func:`lieint.fast.products.mm_unrolled_into` (unrolled up to 8 × 8, where they
+    beat both loops and BLAS; loops above), not :func:`mm_into`, whose BLAS fallback for larger
+    matrices (numba's product with its checks, and the copies) cost a cold run a second to
+    compile."""
+    n = W.shape[0]
+    m = v.shape[0]
+    k = n + 1 if m > 0 else n
+    X = np.zeros((k, k))
+    for a in range(n):
+        for c in range(n):
+            X[a, c] = W[a, c]
+    for a in range(m):
+        X[a, n] = v[a]
+    work = np.empty((5, k, k))
+    mm_unrolled_into(X, X, work[0])
+    # θ₁ ≤ min(‖W‖₁, ‖W²‖₁^{1/2}); W² is the top left block of X² (X's last row is zero)
+    norm = min(_onenorm(W), np.sqrt(_onenorm_block(work[0], n)))
+    S = np.empty((k, k))
+    _scaled_taylor_no_blas_into(X, norm, _THETAS_SE if m > 0 else _THETAS, S, work)
+    for a in range(n):
+        for c in range(n):
+            Q[a, c] = S[a, c]
+    for a in range(m):
+        t[a] = S[a, n]
+
+
+@njit(cache=True)
+def _onenorm_block(X, n):
+    """:func:`_onenorm` of the top left n × n block of X (the same sums in the same order)."""
+    best = 0.0
+    for j in range(n):
+        acc = 0.0
+        for i in range(n):
+            acc += abs(X[i, j])
+        if acc > best:
+            best = acc
+    return best
 
 
 @njit(cache=True)
@@ -383,14 +433,30 @@ def so_ad_radius_exceeds(u):
                 big = abs(x)
     if np.sqrt(ss) < _TWO_PI:
         return 0
-    v = u * (1.0 / big)
-    w = v @ v
+    # the products by loops, not by ``@``: a test of a bound needs no BLAS, and each ``@``
+    # compiled its own dispatch to it (half a second of a cold run's compilation)
+    scale = 1.0 / big
+    v = np.empty((n, n))
+    for i in range(n):
+        for j in range(n):
+            v[i, j] = u[i, j] * scale
     ss = 0.0
-    for x in w.ravel():
-        ss += x * x
+    for i in range(n):
+        for j in range(n):
+            acc = 0.0
+            for k in range(n):
+                acc += v[i, k] * v[k, j]
+            ss += acc * acc
     if big * np.sqrt(2.0 * np.sqrt(ss)) < _TWO_PI:
         return 0
-    lam = np.linalg.eigvalsh(v.T @ v)
+    G = np.empty((n, n))  # vᵀv
+    for i in range(n):
+        for j in range(n):
+            acc = 0.0
+            for k in range(n):
+                acc += v[k, i] * v[k, j]
+            G[i, j] = acc
+    lam = np.linalg.eigvalsh(G)
     theta = big * np.sqrt(max(lam[n - 1], 0.0))
     if n >= 3:  # so(2) turns one plane: θ₂ = 0
         theta += big * np.sqrt(max(lam[n - 3], 0.0))
@@ -479,6 +545,12 @@ def _gram_defect(R):
             worst = abs(x)
     return E, worst
 
+
+#: :func:`_scaled_taylor_into` with the products that never reach BLAS (:func:`mm_unrolled_into`):
+#: :func:`expm_so_se_into`'s
+_scaled_taylor_no_blas_into = compiled_copies([_scaled_taylor_into], {"mm_into": mm_unrolled_into}, "_no_blas")[
+    "_scaled_taylor_into"
+]
 
 #: :func:`expm_skew_into` with the unrolled products (:func:`mm_small_into`): the n-dimensional
 #: top's kernels take them, every other kernel keeps the loops (which do not dominate those

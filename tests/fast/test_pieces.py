@@ -384,3 +384,30 @@ def test_cayley_coordinates_run_compiled_on_the_euler_top(n):
         assert fast.t.size == ref.t.size
         for field, expected in ref.states.items():
             np.testing.assert_allclose(fast.states[field][-1], expected[-1], rtol=0, atol=1e-11)
+
+
+def test_each_rkmk_family_compiles_its_own_coordinates():
+    """The generic step's coordinates are a compile-time constant of its copies
+    (:mod:`lieint.fast.generic_step`): each family's step takes its own coordinate map and
+    dexp⁻¹ or dcay⁻¹, so a run in exponential coordinates never compiles the Cayley map; the
+    energy pairs' families step through the plain form's copies."""
+    from lieint.fast import generic, generic_energy, se_algebra
+
+    def stage_code(namespace):
+        form_step = namespace["step"].py_func.__globals__
+        step = form_step["form_lie_step"].py_func.__globals__ if "form_lie_step" in form_step else form_step
+        return step["lie_step"].py_func.__globals__
+
+    expected = {
+        "rkmk": (False, se_algebra.exp_map_n),
+        "rkmk_uncounted": (False, se_algebra.exp_map_3),
+        "rkmk_cayley": (True, se_algebra.cayley_map),
+    }
+    for family, (cayley, coordinate_map) in expected.items():
+        for namespaces, name in (
+            (generic.NAMESPACES, family),
+            (generic_energy.NAMESPACES, family.replace("rkmk", "rkmk_energy")),
+        ):
+            scope = stage_code(namespaces[name])
+            assert scope["CAYLEY"] is cayley, name
+            assert scope["coordinate_map"] is coordinate_map, name
