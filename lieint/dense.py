@@ -358,13 +358,21 @@ class StepTable:
     Hermite curve in the algebra (:class:`LieHermite`, with the earlier step ends of
     ``history`` and of the table for methods of order p > 4), or on the state arrays
     (:class:`EmbeddedHermite`). ``cayley``: the increments are Cayley coordinates of the step's
-    element (its log is taken when the interpolant is built). ``end``: where the table stops
-    (a terminal event within its last step). The times decrease in a run backward in time.
+    element (its log is taken when the interpolant is built). ``derived``: the steps reported no
+    increment but moved the state by the group action (True: a splitting, a map) or kept its
+    group-valued fields on the group ("fields": the midpoint) — each step's element is read off
+    its two states (``system.relative_element``), as :class:`lieint.observe.StepObserver` does on
+    the generic path, and in the "fields" case the curve is corrected to end at ``y₁``. ``end``:
+    where the table stops (a terminal event within its last step). The times decrease in a run
+    backward in time.
     """
 
-    def __init__(self, system, t, rows: dict, increments, *, cayley=False, extra_nodes=0, history=()):
+    def __init__(self, system, t, rows: dict, increments, *, cayley=False, extra_nodes=0, history=(), derived=False):
         self.system = system
         self.t = np.asarray(t, dtype=float)
+        self.derived = derived if increments is None else False
+        if self.derived:
+            increments = self._derived_increment
         self.rows, self.increments, self.cayley = rows, increments, bool(cayley)
         self.extra_nodes = int(extra_nodes)
         self.history = list(history)  # (t_j, ξ_j, u_j) of the steps before the table
@@ -389,6 +397,10 @@ class StepTable:
             cached = self._field[i] = evaluate(float(self.t[i]), self.row(i))
             self.nfev += 1
         return cached
+
+    def _derived_increment(self, j: int):
+        """``log g`` of step j, ``g = relative_element(y_j, y_{j+1})`` (the generic path's)."""
+        return self.system.group.log(self.system.relative_element(self.row(j), self.row(j + 1)))
 
     def increment(self, j: int):
         """``u_j`` with ``y_{j+1} = ρ(exp(u_j), y_j)``."""
@@ -416,7 +428,11 @@ class StepTable:
             piece = EmbeddedHermite(t0, t1, y0, y1, d0, d1)
         else:
             earlier = earlier_nodes(self.system.group, self.history_before(j))
-            piece = LieHermite(self.system, t0, t1, y0, self.increment(j), d0, d1, y1, earlier)
+            u, mismatch = self.increment(j), None
+            if self.derived == "fields":  # only R was moved by the group: end the curve at y₁
+                moved = self.system.act(self.system.group.exp(u), y0)
+                mismatch = {k: y1[k] - moved[k] for k in y1}
+            piece = LieHermite(self.system, t0, t1, y0, u, d0, d1, y1, earlier, mismatch=mismatch)
         self._pieces[j] = piece
         return piece
 

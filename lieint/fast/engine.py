@@ -178,9 +178,7 @@ def _increment_blocks(method) -> int:
     of exponentials), none (classical RK: dense output interpolates the state arrays)."""
     if isinstance(method, ExpProductForm):
         return method.outputs
-    if isinstance(method, MapForm):
-        return 1 if method.increment else 0
-    return 1 if method.family == "rkmk" else 0
+    return 1 if method.family == "rkmk" or isinstance(method, MapForm) else 0
 
 
 class _Layout:
@@ -962,16 +960,19 @@ class Engine:
         self.N = math.prod(batch)
         units = getattr(layout, "units", self.N)  # bodies, or blocks of bodies in SIMD lanes
         module = stage_module or layout.module  # a map's own stage code (MapForm.module_for)
+        self.du = layout.increments_size(method)
         if isinstance(method, MapForm):
             import importlib
 
-            self.tableau = importlib.import_module(module).numbers(method, layout)
+            stage = importlib.import_module(module)
+            self.tableau = stage.numbers(method, layout)
+            if not getattr(stage, "INCREMENT", True):  # its steps report none: dense output from the states
+                self.du = 0
         else:
             self.tableau = _tableau(method)
         self.stages = method.stages
         self.adaptive = adaptive
         self.loops = bound_loops(module, layout.family(method))
-        self.du = layout.increments_size(method)
         if adaptive:
             self.parallel, self.threads = False, 1  # a batch shares one step size
             low = method.b_low

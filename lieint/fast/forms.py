@@ -146,9 +146,9 @@ class MapForm:
     series (0: the plain map) and ``coefficients`` the function ``moments -> (s, d)`` giving
     their coefficients (:func:`lieint.methods.modified_mv.modified_coefficients`); ``planes``
     the coordinate planes ``(i, j)`` of a splitting's rotations in the order of its Strang step
-    (principal frame of the 3D top); ``increment`` whether a step has an increment in the
-    algebra for dense output (a map that is no Lie-group method, the midpoint, has none: dense
-    output interpolates its states, as classical RK's).
+    (principal frame of the 3D top). A map's stage module whose steps report no increment in the
+    algebra says so (``INCREMENT = False``): dense output then works from the states, as the numpy
+    path's does for such a step.
     """
 
     family: str
@@ -157,7 +157,6 @@ class MapForm:
     degree: int = 0
     coefficients: Any = None
     planes: tuple = ()
-    increment: bool = True
 
     coordinates = None
     pair = False

@@ -21,7 +21,8 @@ from collections import namedtuple
 import numpy as np
 from numba import njit
 
-from .generic import _norm2, form_embedded, form_error_sum, form_prepare
+from .generic import form_embedded, form_error_sum, form_prepare
+from .pieces_maps import form_project, form_radius2, form_user_field, scratch_head
 
 __all__ = ["NAMESPACES", "MidpointNumbers", "numbers"]
 
@@ -29,6 +30,8 @@ __all__ = ["NAMESPACES", "MidpointNumbers", "numbers"]
 #: ``cayley`` (False; read by the loop's observer as a tableau's)
 MidpointNumbers = namedtuple("MidpointNumbers", "bounds cayley")
 
+#: the rule is no Lie-group method: its steps have no increment in the algebra
+INCREMENT = False
 _EPS = np.finfo(np.float64).eps
 #: the numpy path's limit on the fixed-point iterations of one step
 _MAX_ITER = 200
@@ -41,31 +44,9 @@ def numbers(form, layout) -> MidpointNumbers:
 
 @njit(cache=True)
 def form_scratch(fx, meth, par, d):
-    """The slope k, the midpoint's iterate, the pieces' work array and a generator's ``(W, v, a)``
-    (the step check's bound)."""
-    dims = fx[1]
-    n, nv, m = dims[0], dims[1], dims[2]
-    return np.empty(d), np.empty(d), np.empty(max(dims[3], 1)), np.empty((n, n)), np.empty(nv), np.empty(m)
-
-
-@njit(cache=True)
-def form_project(fx, y, par, out, scr):
-    proj = fx[0].projection
-    proj(y, par, out, scr[2])
-
-
-@njit(cache=True)
-def form_radius2(fx, y, par, scr):
-    """``‖W‖_F²`` of ξ(y): the step check's bound (the rule itself never evaluates ξ)."""
-    gen = fx[0].generator
-    gen(y, par, scr[3], scr[4], scr[5], scr[2])
-    return _norm2(scr[3])
-
-
-@njit(cache=True)
-def form_user_field(fx, yu, par, fu, scr):
-    field = fx[0].vector_field
-    field(yu, par, fu, scr[2])
+    """:func:`lieint.fast.pieces_maps.scratch_head`'s arrays, the slope k and the midpoint's iterate."""
+    work, W, v, a = scratch_head(fx)
+    return work, W, v, a, np.empty(d), np.empty(d)
 
 
 @njit(cache=True)
@@ -74,7 +55,7 @@ def form_midpoint_step(fx, y, par, meth, h, y1, inc, aux, scr):
     fixed-point iteration did not converge (the numpy path's test,
     :func:`lieint.methods.midpoint.implicit_midpoint`)."""
     field = fx[0].vector_field
-    k, ym, work = scr[0], scr[1], scr[2]
+    work, k, ym = scr[0], scr[4], scr[5]
     bounds = meth.bounds
     d = y.shape[0]
     half = 0.5 * h

@@ -93,7 +93,7 @@ class LieMidpoint(Method):
         (:mod:`lieint.fast.midpoint`; the free tops run there through their pieces)."""
         from ..fast.forms import MapForm
 
-        return MapForm("midpoint", COMPILED_MIDPOINT, increment=False)
+        return MapForm("midpoint", COMPILED_MIDPOINT)
 
     def step(self, system, t: float, y: dict, h: float, state=None) -> StepResult:
         ym, nfev = implicit_midpoint(system.vector_field, t, y, h)

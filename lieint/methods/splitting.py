@@ -152,8 +152,8 @@ class Splitting(Method):
 
     def compiled(self):
         """The compiled engine's form: the free 3D top's rotations in machine code
-        (:mod:`lieint.fast.top3_split`). The heavy top, the n-D top (n ≥ 4) and ``free="exact"``
-        run on the numpy path."""
+        (:mod:`lieint.fast.top3_split`), the heavy top's and the n-D top's through their compiled
+        pieces (:mod:`lieint.fast.pieces_split`); ``free="exact"`` runs on the numpy path."""
         if self.free != "rotations" or not self.steps_as(Splitting, ("step", "check_system")):
             return None
         from ..fast.forms import MapForm
@@ -163,7 +163,7 @@ class Splitting(Method):
 
 
 #: where the splittings have compiled stage code: system form (class name) -> module
-COMPILED_SPLITTINGS = {"Top3Form": "lieint.fast.top3_split"}
+COMPILED_SPLITTINGS = {"Top3Form": "lieint.fast.top3_split", "PiecesForm": "lieint.fast.pieces_split"}
 
 
 class _Pieces:

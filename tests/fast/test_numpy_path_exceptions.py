@@ -23,20 +23,14 @@ SYSTEMS = coverage_systems()
 #: every one of them
 ALL = frozenset(SYSTEMS)
 
-#: the pairs that run on the numpy path: method -> the systems (labels of SYSTEMS)
-NUMPY_PATH: dict[str, frozenset] = {
-    # the splittings' exact sub-flows beyond the free 3D top's rotations
-    "splitting2": frozenset({"euler_top n=4", "heavy_top n=3", "heavy_top n=4"}),
-    "splitting4": frozenset({"euler_top n=4", "heavy_top n=3", "heavy_top n=4"}),
-    "splitting6": frozenset({"euler_top n=4", "heavy_top n=3", "heavy_top n=4"}),
-}
+#: the pairs that run on the numpy path: method -> the systems (labels of SYSTEMS); none today
+#: (the last ones, the splittings beyond the free 3D top and the midpoint, now run compiled)
+NUMPY_PATH: dict[str, frozenset] = {}
 #: what backend_reason says of each kind of exception
 REASONS = ("has no compiled",)
 
 #: how docs/architecture.md's table names each listed method
-DOC_NAMES = {
-    "splitting": "splittings",
-}
+DOC_NAMES: dict[str, str] = {}
 
 
 @pytest.mark.parametrize("label", sorted(SYSTEMS))
