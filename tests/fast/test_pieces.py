@@ -145,12 +145,14 @@ def test_a_run_that_blows_up_ends_cleanly_and_prints_nothing(n, name, capfd):
 
 
 def test_ensembles_run_in_threads_and_equal_one_body_at_a_time():
-    system = variants(3)["rolling_ball/offset, incline"]
+    # the 4D ball: ensembles of the 3D one run in SIMD lanes (tests/fast/test_ensemble_lanes.py)
+    system = variants(4)["rolling_ball/offset, incline"]
     rng = np.random.default_rng(2)
-    X = rng.normal(size=(5, 3, 3))
+    X = rng.normal(size=(5, 4, 4))
     y0 = system.initial_state(Omega=X - np.swapaxes(X, -1, -2))
     kw = dict(t_span=(0.0, 1.0), h=0.05, method="rkmk4")
     batch = lieint.integrate(system, y0, backend="numba", **kw)
+    assert "compiled pieces" in batch.stats.backend_reason
     for i in range(5):
         one = lieint.integrate(system, {k: v[i] for k, v in y0.items()}, backend="numba", **kw)
         for field in one.states:
