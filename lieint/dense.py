@@ -411,8 +411,9 @@ class StepTable:
         return u
 
     def history_before(self, j: int) -> list:
-        """``(t_i, ξ_i, u_i)`` of the ``extra_nodes`` steps before step j (oldest first)."""
-        if not self.extra_nodes:
+        """``(t_i, ξ_i, u_i)`` of the ``extra_nodes`` steps before step j (oldest first); none for
+        steps without increments (their interpolants are on the state arrays)."""
+        if not self.extra_nodes or self.increments is None:
             return []
         own = [(float(self.t[i]), self._evaluate(i), self.increment(i)) for i in range(max(0, j - self.extra_nodes), j)]
         return (self.history + own)[-self.extra_nodes :]

@@ -290,6 +290,7 @@ def scene_solver_options(scene: Scene) -> dict:
         "save_every": scene.save_every,
         "rtol": scene.rtol,
         "atol": scene.atol,
+        "backend": scene.backend,
     }
 
 

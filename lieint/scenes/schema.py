@@ -12,7 +12,7 @@ A scene declares the body, the support (``fixed_point`` | ``rolling`` | ``free``
     [forces]      gravity = [gx, gy, gz] | {magnitude = 9.81, incline = "pi/6"}
     [initial]     angular_velocity (n = 3) | omega (bivector) | momentum (bivector),
                   orientation, center, velocity
-    [integrator]  method, step, t_end, t_start, coordinates, project, save_every, rtol, atol
+    [integrator]  method, step, t_end, t_start, coordinates, project, save_every, rtol, atol, backend
     [output]      quantities = ["energy", "orientation", "contact_path", ...]
     [ensemble]    count, seed, spread  (Gaussian spread of the initial angular velocity) | file
 
@@ -65,7 +65,18 @@ TABLES: dict[str, set[str]] = {
     "support": {"type", "normal"},
     "forces": {"gravity"},
     "initial": {"angular_velocity", "omega", "momentum", "orientation", "center", "velocity"},
-    "integrator": {"method", "step", "t_end", "t_start", "coordinates", "project", "save_every", "rtol", "atol"},
+    "integrator": {
+        "method",
+        "step",
+        "t_end",
+        "t_start",
+        "coordinates",
+        "project",
+        "save_every",
+        "rtol",
+        "atol",
+        "backend",
+    },
     "output": {"quantities"},
     "ensemble": {"count", "seed", "spread", "file"},
     "events": {"name", "output", "component", "value", "direction", "terminal"},
@@ -107,6 +118,9 @@ class Scene:
     parameters: dict[str, Any] = field(default_factory=dict)
     rtol: float = 1e-8
     atol: float = 1e-10
+    #: ``"auto"`` (the compiled engine where it applies), ``"numba"`` (it or an error), ``"numpy"``
+    #: (the generic path: the reference the engine is tested against)
+    backend: str = "auto"
     #: ``[[events]]``: dicts with name, output, component, value, direction, terminal
     events: tuple = ()
     #: "matrix" (R ∈ SO(n)) or "rotor" (the rotor form, lieint.ga.RotorForm)
@@ -328,6 +342,7 @@ class _Reader(TableReader):
             if key in integ and not spec.adaptive:
                 raise self.fail("integrator", key, f"applies to adaptive methods only; {method!r} has a fixed step")
             tolerances[key] = self.positive("integrator", key, integ[key]) if key in integ else default
+        backend = self.string("integrator", "backend", integ.get("backend", "auto"), ("auto", "numba", "numpy"))
         return {
             "method": method,
             "step": step,
@@ -336,6 +351,7 @@ class _Reader(TableReader):
             "coordinates": coordinates,
             "project": project,
             "save_every": save_every,
+            "backend": backend,
             **tolerances,
         }
 

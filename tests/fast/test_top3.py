@@ -44,7 +44,7 @@ def test_auto_uses_the_kernel_only_where_it_applies(rng):
     assert lieint.integrate(top, y0, (0, 1), h=0.1).stats["backend"] == "numba"
     cayley = lieint.integrate(top, y0, (0, 1), h=0.1, coordinates="cayley").stats  # the generic kernel
     assert cayley["backend"] == "numba" and "compiled pieces on so(3), RKMK (Cayley)" in cayley.backend_reason
-    assert lieint.integrate(top, y0, (0, 1), h=0.1, method="lie_midpoint").stats["backend"] == "numpy"
+    assert lieint.integrate(top, y0, (0, 1), h=0.1, method="lie_midpoint").stats["backend"] == "numba"  # its pieces
     assert lieint.integrate(top, y0, (0, 1), h=0.1, dexpinv_degree=None).stats["backend"] == "numpy"
     four = lieint.EulerTop(np.eye(4))  # the n-dimensional kernel (lieint.fast.topn)
     assert lieint.integrate(four, four.initial_state(Omega=np.zeros((4, 4))), (0, 1), h=0.1).stats.backend == "numba"

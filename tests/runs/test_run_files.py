@@ -33,7 +33,8 @@ type = "fixed_point"
 omega = [[0.0, -0.3, 0.5, -0.2], [0.3, 0.0, -0.4, 0.6], [-0.5, 0.4, 0.0, -0.1], [0.2, -0.6, 0.1, 0.0]]
 
 [integrator]
-method = "lie_midpoint"  # the generic path (no compiled kernel), slow enough to be caught live
+method = "lie_midpoint"
+backend = "numpy"  # the generic path, slow enough to be caught live
 step = 0.002
 t_end = {t_end}
 save_every = 1
