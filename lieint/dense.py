@@ -108,6 +108,26 @@ class Restep:
         return self.method.step(self.system, self.t0, self.y0, t - self.t0, self.state).y
 
 
+@dataclass(frozen=True)
+class _SteppedAgain:
+    """:class:`Restep` over a step of a compiled run: ``step(t)`` is the method's own step from
+    ``(t₀, y₀)`` to t (the engine's), the ends returned as the run keeps them."""
+
+    t0: float
+    t1: float
+    y0: dict
+    y1: dict
+    step: Callable[[float], dict]
+
+    def __call__(self, t: float) -> dict:
+        t = float(t)
+        if t == self.t1:
+            return self.y1
+        if t == self.t0:
+            return self.y0
+        return self.step(t)
+
+
 def _hermite(theta: float) -> tuple[float, float, float, float]:
     """Cubic Hermite basis ``(h₀₀, h₁₀, h₀₁, h₁₁)`` at θ."""
     t2, t3 = theta * theta, theta * theta * theta
@@ -367,8 +387,12 @@ class StepTable:
     backward in time.
     """
 
-    def __init__(self, system, t, rows: dict, increments, *, cayley=False, extra_nodes=0, history=(), derived=False):
+    def __init__(
+        self, system, t, rows: dict, increments, *, cayley=False, extra_nodes=0, history=(), derived=False, restep=None
+    ):
         self.system = system
+        #: ``restep(j, t)``: the method's own step from step end j to t (the energy pairs), or None
+        self.restep = restep
         self.t = np.asarray(t, dtype=float)
         self.derived = derived if increments is None else False
         if self.derived:
@@ -424,6 +448,9 @@ class StepTable:
         if piece is not None:
             return piece
         t0, t1, y0, y1 = float(self.t[j]), float(self.t[j + 1]), self.row(j), self.row(j + 1)
+        if self.restep is not None:
+            piece = self._pieces[j] = _SteppedAgain(t0, t1, y0, y1, lambda t, j=j: self.restep(j, t))
+            return piece
         d0, d1 = self._evaluate(j), self._evaluate(j + 1)
         if self.increments is None:
             piece = EmbeddedHermite(t0, t1, y0, y1, d0, d1)

@@ -391,10 +391,6 @@ def adaptive_loop(driver: LoopHost, y0: dict):
     from .fast.engine import engine_for
 
     kernel, reason = engine_for(driver.system, driver.method, y0, adaptive=True, project=driver.project)
-    if kernel is not None and driver.observer is not None and getattr(kernel.method, "keeps_energy", False):
-        # the energy pairs' dense output steps again from each step's start (lieint.dense.Restep):
-        # a curve through the compiled rows would err ~10⁵× more than their steps
-        kernel, reason = None, f"{driver.method.name!r}: dense output, events and t_eval step again (generic path)"
     if kernel is not None:
         return _AdaptiveKernelLoop(driver, kernel)
     if driver.backend_request == "numba":
@@ -460,7 +456,8 @@ class _AdaptiveKernelLoop(_CompiledRows, _AdaptiveLoop):
         chunk = 256
         while d.before_end(carry.t) and left > 0:
             start, t_start, k_start = self.user_state(carry), carry.t, carry.k
-            state, (t, h, k), (acc, rej, nfev), t_steps, steps, small, (_, kept_U) = kernel.advance_adaptive(
+            flat_start = carry.state["Y"]
+            state, (t, h, k), (acc, rej, nfev), t_steps, steps, small, (kept_Y, kept_U) = kernel.advance_adaptive(
                 carry.state, carry.t, d.t1, carry.h, carry.k, min(left, chunk), 1, d.project, d.controller,
                 self.h_min, d.max_step, keep=True,
             )  # fmt: skip
@@ -470,9 +467,11 @@ class _AdaptiveKernelLoop(_CompiledRows, _AdaptiveLoop):
             carry.nfev += nfev
             left -= acc
             rows = {name: np.concatenate([start[name][None], v]) for name, v in steps.items()}
+            times_here = np.concatenate([[t_start], t_steps])
             table = d.observer.table(
-                np.concatenate([[t_start], t_steps]), rows, self._increments(kept_U), kernel.tableau.cayley
-            )
+                times_here, rows, self._increments(kept_U), kernel.tableau.cayley,
+                restep=self._restep(times_here, flat_start, kept_Y),
+            )  # fmt: skip
             stopped = d.observer.segment(table)
             numbers = k_start + 1 + np.arange(table.steps)
             keep = (numbers % d.save_every == 0) | (t_steps[: table.steps] == d.t1)
@@ -492,6 +491,21 @@ class _AdaptiveKernelLoop(_CompiledRows, _AdaptiveLoop):
     def _increments(self, kept_U):
         kernel = self.kernel
         return lambda j: _take(kernel.increments(kept_U[j : j + 1]), 0)
+
+    def _restep(self, times, flat_start, kept_Y):
+        """``restep(j, t)`` of a table of the energy pairs' steps (None for other methods): their
+        dense output steps again from each step's start (:class:`lieint.dense.Restep`) — a curve
+        through the rows would err ~10⁵× more than their steps, which may spin the body by radians
+        about the momentum axis — with the engine's own step."""
+        kernel = self.kernel
+        if not getattr(kernel.method, "keeps_energy", False):
+            return None
+
+        def restep(j, t):
+            Y = flat_start if j == 0 else kept_Y[j - 1]
+            return kernel.restep(Y, float(times[j]), float(t) - float(times[j]))
+
+        return restep
 
 
 class ScipyLoop:

@@ -131,17 +131,18 @@ class StepObserver:
             return True
         return False
 
-    def table(self, t, rows: dict, increments, cayley: bool = False):
+    def table(self, t, rows: dict, increments, cayley: bool = False, restep=None):
         """A :class:`~lieint.dense.StepTable` of steps ending at ``t`` (the stretch's start first),
         with this run's history of earlier steps. Steps without increments of a method that moves
-        by the group action get each step's element from its states, as :meth:`step` does."""
+        by the group action get each step's element from its states, as :meth:`step` does;
+        ``restep(j, t)`` (the energy pairs) steps again from step end j instead."""
         derived = False
         if increments is None and self.group_action and len(t) > 1:
             first = ({k: v[0] for k, v in rows.items()}, {k: v[1] for k, v in rows.items()})
             derived = self.group_action if self.system.relative_element(*first) is not None else False
         return StepTable(
             self.system, t, rows, increments, cayley=cayley, extra_nodes=self.extra_nodes, history=self.history,
-            derived=derived,
+            derived=derived, restep=restep,
         )  # fmt: skip
 
     def _save_table(self, table, stop) -> None:

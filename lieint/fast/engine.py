@@ -1156,6 +1156,24 @@ class Engine:
             return (*result, (out_Y[:rows], out_U[:rows]))
         return result
 
+    def restep(self, Y: np.ndarray, t: float, tau: float) -> dict:
+        """The method's own step of size ``tau`` from the flat states ``Y`` (N, d) at ``t``, in the
+        user's fields: an adaptive pair's step taken whatever its error estimate (the tolerances
+        at 1e300), as :class:`lieint.dense.Restep` takes it on the generic path — the energy
+        pairs' dense output between their steps."""
+        huge = _RestepController()
+        *_, saved, _ = self.advance_adaptive(
+            {"Y": np.ascontiguousarray(Y)}, float(t), float(t + tau), float(tau), 0, 1, 1, False, huge, 0.0
+        )
+        return {k: v[-1] for k, v in saved.items()}
+
+
+class _RestepController:
+    """The step-size controller of :meth:`Engine.restep`: every trial step is accepted."""
+
+    rtol = atol = 1e300
+    safety, factor_min, factor_max = 0.9, 0.2, 10.0
+
 
 # -- the selector ----------------------------------------------------------------------------------
 

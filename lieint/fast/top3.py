@@ -486,8 +486,8 @@ def form_energy_scratch(fx, meth, par, d):
 
 @njit(cache=True)
 def form_energy_step(fx, y, par, meth, h, y1, inc, aux, scr):
-    """One step of an energy-keeping pair (see above); ``inc`` = the pair's increment (the
-    compiled path serves no dense output of these pairs: they step again, on the generic path)."""
+    """One step of an energy-keeping pair (see above); ``inc`` = the pair's increment (unused by
+    dense output: these pairs' interpolants step again, :meth:`lieint.fast.engine.Engine.restep`)."""
     K, u, Q, tpi, tR = scr[0], scr[1], scr[2], scr[3], scr[4]
     turned, moved, g = scr[9], scr[10], scr[11]
     Iinv = par[0:3]

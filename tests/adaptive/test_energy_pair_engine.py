@@ -133,20 +133,40 @@ def test_an_n_d_tops_split_run_keeps_the_level_of_its_start(monkeypatch):
         np.testing.assert_array_equal(whole.states[field], split.states[field])
 
 
-@pytest.mark.parametrize(
-    ("what", "kw", "system"),
-    [
-        ("events", {"events": lambda t, y: vee(TOP.angular_velocity(y["A"]))[..., 1]}, TOP),
-        ("dense output", {"dense_output": True}, TOP),
-        ("heavy top, t_eval", {"t_eval": [0.5, 1.0]}, variants(3)["heavy_top"]),
-    ],
-)
-def test_elsewhere_the_generic_path_says_why(what, kw, system):
-    y0 = system.initial_state(angular_velocity=[0.3, 0.5, 1.0])
-    sol = run(y0, 1.0, 1e-7, system=system, **kw)
-    assert sol.stats.backend == "numpy", what
-    reason = sol.stats.backend_reason
-    assert "+energy" in reason and "step again" in reason, reason
+@pytest.mark.parametrize("system", [TOP, variants(3)["heavy_top"], lieint.EulerTop(np.diag([0.6, 0.9, 1.2, 1.5]))])
+def test_dense_output_events_and_t_eval_step_again_on_the_engine(system):
+    """Between its steps an energy pair's solution is its own step from the last step end
+    (lieint.dense.Restep), on the engine too: the compiled run's interpolant at t is the generic
+    path's step from the compiled run's row to t (to 1e-13), the t_eval rows are that curve, and
+    an event found on it is where the event function vanishes; its time is the generic run's to
+    the two runs' own difference (their steps differ at the controller's round-off floor)."""
+    y0 = initial(system, np.random.default_rng(6))
+    path = run(y0, 2.0, 1e-8, system=system, backend="numpy").states["A"][:, 0, 1]
+    level = 0.5 * (path.min() + path.max())
+
+    def crossing(t, y):
+        return y["A"][..., 0, 1] - level
+
+    kw = dict(dense_output=True, events=crossing, t_eval=np.linspace(0.0, 2.0, 9))
+    fast = run(y0, 2.0, 1e-8, system=system, **kw)
+    slow = run(y0, 2.0, 1e-8, system=system, backend="numpy", **kw)
+    assert fast.stats.backend == "numba" and "energy kept" in fast.stats.backend_reason
+    plain = run(y0, 2.0, 1e-8, system=system)
+    method = lieint.get_method(METHOD)
+    state = method.init(system, 0.0, y0, 0.1)
+    for j in range(0, plain.t.size - 1, max(1, plain.t.size // 5)):
+        t = plain.t[j] + 0.37 * (plain.t[j + 1] - plain.t[j])
+        row = {k: v[j] for k, v in plain.states.items()}
+        ref = method.step(system, plain.t[j], row, t - plain.t[j], state).y
+        for field, values in ref.items():
+            np.testing.assert_allclose(fast.sol(t)[field], values, rtol=0, atol=1e-13 * max(1, np.abs(values).max()))
+    for field in fast.states:
+        np.testing.assert_allclose(fast.states[field], slow.states[field], rtol=0, atol=1e-7)
+        np.testing.assert_array_equal(fast.states[field][3], fast.sol(fast.t[3])[field])
+    assert len(fast.t_events[0]) == len(slow.t_events[0]) > 0
+    np.testing.assert_allclose(fast.t_events[0], slow.t_events[0], rtol=0, atol=1e-7)
+    for t_event in fast.t_events[0]:
+        assert abs(crossing(t_event, fast.sol(t_event))) < 1e-10
 
 
 def test_dzhanibekov_flips_within_10x_of_dop853():

@@ -21,7 +21,6 @@ DECLARED = (
     "has no compiled form",  # the method (not yet compiled: see the guide's table)
     "has no compiled adaptive form",
     "scipy's solve_ivp solver",
-    "step again (generic path)",  # the energy-keeping pairs' dense output, events, t_eval
 )
 
 
@@ -59,11 +58,8 @@ def test_every_method_and_front_end_runs_compiled_or_says_why(label):
             or (form is not None and (meth.covers(form) or (pieces is not None and meth.covers(pieces))))
         )
         expected = form is not None and covered and not method.self_controlled
-        energy_pair = getattr(meth, "keeps_energy", False)
         for front, state, keywords in _front_ends(system, y0, t1):
             kw = dict(keywords)
-            if energy_pair:  # compiled without an observer (dense output, events, t_eval step again)
-                expected = front in ("plain", "batch")
             if method.adaptive or method.self_controlled:
                 kw.update(rtol=1e-6, atol=1e-9)
             else:
