@@ -121,7 +121,8 @@ class Driver:
     backend : {"auto", "numpy", "numba"}
     observer : StepObserver, optional
         Dense output, events and ``t_eval`` rows of lieint's methods (:mod:`lieint.observe`);
-        it sees every accepted step (so the run takes the generic path) and may stop the run.
+        it sees every accepted step (the compiled engine hands it tables of its kept steps) and may
+        stop the run.
     """
 
     def __init__(
