@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from bodies import initial, variants
 
-from lieint.fast.engine import _orbit_numbers, _PiecesLayout, _vector_factors, orbit_parts
+from lieint.fast.layouts import PiecesLayout, orbit_numbers, orbit_parts, vector_factors
 
 CASES = {f"{name} n={n}": system for n in (3, 4) for name, system in variants(n).items()}
 
@@ -17,7 +17,7 @@ def test_the_compiled_energy_is_the_systems(label):
     system = CASES[label]
     if "energy" not in system.invariants:
         pytest.skip("no conserved energy declared (a tilted ball that does not track its centre)")
-    layout = _PiecesLayout(system.compiled(), system)
+    layout = PiecesLayout(system.compiled(), system)
     energy = layout.pieces.energy
     rng = np.random.default_rng(7)
     for _ in range(3):
@@ -43,8 +43,8 @@ def test_the_orbit_basis_is_the_generic_paths(label):
     from lieint.methods.energy_projection import algebra_basis
 
     system = CASES[label]
-    layout = _PiecesLayout(system.compiled(), system)
-    flat = _orbit_numbers(_vector_factors(system.group), layout.n, layout.nv, layout.m)
+    layout = PiecesLayout(system.compiled(), system)
+    flat = orbit_numbers(vector_factors(system.group), layout.n, layout.nv, layout.m)
     W, v, a, Q, t, _shift = orbit_parts(flat, layout.n, layout.nv, layout.m)
     basis = algebra_basis(system.group)
     parts = basis if isinstance(basis, tuple) else (basis,)
