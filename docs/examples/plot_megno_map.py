@@ -40,7 +40,8 @@ y0 = top.initial_state(angular_velocity=spins)  # a batch of n² tops
 result = lieint.megno(top, y0, (0.0, T), h=0.05)
 Y = np.asarray(result.mean).reshape(n, n)
 regular = np.abs(Y - 2.0) < 0.5
-print(f"{regular.mean():.0%} of the starts have |<Y> - 2| < 0.5 at t = {T:g}; median <Y> of the others {np.median(Y[~regular]):.1f}")
+others = np.median(Y[~regular])
+print(f"{regular.mean():.0%} of the starts have |<Y> - 2| < 0.5 at t = {T:g}; median <Y> of the others {others:.1f}")
 
 fig, ax = plt.subplots(figsize=(6.4, 5.2))
 step = 8.0 / (n - 1)
