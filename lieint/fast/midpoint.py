@@ -8,8 +8,9 @@ midpoint by fixed-point iteration from the explicit Euler half step and takes
 path's ``system.vector_field``. The iteration and its stopping rule are the numpy path's: the
 relative update of each field (its largest change over its largest entry) below 4ε, or no longer
 shrinking once below 1000ε; a step that diverges, or has not converged in 200 iterations, returns
-−1 and the run raises the numpy path's error. The free tops run here through their compiled
-pieces (``Top3Form.generic``, ``TopNForm.generic``), the heavy top through its own. The rule has
+−1 and the run raises the numpy path's error. The n-D tops (n ≥ 4) run here through their compiled
+pieces (``TopNForm.generic``), the heavy top through its own; the 3D top has its own stage code
+(:mod:`lieint.fast.top3_midpoint`). The rule has
 no increment in the algebra (it is not a Lie-group method): dense output interpolates the states,
 as for classical Runge–Kutta.
 """

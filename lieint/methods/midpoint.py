@@ -89,8 +89,9 @@ class LieMidpoint(Method):
             )
 
     def compiled(self):
-        """The compiled engine's form: a map with stage code for compiled pieces
-        (:mod:`lieint.fast.midpoint`; the free tops run there through their pieces)."""
+        """The compiled engine's form: a map with stage code for the 3D top
+        (:mod:`lieint.fast.top3_midpoint`) and for compiled pieces (:mod:`lieint.fast.midpoint`:
+        the heavy top, and the n-D top through its pieces)."""
         from ..fast.forms import MapForm
 
         return MapForm("midpoint", COMPILED_MIDPOINT)
@@ -101,7 +102,7 @@ class LieMidpoint(Method):
 
 
 #: where the midpoint has compiled stage code: system form (class name) -> module
-COMPILED_MIDPOINT = {"PiecesForm": "lieint.fast.midpoint"}
+COMPILED_MIDPOINT = {"Top3Form": "lieint.fast.top3_midpoint", "PiecesForm": "lieint.fast.midpoint"}
 
 
 def _build(coordinates: str | None = None) -> LieMidpoint:
