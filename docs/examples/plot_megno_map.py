@@ -10,7 +10,7 @@ vector carried on the exact tangent map of RKMK4 (``lieint.megno``; the whole gr
 ``⟨Y⟩`` tends to 2 on a torus (a regular, quasi-periodic motion) and grows like ``λt/2`` on a
 chaotic one (λ its largest Lyapunov exponent).
 
-What to conclude: a fast spin about the axis of the smallest moment (|ω₁| above about 2) is
+What to conclude: a fast spin about the axis of the smallest moment (``|ω₁|`` above about 2) is
 gyroscopically stable, and the motion stays regular: ``⟨Y⟩`` near 2 (dark). Slower starts let
 gravity turn the top over, and most of them are chaotic: ``⟨Y⟩`` far above 2 (light), with
 regular islands and a ragged border between the two regions — the map a user reads before
