@@ -25,7 +25,7 @@ from numba import njit
 from .generic import form_embedded, form_error_sum, form_prepare
 from .pieces_maps import form_project, form_radius2, form_user_field, scratch_head
 
-__all__ = ["NAMESPACES", "MidpointNumbers", "numbers"]
+__all__ = ["NAMESPACES", "MidpointNumbers", "numbers", "verdict"]
 
 #: the offsets of the state's fields in the flat state (``bounds[f] … bounds[f + 1]``), and
 #: ``cayley`` (False; read by the loop's observer as a tableau's)
@@ -43,11 +43,25 @@ def numbers(form, layout) -> MidpointNumbers:
     return MidpointNumbers(np.concatenate([[0], np.cumsum(layout.sizes)]).astype(np.int64), False)
 
 
+@njit(cache=True, inline="always")
+def verdict(size, last, it):
+    """The numpy path's stopping rule after iteration ``it`` (:func:`lieint.methods.midpoint.implicit_midpoint`),
+    from the largest relative update ``size`` and the one before, ``last``: 1 converged (below
+    4ε, or no longer shrinking below 1000ε), −1 diverged (no longer shrinking after 3 iterations),
+    0 go on. Shared by both stage codes of the rule (:mod:`lieint.fast.top3_midpoint`)."""
+    if size <= 4.0 * _EPS or (size >= last and size <= 1e3 * _EPS):
+        return 1
+    if size >= last and it > 3:
+        return -1
+    return 0
+
+
 @njit(cache=True)
 def form_scratch(fx, meth, par, d):
-    """:func:`lieint.fast.pieces_maps.scratch_head`'s arrays, the slope k and the midpoint's iterate."""
+    """:func:`lieint.fast.pieces_maps.scratch_head`'s arrays, the slope k, the midpoint's iterate
+    and the fields' scales (their largest entries at the step's start)."""
     work, W, v, a = scratch_head(fx)
-    return work, W, v, a, np.empty(d), np.empty(d)
+    return work, W, v, a, np.empty(d), np.empty(d), np.empty(meth.bounds.shape[0] - 1)
 
 
 @njit(cache=True)
@@ -56,10 +70,15 @@ def form_midpoint_step(fx, y, par, meth, h, y1, inc, aux, scr):
     fixed-point iteration did not converge (the numpy path's test,
     :func:`lieint.methods.midpoint.implicit_midpoint`)."""
     field = fx[0].vector_field
-    work, k, ym = scr[0], scr[4], scr[5]
+    work, k, ym, scales = scr[0], scr[4], scr[5], scr[6]
     bounds = meth.bounds
     d = y.shape[0]
     half = 0.5 * h
+    for f in range(scales.shape[0]):
+        scale = 1.0e-300
+        for i in range(bounds[f], bounds[f + 1]):
+            scale = max(scale, abs(y[i]))
+        scales[f] = scale
     field(y, par, k, work)
     for i in range(d):
         ym[i] = y[i] + half * k[i]
@@ -67,22 +86,19 @@ def form_midpoint_step(fx, y, par, meth, h, y1, inc, aux, scr):
     for it in range(1, _MAX_ITER + 1):
         field(ym, par, k, work)
         size = 0.0
-        for f in range(bounds.shape[0] - 1):
-            scale = 0.0
-            for i in range(bounds[f], bounds[f + 1]):
-                scale = max(scale, abs(y[i]))
-            scale = max(scale, 1.0e-300)
+        for f in range(scales.shape[0]):
             change = 0.0
             for i in range(bounds[f], bounds[f + 1]):
                 new = y[i] + half * k[i]
                 change = max(change, abs(new - ym[i]))
                 ym[i] = new
-            size = max(size, change / scale)
-        if size <= 4.0 * _EPS or (size >= last and size <= 1e3 * _EPS):
+            size = max(size, change / scales[f])
+        outcome = verdict(size, last, it)
+        if outcome == 1:
             for i in range(d):
                 y1[i] = 2.0 * ym[i] - y[i]
             return it + 1
-        if size >= last and it > 3:
+        if outcome == -1:
             return -1
         last = size
     return -1

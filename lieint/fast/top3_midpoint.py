@@ -18,6 +18,7 @@ from collections import namedtuple
 import numpy as np
 from numba import njit
 
+from .midpoint import verdict
 from .top3 import form_embedded, form_error_sum, form_prepare, form_radius2, form_user_field
 from .top3_mv import form_project, form_scratch
 
@@ -28,7 +29,6 @@ INCREMENT = False
 #: ``cayley`` (False; read by the loop's observer as a tableau's)
 MidpointNumbers = namedtuple("MidpointNumbers", "cayley")
 
-_EPS = np.finfo(np.float64).eps
 #: the numpy path's limit on the fixed-point iterations of one step
 _MAX_ITER = 200
 
@@ -83,11 +83,12 @@ def form_midpoint_step(fx, y, par, meth, h, y1, inc, aux, scr):
         size = change_pi / scale_pi
         if orient:
             size = max(size, change_r / scale_r)
-        if size <= 4.0 * _EPS or (size >= last and size <= 1e3 * _EPS):
+        outcome = verdict(size, last, it)
+        if outcome == 1:
             for i in range(12):
                 y1[i] = 2.0 * ym[i] - y[i]
             return it + 1
-        if size >= last and it > 3:
+        if outcome == -1:
             return -1
         last = size
     return -1
