@@ -49,13 +49,80 @@ from .layouts import (
     TopNLayout,
 )
 
-__all__ = ["Engine", "Products", "Tableau", "bound_loops", "engine_for", "range_error", "use_threads"]
+__all__ = [
+    "Engine",
+    "Products",
+    "Tableau",
+    "TypedContext",
+    "bound_loops",
+    "engine_for",
+    "range_error",
+    "typed_context",
+    "use_threads",
+]
 
 #: a method's numbers as the compiled steps read them (one numba type for every tableau form)
 Tableau = namedtuple("Tableau", "A b c coeffs cayley")
 #: a product of exponentials' numbers (:class:`lieint.fast.forms.ExpProductForm`; ``cayley`` is
 #: False: the observer reads it as a tableau's)
 Products = namedtuple("Products", "weights bounds c cayley")
+
+
+class TypedContext(tuple):
+    """A layout's context tuple whose class carries its numba type (:func:`typed_context`)."""
+
+    __slots__ = ()
+    _numba_type_ = None
+
+
+def _item_key(item):
+    """What fixes an item's numba type: a structref proxy's type, an array's dtype, dimensions,
+    layout and writeability, else the item's class."""
+    if isinstance(item, np.ndarray):
+        order = "C" if item.flags.c_contiguous else ("F" if item.flags.f_contiguous else "A")
+        return ("array", item.dtype.str, item.ndim, order, item.flags.writeable)
+    numba_type = getattr(item, "_type", None)
+    if numba_type is not None:  # a structref proxy (the compiled pieces' bundle)
+        return ("struct", numba_type)
+    return ("object", type(item))
+
+
+#: the TypedContext class of each kind of context (the items' keys)
+_CONTEXT_CLASSES: dict = {}
+
+
+def typed_context(ctx):
+    """``ctx`` as a :class:`TypedContext` whose numba type is worked out once per kind of context.
+
+    numba's dispatcher fingerprints arrays and tuples of arrays in C, but a tuple holding a
+    structref (the compiled pieces' bundle) falls back to typing the whole tuple in Python, about
+    25 µs at each call of a loop (up to three a run: the first trial step, the controller loop,
+    the fixed-step loop). A :class:`TypedContext` is typed by one attribute read (its class's
+    ``_numba_type_``, registered with :func:`numba.extending.typeof_impl` in :func:`_register`)
+    and unboxed as any tuple. Other contexts (0, tuples of arrays) are returned as they are.
+    """
+    if not isinstance(ctx, tuple) or isinstance(ctx, TypedContext):
+        return ctx
+    key = tuple(_item_key(item) for item in ctx)
+    if not any(k[0] == "struct" for k in key):
+        return ctx  # typed in C already
+    cls = _CONTEXT_CLASSES.get(key)
+    if cls is None:
+        import numba
+
+        _register()
+        cls = _CONTEXT_CLASSES[key] = type("TypedContext", (TypedContext,), {"_numba_type_": numba.typeof(ctx)})
+    return cls(ctx)
+
+
+@cache
+def _register() -> None:
+    from numba.extending import typeof_impl
+
+    @typeof_impl.register(TypedContext)
+    def _typeof_typed_context(val, c):
+        return type(val)._numba_type_
+
 
 #: rows the controller loop buffers per call before handing them back (memory stays bounded) ...
 ROWS_PER_CALL = 4096
@@ -347,7 +414,7 @@ class Engine:
         kept_U = np.empty((steps, N, self.du))  # the steps write their increments: its length always
         grid = (float(plan.h), float(plan.last_step), int(k_from), int(k_to), int(plan.nsteps), bool(project))
         outs = (out[s:], fin, status, norm2, evals, kept_Y[1:], kept_U)
-        ctx, par, tab = self.layout.context(), self.layout.params, self.tableau
+        ctx, par, tab = typed_context(self.layout.context()), self.layout.params, self.tableau
         fixed = self.loops.fixed
         threads = min(self.threads, N)
         if threads > 1:
@@ -397,7 +464,7 @@ class Engine:
         towards ``t1``: backward in time when ``t1 < t0``)."""
         Yu = self.layout.user_flat(y, self.N)
         tolerances = (float(controller.rtol), float(controller.atol))
-        ctx, par, span = self.layout.context(), self.layout.params, float(t1 - t0)
+        ctx, par, span = typed_context(self.layout.context()), self.layout.params, float(t1 - t0)
         return float(self.loops.first_trial_step(ctx, Yu, par, self.tableau, tolerances, span, int(error_order)))
 
     def advance_adaptive(self, internal: dict, t, t1, h, k, max_accept, save_every, project, controller, h_min,
@@ -423,7 +490,16 @@ class Engine:
             bool(project),
         )  # fmt: skip
         status, t, h, k, accepted, rejected, nfev, rows = self.loops.adaptive(
-            self.layout.context(), Y, self.layout.params, self.tableau, self.pair, control, clock, out_t, out_Y, out_U
+            typed_context(self.layout.context()),
+            Y,
+            self.layout.params,
+            self.tableau,
+            self.pair,
+            control,
+            clock,
+            out_t,
+            out_Y,
+            out_U,
         )
         saved = self.user_rows(out_Y[:rows])
         result = ({"Y": Y}, (t, h, k), (accepted, rejected, nfev), out_t[:rows].copy(), saved, status == 1)
