@@ -22,6 +22,7 @@ __all__ = [
     "expm_skew",
     "expm_skew_into",
     "expm_skew_small_into",
+    "expm_so4_into",
     "expm_so_se_into",
     "so_ad_radius_exceeds",
 ]
@@ -405,6 +406,35 @@ def _scaled_taylor_into(u, norm, thetas, out, work):
     for _ in range(s):
         mm_into(S, S, T)
         copy_matrix_into(T, S)
+
+
+@njit(cache=True, **NO_REFCOUNT)
+def expm_so4_into(u, Q):
+    """``Q = exp(u)`` for a 4 × 4 skew matrix in closed form, by so(4) = su(2) ⊕ su(2).
+
+    The Hodge star splits u into commuting self-dual and anti-self-dual parts ``u± = (u ± ⋆u)/2``
+    (``⋆u₀₁ = u₂₃``, ``⋆u₀₂ = u₃₁``, ``⋆u₀₃ = u₁₂``), with ``u±² = −θ±² I``, ``θ±`` the norms of
+    their three components: ``exp(u) = (cos θ₊ I + sinc θ₊ u₊)(cos θ₋ I + sinc θ₋ u₋)``, the
+    rotation angles of u being ``θ₊ ± θ₋``. Ten times cheaper than the Taylor polynomial of
+    :func:`expm_skew_into` at n = 4, to round-off as that one (u finite).
+    """
+    a1, a2, a3 = 0.5 * (u[0, 1] + u[2, 3]), 0.5 * (u[0, 2] + u[3, 1]), 0.5 * (u[0, 3] + u[1, 2])
+    b1, b2, b3 = 0.5 * (u[0, 1] - u[2, 3]), 0.5 * (u[0, 2] - u[3, 1]), 0.5 * (u[0, 3] - u[1, 2])
+    ta = math.sqrt(a1 * a1 + a2 * a2 + a3 * a3)
+    tb = math.sqrt(b1 * b1 + b2 * b2 + b3 * b3)
+    ca, cb = math.cos(ta), math.cos(tb)
+    sa = math.sin(ta) / ta if ta > 0.0 else 1.0
+    sb = math.sin(tb) / tb if tb > 0.0 else 1.0
+    # the factors' off-diagonal parts: S = sinc θ₊ u₊, T = sinc θ₋ u₋ (skew)
+    p1, p2, p3 = sa * a1, sa * a2, sa * a3
+    q1, q2, q3 = sb * b1, sb * b2, sb * b3
+    S = ((0.0, p1, p2, p3), (-p1, 0.0, p3, -p2), (-p2, -p3, 0.0, p1), (-p3, p2, -p1, 0.0))
+    T = ((0.0, q1, q2, q3), (-q1, 0.0, -q3, q2), (-q2, q3, 0.0, -q1), (-q3, -q2, q1, 0.0))
+    for i in range(4):
+        for j in range(4):
+            st = S[i][0] * T[0][j] + S[i][1] * T[1][j] + S[i][2] * T[2][j] + S[i][3] * T[3][j]
+            Q[i, j] = cb * S[i][j] + ca * T[i][j] + st
+        Q[i, i] += ca * cb
 
 
 @njit(cache=True)

@@ -22,7 +22,9 @@ kernel, is :mod:`lieint.fast.topn_step`:
 * ``exp`` of a skew matrix (:mod:`lieint.fast.skew`) by scaling and squaring with a Taylor
   polynomial of degree 4, 6, 9, 12 or 16 chosen so that the truncation error is below the unit
   round-off (:data:`lieint.fast.skew.expm_skew_small_into`): only matrix products, no linear solve —
-  numba's ``np.linalg.solve`` alone would add about 5 s to the one-time compilation;
+  numba's ``np.linalg.solve`` alone would add about 5 s to the one-time compilation; at n = 4 in
+  closed form instead, by so(4) = su(2) ⊕ su(2) (:func:`lieint.fast.skew.expm_so4_into`: 40 ns
+  against 450–600 ns, an RKMK4 step 1.25 µs against 2.8 µs);
 * the stage slopes and the scratch of the exponential, the action and the brackets are held
   per body for the whole run, and the products are written into them, unrolled up to n = 8
   (:func:`lieint.fast.products.mm_small_into`; BLAS above, where the arithmetic outweighs a call);

@@ -25,7 +25,7 @@ from numba import njit
 from ._jit import NO_REFCOUNT, compiled_copies
 from .cayley import cayley_into, dcayinv_into
 from .products import copy_matrix_into, mm_small_into, mm_unrolled_into
-from .skew import _bracket, _finite, expm_skew_small_into, so_ad_radius_exceeds
+from .skew import _bracket, _finite, expm_skew_small_into, expm_so4_into, so_ad_radius_exceeds
 from .small_skew import bracket_skew_into, congruence_skew_into, dcayinv_skew_into
 
 
@@ -65,9 +65,13 @@ def _bracket_into(X, Y, out, tmp):
 # so it cannot drop reference counts, and a call would pay them (lieint.fast._jit)
 @njit(cache=True, inline="always")
 def _exp_into(u, Q, work):
-    """``Q = exp(u)``, or NaN when u is not finite (the driver reports the state)."""
+    """``Q = exp(u)``, or NaN when u is not finite (the driver reports the state); in closed form
+    at n = 4 (:func:`lieint.fast.skew.expm_so4_into`)."""
     if _finite(u):
-        expm_skew_small_into(u, Q, work)
+        if u.shape[0] == 4:
+            expm_so4_into(u, Q)
+        else:
+            expm_skew_small_into(u, Q, work)
     else:
         Q[:, :] = np.nan
 
