@@ -81,7 +81,10 @@ def _solve(A, b, h):
     J = np.empty((d, d))
     last = np.inf
     for _ in range(MAX_NEWTON):
-        W = np.linalg.inv(eye - 0.5 * X)
+        try:
+            W = np.linalg.inv(eye - 0.5 * X)
+        except Exception:  # I − X/2 singular to round-off: X diverged (a too long step)
+            return X, X, False
         K = W @ X
         G = 2.0 * eye + K
         p = 0
@@ -101,7 +104,10 @@ def _solve(A, b, h):
                         J[p, k] = b[r] * w_cr - w_rc * b[c]
                         p += 1
                 k += 1
-        delta = np.linalg.solve(J, -F)
+        try:
+            delta = np.linalg.solve(J, -F)
+        except Exception:  # a singular Jacobian (Newton diverging at a too long step)
+            return X, X, False
         size = 0.0
         k = 0
         for i in range(n):
@@ -117,7 +123,10 @@ def _solve(A, b, h):
         if size <= 4.0 * _EPS * xsize or (size >= last and size <= 1e-10 * xsize):
             break
         last = size
-    K = np.linalg.inv(eye - 0.5 * X) @ X
+    try:
+        K = np.linalg.inv(eye - 0.5 * X) @ X
+    except Exception:
+        return X, X, False
     residual = 0.0
     for r in range(n):
         for c in range(n):

@@ -312,3 +312,18 @@ def test_backward_runs_are_the_numpy_paths():
         for field in ref.states:
             np.testing.assert_allclose(fast.states[field], ref.states[field], rtol=0, atol=1e-13, err_msg=name)
             np.testing.assert_allclose(fast.sol(midway)[field], ref.sol(midway)[field], rtol=0, atol=1e-13)
+
+
+def test_a_diverging_newton_iteration_with_a_singular_jacobian_stops_the_run_with_the_numpy_paths_message():
+    # a 6D top stepped at h = 10/6: Newton's iterates diverge until the Jacobian (or I − X/2) is
+    # singular to round-off, which numba's LAPACK reports as LinAlgError; the run says instead what
+    # the numpy path says
+    rng = np.random.default_rng(2)
+    Q, _ = np.linalg.qr(rng.normal(size=(6, 6)))
+    top = lieint.EulerTop(Q @ np.diag(rng.uniform(0.5, 1.5, 6)) @ Q.T)
+    W = rng.normal(size=(6, 6))
+    y0 = top.initial_state(Omega=0.5 * (W - W.T))
+    for method in ("moser_veselov", "moser_veselov_composed4"):
+        for backend in ("numba", "numpy"):
+            with pytest.raises(RuntimeError, match=r"Moser–Veselov step h = [0-9.]+: Newton did not reach round-off"):
+                lieint.integrate(top, y0, (0.0, 10.0), h=10.0 / 6, method=method, backend=backend)
