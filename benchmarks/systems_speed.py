@@ -82,8 +82,8 @@ def _registry_series(adaptive: bool) -> tuple[str, ...]:
     return tuple(out)
 
 
-FIXED = _registry_series(adaptive=False)  # lie_euler, rkmk2, rkmk3, rkmk4, rkmk6, rk4
-ADAPTIVE = _registry_series(adaptive=True)  # rkmk23, rkmk45, rkmk853
+FIXED = _registry_series(adaptive=False)  # the RKMK, commutator-free, Crouch–Grossman, Moser–Veselov … maps
+ADAPTIVE = _registry_series(adaptive=True)  # the embedded pairs, plain and energy-keeping
 #: the pair compared with the best fixed-step method and with DOP853 on its own
 PAIR = ("rkmk853", "rkmk853[cay]")
 
@@ -197,13 +197,15 @@ def sweeps(case: Case, quick: bool):
     near each target (:func:`refine`)."""
     counts = [round(6 * 2 ** (k / 2)) for k in range(0, 26, 2 if quick else 1)]  # 6 … ~35,000
     rtols = [10.0 ** (-k / 2) for k in range(8, 29, 2 if quick else 1)]  # 1e-4 … 1e-14
-    series = {name: [] for name in (*FIXED, *ADAPTIVE, "DOP853")}
-    for name in FIXED:
+    fixed = [name for name in FIXED if applies(case, name)]
+    adaptive = [name for name in ADAPTIVE if applies(case, name)]
+    series = {name: [] for name in (*fixed, *adaptive, "DOP853")}
+    for name in fixed:
         for n in counts:
             series[name].append(_timed(lambda n=n, name=name: fixed_error(case, name, n), n))
             if _done(series[name]):
                 break
-    for name in ADAPTIVE:
+    for name in adaptive:
         for rtol in rtols:
             series[name].append(_timed(lambda r=rtol, name=name: adaptive_error(case, name, r), rtol))
             if _done(series[name]):
@@ -237,6 +239,26 @@ def _done(rows) -> bool:
     return (len(reached) == 2 and all(reached)) or rows[-1][2] > SWEEP_SECONDS
 
 
+def applies(case: Case, name: str) -> bool:
+    """Whether the series' method steps the case's system (a Moser–Veselov map, a splitting or
+    the exact flow applies to some systems only) on the compiled engine — a series of the numpy
+    path is not the best a user would pick."""
+    method = lieint.get_method(name.removesuffix("[cay]"), coordinates="cayley" if name.endswith("[cay]") else None)
+    try:
+        method.check_system(case.system)
+    except ValueError:
+        return False
+    from lieint.fast.engine import engine_for
+
+    engine, _ = engine_for(case.system, method, case.y0, adaptive=method.adaptive, h=case.T / 1000)
+    return engine is not None
+
+
+#: how a fixed-step map reports a step it could not solve (Newton, the midpoint's iteration, the
+#: exact flow's quadrature): a coarse setting's failure, the series' error infinite there
+UNSOLVED = ("did not converge", "did not reach round-off", "did not settle")
+
+
 def adaptive_error(case: Case, name: str, rtol: float) -> float:
     """The error of an embedded pair at ``rtol``; infinite when the run is refused at the memory
     limit (tolerances below what round-off lets the error estimate resolve: the steps collapse)."""
@@ -247,14 +269,19 @@ def adaptive_error(case: Case, name: str, rtol: float) -> float:
 
 
 def fixed_error(case: Case, name: str, n: int) -> float:
-    """The error of ``n`` fixed steps; infinite when a stage leaves the dexp⁻¹ radius (the
-    coarsest settings' step warnings are expected: the error says what they cost)."""
+    """The error of ``n`` fixed steps; infinite when a stage leaves the dexp⁻¹ radius or an
+    implicit map's step is not solved (the coarsest settings' step warnings are expected: the
+    error says what they cost)."""
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", lieint.LieStepWarning)
             return case.error(case.lieint(name, n))
     except lieint.DexpinvRangeError:
         return float("inf")
+    except RuntimeError as error:
+        if any(words in str(error) for words in UNSOLVED):
+            return float("inf")
+        raise
 
 
 def refine(case: Case, series: dict, rounds: int) -> None:
