@@ -9,7 +9,7 @@ near its unstable axis (the default scene's motion, with R, T = 100; exact solut
 heavy top (T = 10), the offset and the Chaplygin ball (T = 10) and the 4D top (T = 20; reference
 DOP853 at rtol 1e-14). The error of a run is its global error at T
 over the whole state, ``‖y(T) − y_ref(T)‖₂ / ‖y_ref(T)‖₂``. Each series is swept over rtol
-(atol = 1e-3·rtol, half decades); for each target error the loosest rtol of each series that
+(atol = 1e-3·rtol, half decades from 1e-3 to 1e-14); for each target error the loosest rtol of each series that
 reaches it is timed — process CPU time of the whole call, the minimum over repeats.
 
     OPENBLAS_NUM_THREADS=1 python benchmarks/adaptive_lean.py [--hog] [--quick] [--problems "heavy top,4D top"]
@@ -98,7 +98,7 @@ def main() -> None:
 
 
 def run(quick: bool, hogging: bool, labels=PROBLEMS) -> None:
-    rtols = [10.0 ** (-k / 2) for k in range(10, 29)]  # 1e-5 … 1e-14
+    rtols = [10.0 ** (-k / 2) for k in range(6, 29)]  # 1e-3 … 1e-14
     if quick:
         rtols = rtols[::2]
     reps = 3 if quick else 7
