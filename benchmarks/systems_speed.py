@@ -319,7 +319,9 @@ def refine(case: Case, series: dict, rounds: int) -> None:
 
 
 def cheapest(series, name, target):
-    ok = [row for row in series[name] if row[0] <= target]
+    """The setting of series ``name`` reaching ``target`` at the least cost (None: it does not,
+    or the series was not run on this system)."""
+    ok = [row for row in series.get(name, ()) if row[0] <= target]
     if not ok:
         return None
     return max(ok, key=lambda r: r[1]) if name in (*ADAPTIVE, "DOP853") else min(ok, key=lambda r: r[1])
