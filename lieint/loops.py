@@ -242,7 +242,7 @@ class _KernelLoop(_CompiledRows):
             done = int(saves[-1]) if saves.size else carry.k
             # the run stops here (a failed run is not resumed: the failure would recur)
             failure = _nonfinite(done, plan.time(done), f"Reduce the step `h` = {abs(plan.h):g}", until=k_to)
-        carry.nfev += self.kernel.stages * (done - carry.k)
+        carry.nfev += _evaluations(self.kernel, done - carry.k, k_to - carry.k)
         t_start = carry.t
         carry.k, carry.t = done, plan.time(done)
         t = plan.times(saves)
@@ -294,7 +294,7 @@ class _KernelLoop(_CompiledRows):
             )
             stopped = d.observer.segment(table)
             done = k_from + table.steps
-            carry.nfev += kernel.stages * (done - k_from)
+            carry.nfev += _evaluations(kernel, done - k_from, k_to - k_from)
             carry.k, carry.t = done, plan.time(done)
             carry.state = new if not stopped else kernel.internal(d.observer.stop[1])
             times.append(plan.times(saves))
@@ -381,6 +381,18 @@ class _AdaptiveLoop(_GenericRows):
             f"the step size fell below {self.h_min:.3g} at t = {t:.6g} without meeting rtol = "
             f"{d.rtol:g}, atol = {d.atol:g}; loosen the tolerances or check the model"
         )
+
+
+def _evaluations(kernel, done: int, ran: int) -> int:
+    """The evaluations of ``done`` of the ``ran`` steps a compiled call took: what the steps
+    reported (a map's Newton or fixed-point iterations, an RKMK step's stages), in proportion
+    when the run kept fewer steps than it took (a terminal event, a non-finite state)."""
+    if ran <= 0 or done <= 0:
+        return 0
+    reported = getattr(kernel, "evaluations", None)
+    if reported is None:
+        return kernel.stages * done
+    return reported if done == ran else round(reported * done / ran)
 
 
 def adaptive_loop(driver: LoopHost, y0: dict):

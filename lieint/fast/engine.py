@@ -430,6 +430,9 @@ class Engine:
             fixed(ctx, (0, N), Y0, par, tab, grid, save_steps, outs)
         # the step check's bound over every state this run has saved (or started a segment from);
         # a non-finite state makes it infinite (the check then looks at the rows themselves)
+        # the evaluations the steps report (a map's Newton or fixed-point iterations): the most any
+        # body spent, as the numpy path's batch counts an evaluation that moves every member
+        self.evaluations = int(evals.max(initial=0))
         largest = float(np.maximum.reduce(norm2, initial=0.0))
         self._radius2 = max(self._radius2, largest) if math.isfinite(largest) else math.inf
         bad = status[status >= 0]

@@ -153,7 +153,8 @@ def form_mv_step(fx, y, par, meth, h, y1, inc, aux, scr):
     """One step (every substep a Moser–Veselov solve and its action) of one body, in the
     principal frame; ``inc`` = the Cayley coordinates of the step's ω (``2c`` of a single
     map; of the product of the substeps' ω for a composition), ``aux[0] = |I⁻¹Π|²``.
-    Returns the generator solves spent, or −1 when Newton did not converge."""
+    Returns the Newton iterations spent (what the numpy path counts as its evaluations), or −1
+    when Newton did not converge."""
     Iinv = par[0:3]
     for i in range(12):
         y1[i] = y[i]
@@ -184,7 +185,7 @@ def form_mv_step(fx, y, par, meth, h, y1, inc, aux, scr):
         c0, c1, c2, it = _solve(hh * p0 * Jinv0, hh * p1 * Jinv1, hh * p2 * Jinv2, f0, f1, f2)
         if it < 0:
             return -1
-        spent += 1
+        spent += it  # Newton iterations, as the numpy path counts its evaluations
         n2 = c0 * c0 + c1 * c1 + c2 * c2
         g = 2.0 / (1.0 + n2)
         # K = g (ĉ + c cᵀ − |c|² I)

@@ -63,8 +63,9 @@ def form_scratch(fx, meth, par, d):
 
 @njit(cache=True)
 def _solve(A, b, h):
-    """``K = cay(X) − I`` solving ``h A = B Kᵀ − K B`` (B = diag(b)) and the Cayley parameter X,
-    or ``ok = False`` when Newton's method does not reach round-off (the numpy path's rule)."""
+    """``K = cay(X) − I`` solving ``h A = B Kᵀ − K B`` (B = diag(b)), the Cayley parameter X and
+    the Newton iterations spent, or 0 of them when Newton's method does not reach round-off (the
+    numpy path's rule)."""
     n = A.shape[0]
     d = n * (n - 1) // 2
     eye = np.eye(n)
@@ -80,11 +81,13 @@ def _solve(A, b, h):
     F = np.empty(d)
     J = np.empty((d, d))
     last = np.inf
+    spent = 0
     for _ in range(MAX_NEWTON):
+        spent += 1
         try:
             W = np.linalg.inv(eye - 0.5 * X)
         except Exception:  # I − X/2 singular to round-off: X diverged (a too long step)
-            return X, X, False
+            return X, X, 0
         K = W @ X
         G = 2.0 * eye + K
         p = 0
@@ -107,7 +110,7 @@ def _solve(A, b, h):
         try:
             delta = np.linalg.solve(J, -F)
         except Exception:  # a singular Jacobian (Newton diverging at a too long step)
-            return X, X, False
+            return X, X, 0
         size = 0.0
         k = 0
         for i in range(n):
@@ -117,7 +120,7 @@ def _solve(A, b, h):
                 size = max(size, abs(delta[k]))
                 k += 1
         if not np.isfinite(size):
-            return X, X, False
+            return X, X, 0
         xsize = max(np.max(np.abs(X)), _TINY)
         # converged: the update is round-off, or it stopped shrinking near round-off
         if size <= 4.0 * _EPS * xsize or (size >= last and size <= 1e-10 * xsize):
@@ -126,19 +129,20 @@ def _solve(A, b, h):
     try:
         K = np.linalg.inv(eye - 0.5 * X) @ X
     except Exception:
-        return X, X, False
+        return X, X, 0
     residual = 0.0
     for r in range(n):
         for c in range(n):
             residual = max(residual, abs(b[r] * K[c, r] - K[r, c] * b[c] - h * A[r, c]))
-    return K, X, residual <= 1e3 * _EPS * max(scale, bmax)
+    return K, X, spent if residual <= 1e3 * _EPS * max(scale, bmax) else 0
 
 
 @njit(cache=True)
 def form_mv_step(fx, y, par, meth, h, y1, inc, aux, scr):
     """One step (every substep a Moser–Veselov solve and its action) of one body in the
     principal frame; ``inc`` = the Cayley coordinates of the step's ω, ``aux[0] = −1`` (the loop
-    evaluates the bound). Returns the generator solves spent, or −1 when one was not solved."""
+    evaluates the bound). Returns the Newton iterations spent (what the numpy path counts as its
+    evaluations), or −1 when a solve did not reach round-off."""
     n, r = _dims(par)
     for i in range(y.shape[0]):
         y1[i] = y[i]
@@ -147,10 +151,12 @@ def form_mv_step(fx, y, par, meth, h, y1, inc, aux, scr):
     total[:, :] = 0.0
     X = np.zeros((n, n))
     subs = meth.substeps.shape[0]
+    spent = 0
     for sub in range(subs):
-        K, X, ok = _solve(A, meth.b, h * meth.substeps[sub])
-        if not ok:
+        K, X, iterations = _solve(A, meth.b, h * meth.substeps[sub])
+        if iterations == 0:
             return -1
+        spent += iterations
         # Ã₁ = Ã + skew(P − Pᵀ + KᵀP), P = ÃK; R̃₁ = R̃ + R̃K
         P = A @ K
         C = P - P.T + K.T @ P
@@ -174,7 +180,7 @@ def form_mv_step(fx, y, par, meth, h, y1, inc, aux, scr):
         for c in range(n):
             inc[j] = X[a, c]
             j += 1
-    return subs
+    return spent
 
 
 #: the names of :mod:`lieint.fast.loop` this form binds (fixed steps only)
