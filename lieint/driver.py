@@ -58,7 +58,10 @@ class Stats:
     nrejected : int
         Rejected trial steps (adaptive methods).
     nfev : int
-        Generator / vector-field evaluations (one evaluation moves the whole batch).
+        Generator / vector-field evaluations (one evaluation moves the whole batch); for an
+        implicit map, its iterations (the Moser–Veselov maps' Newton iterations, the midpoint's
+        fixed-point evaluations). On the compiled engine each body iterates on its own and a
+        batch reports the most any body spent.
     cpu_time, wall_time : float
         Seconds spent stepping (process CPU time, all threads; and elapsed time).
     h : float or None
