@@ -436,7 +436,8 @@ class _AdaptiveKernelLoop(_CompiledRows, _AdaptiveLoop):
         if d.observer is not None:
             return self._observed(carry, left)
         times, parts, failure = [], [], None
-        budget, held = _row_budget(d, self.user_state(carry)), 0
+        like = self.user_state(carry)  # a row's shape (the budget's bytes, an empty segment's rows)
+        budget, held = _row_budget(d, like), 0
         while d.before_end(carry.t) and left > 0:
             # at most the accepted steps whose rows still fit under the memory limit, and one
             # row more, which the budget refuses: the kernel's buffer never outgrows the limit
@@ -456,7 +457,7 @@ class _AdaptiveKernelLoop(_CompiledRows, _AdaptiveLoop):
             if small:
                 failure = self._too_small(t)
                 break
-        return _joined(times, parts, failure, self.user_state(carry))
+        return _joined(times, parts, failure, like)
 
     def _observed(self, carry: Carry, left: int) -> Segment:
         """Accepted steps in stretches of growing length (as :meth:`_KernelLoop._observed`), every

@@ -1,0 +1,85 @@
+"""The engines of recent runs reused (:func:`lieint.fast.engine.engine_for`'s cache).
+
+Truths: the same runs with the cache emptied before each, bit for bit, and the identities of
+what a reused engine shares and what it holds of its own."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import lieint
+from lieint.fast import engine
+from lieint.methods.registry import get_method
+
+
+def _top4(b=(0.6, 0.9, 1.2, 1.5)):
+    top = lieint.EulerTop(np.diag(list(b)))
+    M = np.random.default_rng(1).normal(size=(4, 4))
+    return top, top.initial_state(Omega=0.3 * (M - M.T))
+
+
+def test_a_second_run_of_the_same_system_and_method_reuses_the_engine_with_its_own_state():
+    top, y0 = _top4()
+    method = get_method("rkmk853+energy")
+    engine._ENGINES.clear()
+    first, _ = engine.engine_for(top, method, y0, adaptive=True)
+    second, _ = engine.engine_for(top, method, y0, adaptive=True)
+    assert first is not second
+    assert first.loops is second.loops and first.layout is second.layout and first.tableau is second.tableau
+    first.start(y0)
+    assert first._radius2 == 0.0 and second._radius2 == math.inf  # the step check's bound is per run
+
+
+@pytest.mark.parametrize(
+    "method, options",
+    [("rkmk853+energy", {"rtol": 1e-8, "atol": 1e-10}), ("rkmk4", {"h": 0.05}), ("moser_veselov", {"h": 0.05})],
+)
+def test_runs_through_a_reused_engine_are_the_runs_with_a_new_one_bit_for_bit(method, options):
+    top, y0 = _top4()
+    engine._ENGINES.clear()
+    cold = lieint.integrate(top, y0, (0.0, 2.0), method=method, **options)
+    warm = lieint.integrate(top, y0, (0.0, 2.0), method=method, **options)
+    assert cold.stats.backend == warm.stats.backend == "numba"
+    assert len(engine._ENGINES) >= 1
+    np.testing.assert_array_equal(cold.t, warm.t)
+    for name in cold.states:
+        np.testing.assert_array_equal(cold.states[name], warm.states[name])
+    assert cold.nfev == warm.nfev and cold.stats.nrejected == warm.stats.nrejected
+
+
+def test_another_body_batch_or_option_gets_its_own_engine():
+    top, y0 = _top4()
+    other, _ = _top4((0.7, 0.9, 1.2, 1.5))
+    method = get_method("rkmk4")
+    engine._ENGINES.clear()
+    base, _ = engine.engine_for(top, method, y0)
+    assert engine.engine_for(other, method, y0)[0].layout is not base.layout  # another body
+    batch = {k: np.stack([v, v]) for k, v in y0.items()}
+    assert engine.engine_for(top, method, batch)[0].batch == (2,)  # another batch shape
+    assert engine.engine_for(top, method, y0, project=False)[0].layout is not base.layout
+    assert engine.engine_for(top, get_method("rkmk6"), y0)[0].tableau is not base.tableau
+    assert len(engine._ENGINES) == 5
+
+
+def test_the_cache_holds_at_most_its_size():
+    method = get_method("rkmk4")
+    engine._ENGINES.clear()
+    for k in range(engine.ENGINE_CACHE_SIZE + 5):
+        top, y0 = _top4((0.6 + 0.01 * k, 0.9, 1.2, 1.5))
+        engine.engine_for(top, method, y0)
+    assert len(engine._ENGINES) == engine.ENGINE_CACHE_SIZE
+
+
+def test_a_map_whose_stage_module_declines_some_steps_is_chosen_afresh_each_run():
+    # the exact flow's engine depends on the run's phases |λh| (long steps: the numpy path)
+    top = lieint.EulerTop.from_principal_moments([1.0, 2.0, 3.0])
+    y0 = top.initial_state(angular_velocity=[0.3, 1.0, 0.4])
+    method = get_method("exact_flow")
+    engine._ENGINES.clear()
+    short, _ = engine.engine_for(top, method, y0, h=0.1)
+    assert short is not None and not engine._ENGINES
+    long, reason = engine.engine_for(top, method, y0, h=100.0)
+    assert long is None and "closed form" in reason
