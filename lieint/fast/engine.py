@@ -23,6 +23,7 @@ from functools import cache, lru_cache
 import numpy as np
 
 from ..groups.base import DexpinvRangeError, bernoulli_dexpinv_coefficients
+from .dispatch import typed_context
 from .forms import (
     Chaplygin3Form,
     ClassicalForm,
@@ -54,11 +55,9 @@ __all__ = [
     "Engine",
     "Products",
     "Tableau",
-    "TypedContext",
     "bound_loops",
     "engine_for",
     "range_error",
-    "typed_context",
     "use_threads",
 ]
 
@@ -67,62 +66,6 @@ Tableau = namedtuple("Tableau", "A b c coeffs cayley")
 #: a product of exponentials' numbers (:class:`lieint.fast.forms.ExpProductForm`; ``cayley`` is
 #: False: the observer reads it as a tableau's)
 Products = namedtuple("Products", "weights bounds c cayley")
-
-
-class TypedContext(tuple):
-    """A layout's context tuple whose class carries its numba type (:func:`typed_context`)."""
-
-    __slots__ = ()
-    _numba_type_ = None
-
-
-def _item_key(item):
-    """What fixes an item's numba type: a structref proxy's type, an array's dtype, dimensions,
-    layout and writeability, else the item's class."""
-    if isinstance(item, np.ndarray):
-        order = "C" if item.flags.c_contiguous else ("F" if item.flags.f_contiguous else "A")
-        return ("array", item.dtype.str, item.ndim, order, item.flags.writeable)
-    numba_type = getattr(item, "_type", None)
-    if numba_type is not None:  # a structref proxy (the compiled pieces' bundle)
-        return ("struct", numba_type)
-    return ("object", type(item))
-
-
-#: the TypedContext class of each kind of context (the items' keys)
-_CONTEXT_CLASSES: dict = {}
-
-
-def typed_context(ctx):
-    """``ctx`` as a :class:`TypedContext` whose numba type is worked out once per kind of context.
-
-    numba's dispatcher fingerprints arrays and tuples of arrays in C, but a tuple holding a
-    structref (the compiled pieces' bundle) falls back to typing the whole tuple in Python, about
-    25 µs at each call of a loop (up to three a run: the first trial step, the controller loop,
-    the fixed-step loop). A :class:`TypedContext` is typed by one attribute read (its class's
-    ``_numba_type_``, registered with :func:`numba.extending.typeof_impl` in :func:`_register`)
-    and unboxed as any tuple. Other contexts (0, tuples of arrays) are returned as they are.
-    """
-    if not isinstance(ctx, tuple) or isinstance(ctx, TypedContext):
-        return ctx
-    key = tuple(_item_key(item) for item in ctx)
-    if not any(k[0] == "struct" for k in key):
-        return ctx  # typed in C already
-    cls = _CONTEXT_CLASSES.get(key)
-    if cls is None:
-        import numba
-
-        _register()
-        cls = _CONTEXT_CLASSES[key] = type("TypedContext", (TypedContext,), {"_numba_type_": numba.typeof(ctx)})
-    return cls(ctx)
-
-
-@cache
-def _register() -> None:
-    from numba.extending import typeof_impl
-
-    @typeof_impl.register(TypedContext)
-    def _typeof_typed_context(val, c):
-        return type(val)._numba_type_
 
 
 #: rows the controller loop buffers per call before handing them back (memory stays bounded) ...
@@ -407,7 +350,7 @@ class Engine:
         fin = np.empty((N, d))
         status = np.empty(N, dtype=np.int64)
         norm2 = np.empty(N)
-        evals = np.empty(N, dtype=np.int64)
+        evals = np.zeros(N, dtype=np.int64)  # every unit's count written, and none read unset
         steps = k_to - k_from if keep else 0
         # the kept states with the starting one first (row 0): the observer's table of steps
         # needs both ends of every step, and gets them in one conversion, without a copy
@@ -569,8 +512,10 @@ def engine_for(
     The choice takes 25–45 µs of Python; a run of the same system object, method object, batch
     shape and options as one of the last :data:`ENGINE_CACHE_SIZE` runs gets a copy of that
     run's engine instead (its per-run state fresh), provided the system declares the very same
-    form object (``system.compiled()`` caches its declaration per parameter object, so a new
-    inertia tensor is a new form) and no stage module looks at the steps (``decline``).
+    form object and no stage module looks at the steps (``decline``). The Euler tops cache their
+    declaration per inertia operator (a new one is a new form); the heavy top and the balls
+    declare a new form at every call (their parameter arrays are writeable), so their engines
+    are chosen afresh each run.
     """
     form = system.compiled()
     batch = system.batch_shape(y0) if form is not None else None

@@ -10,7 +10,7 @@ import pytest
 
 import lieint
 from lieint.fast import engine
-from lieint.fast.engine import TypedContext, typed_context
+from lieint.fast.dispatch import TypedContext, typed_context
 from lieint.groups import hat
 from lieint.methods.registry import get_method
 
