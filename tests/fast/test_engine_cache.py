@@ -83,3 +83,35 @@ def test_a_map_whose_stage_module_declines_some_steps_is_chosen_afresh_each_run(
     assert short is not None and not engine._ENGINES
     long, reason = engine.engine_for(top, method, y0, h=100.0)
     assert long is None and "closed form" in reason
+
+
+def _fixed_step_methods():
+    from lieint.methods.registry import method_specs
+
+    return [name for name in method_specs() if not (m := get_method(name)).adaptive and not m.self_controlled]
+
+
+@pytest.mark.parametrize("label", ["3D top", "4D top"])
+def test_every_compiled_fixed_step_method_runs_the_same_through_a_reused_engine(label):
+    # the Euler tops are the systems whose declaration is cached, so their engines are reused
+    if label == "3D top":
+        top = lieint.EulerTop.from_principal_moments([1.0, 2.0, 3.0])
+        y0 = top.initial_state(angular_velocity=[0.3, 1.0, 0.4])
+    else:
+        top, y0 = _top4()
+    compared = 0
+    for name in _fixed_step_methods():
+        try:
+            get_method(name).check_system(top)
+        except ValueError:
+            continue
+        engine._ENGINES.clear()
+        cold = lieint.integrate(top, y0, (0.0, 0.3), h=0.01, method=name)
+        if cold.stats.backend != "numba":
+            continue
+        warm = lieint.integrate(top, y0, (0.0, 0.3), h=0.01, method=name)
+        compared += 1
+        for field in cold.states:
+            np.testing.assert_array_equal(cold.states[field], warm.states[field], err_msg=name)
+        assert cold.nfev == warm.nfev, name
+    assert compared >= 12, compared
