@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import copy
 import math
+import threading
 import types
 import warnings
 from collections import OrderedDict, namedtuple
@@ -496,6 +497,7 @@ def _label(system) -> str:
 _ENGINES: OrderedDict = OrderedDict()
 #: how many :data:`_ENGINES` holds (each keeps its system and method alive)
 ENGINE_CACHE_SIZE = 32
+_ENGINES_LOCK = threading.Lock()
 
 
 def engine_for(
@@ -525,15 +527,17 @@ def engine_for(
 
         threads = int(numba.get_num_threads())  # the engine's threads are chosen from it
     key = (id(system), id(method), batch, bool(adaptive), bool(project), threads)
-    hit = _ENGINES.get(key)
-    if hit is not None and hit[0] is system and hit[1] is method and hit[2] is form and form is not None:
-        _ENGINES.move_to_end(key)
-        return hit[3].fresh(), ""
+    with _ENGINES_LOCK:  # runs in threads (a threaded sweep) share the cache
+        hit = _ENGINES.get(key)
+        if hit is not None and hit[0] is system and hit[1] is method and hit[2] is form and form is not None:
+            _ENGINES.move_to_end(key)
+            return hit[3].fresh(), ""
     engine, reason = _select(system, method, y0, form, adaptive, project, h)
     if engine is not None and engine.cacheable:
-        _ENGINES[key] = (system, method, form, engine.fresh())
-        while len(_ENGINES) > ENGINE_CACHE_SIZE:
-            _ENGINES.popitem(last=False)
+        with _ENGINES_LOCK:
+            _ENGINES[key] = (system, method, form, engine.fresh())
+            while len(_ENGINES) > ENGINE_CACHE_SIZE:
+                _ENGINES.popitem(last=False)
     return engine, reason
 
 

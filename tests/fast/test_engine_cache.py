@@ -115,3 +115,25 @@ def test_every_compiled_fixed_step_method_runs_the_same_through_a_reused_engine(
             np.testing.assert_array_equal(cold.states[field], warm.states[field], err_msg=name)
         assert cold.nfev == warm.nfev, name
     assert compared >= 12, compared
+
+
+def test_runs_in_threads_share_the_cache_and_each_gets_its_own_engine():
+    # a threaded sweep: many runs of the same and of different tops at once, the cache smaller
+    # than the bodies, every run the run alone
+    from concurrent.futures import ThreadPoolExecutor
+
+    tops = [_top4((0.6 + 0.01 * k, 0.9, 1.2, 1.5)) for k in range(8)]
+    engine._ENGINES.clear()
+    alone = [lieint.integrate(top, y0, (0.0, 0.5), h=0.05, method="rkmk4").states["A"] for top, y0 in tops]
+    size = engine.ENGINE_CACHE_SIZE
+    engine.ENGINE_CACHE_SIZE = 3
+    engine._ENGINES.clear()  # every top inserted again, under the smaller bound
+    try:
+        with ThreadPoolExecutor(4) as pool:
+            runs = list(pool.map(lambda k: (k, lieint.integrate(*tops[k % 8], (0.0, 0.5), h=0.05, method="rkmk4")),
+                                 range(64)))  # fmt: skip
+    finally:
+        engine.ENGINE_CACHE_SIZE = size
+    for k, sol in runs:
+        np.testing.assert_array_equal(sol.states["A"], alone[k % 8])
+    assert len(engine._ENGINES) <= 3
