@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from collections.abc import Callable
 from typing import Any, Protocol
 
 import numpy as np
@@ -32,6 +33,8 @@ __all__ = ["Carry", "ScipyLoop", "Segment", "adaptive_loop", "fixed_loop"]
 
 # How often (in steps) a long stretch between saves is checked for non-finite values.
 _FINITE_CHECK_EVERY = 256
+#: no bound on the accepted steps of a call (``np.iinfo`` costs a few microseconds a look)
+_NO_LIMIT = int(np.iinfo(np.int64).max)
 
 
 class LoopHost(Protocol):
@@ -303,7 +306,7 @@ class _KernelLoop(_CompiledRows):
                 carry.t = d.observer.stop[0]
             if stopped or failure:
                 break
-        return _stopped(d, carry, _joined(times, parts, failure, self.user_state(carry)))
+        return _stopped(d, carry, _joined(times, parts, failure, lambda: self.user_state(carry)))
 
     def _increments(self, kept_U):
         """The kept steps' increments in the user's algebra, converted when an interpolant asks
@@ -430,22 +433,30 @@ class _AdaptiveKernelLoop(_CompiledRows, _AdaptiveLoop):
             h = self.kernel.initial_step(y0, d.t0, d.t1, d.controller, d.method.error_order)
         return Carry(0, d.t0, state, _first_trial(d, h), None)
 
-    def advance(self, carry: Carry, max_steps: int | None) -> Segment:
+    def advance(self, carry: Carry, max_steps: int | None, with_start: bool = False) -> Segment:
+        """At most ``max_steps`` accepted steps (all that remain by default); ``with_start`` puts
+        the carry's state first among the rows (the kernel writes it where it writes the others:
+        a whole run's rows need no concatenation)."""
         d = self.d
-        left = np.iinfo(np.int64).max if max_steps is None else max_steps
+        left = _NO_LIMIT if max_steps is None else max_steps
         if d.observer is not None:
-            return self._observed(carry, left)
+            if not with_start:
+                return self._observed(carry, left)
+            first = self.first_row(carry)  # before the steps move the carry
+            segment = self._observed(carry, left)
+            return _joined([first.t, segment.t], [first.states, segment.states], segment.failure, dict)
         times, parts, failure = [], [], None
-        like = self.user_state(carry)  # a row's shape (the budget's bytes, an empty segment's rows)
-        budget, held = _row_budget(d, like), 0
+        budget, held = _row_budget(d, self.kernel.row_bytes), 0
+        start = with_start
         while d.before_end(carry.t) and left > 0:
             # at most the accepted steps whose rows still fit under the memory limit, and one
             # row more, which the budget refuses: the kernel's buffer never outgrows the limit
             room = (budget.rows - held + 1) * d.save_every
             state, (t, h, k), (acc, rej, nfev), t_saved, saved, small = self.kernel.advance_adaptive(
                 carry.state, carry.t, d.t1, carry.h, carry.k, min(left, room), d.save_every, d.project, d.controller,
-                self.h_min, d.max_step,
+                self.h_min, d.max_step, with_start=start,
             )  # fmt: skip
+            start = False
             carry.state, carry.t, carry.h, carry.k = state, t, h, k
             carry.nrejected += rej
             carry.nfev += nfev
@@ -457,7 +468,16 @@ class _AdaptiveKernelLoop(_CompiledRows, _AdaptiveLoop):
             if small:
                 failure = self._too_small(t)
                 break
-        return _joined(times, parts, failure, like)
+        if start:  # no step taken (an empty span): the starting row alone
+            first = self.first_row(carry)
+            times.insert(0, first.t)
+            parts.insert(0, first.states)
+        return _joined(times, parts, failure, lambda: self.user_state(carry))
+
+    def advance_from_start(self, carry: Carry) -> Segment:
+        """The whole run from a fresh carry: its first row (the starting state) and every saved
+        row in one segment."""
+        return self.advance(carry, None, with_start=True)
 
     def _observed(self, carry: Carry, left: int) -> Segment:
         """Accepted steps in stretches of growing length (as :meth:`_KernelLoop._observed`), every
@@ -499,7 +519,7 @@ class _AdaptiveKernelLoop(_CompiledRows, _AdaptiveLoop):
             if small:
                 failure = self._too_small(t)
                 break
-        return _stopped(d, carry, _joined(times, parts, failure, self.user_state(carry)))
+        return _stopped(d, carry, _joined(times, parts, failure, lambda: self.user_state(carry)))
 
     def _increments(self, kept_U):
         kernel = self.kernel
@@ -612,12 +632,13 @@ def _first_trial(d: LoopHost, h: float) -> float:
     return d.direction * min(h, d.max_step, abs(d.t1 - d.t0))
 
 
-def _row_budget(d: LoopHost, like: dict) -> RowBudget:
+def _row_budget(d: LoopHost, like: dict | int) -> RowBudget:
     """The rows an adaptive segment may hold (:class:`lieint.limits.RowBudget`), each a time and
-    a state like ``like``: tolerances below what round-off lets the error estimate resolve drive
-    the step size down without end, every step saved."""
+    a state like ``like`` (or of ``like`` bytes): tolerances below what round-off lets the error
+    estimate resolve drive the step size down without end, every step saved."""
+    size = like if isinstance(like, int) else sum(np.asarray(v).nbytes for v in like.values())
     return RowBudget(
-        8 + sum(np.asarray(v).nbytes for v in like.values()),
+        8 + size,
         lambda rows: (
             f"the memory of the {rows} rows saved so far by an adaptive run of {d.method.name} with "
             f"`rtol` = {d.rtol:g}, `atol` = {d.atol:g}, `save_every` = {d.save_every} (bytes)"
@@ -644,10 +665,13 @@ def _stopped(d: LoopHost, carry: Carry, segment: Segment) -> Segment:
     )
 
 
-def _joined(times: list, parts: list[dict], failure, like: dict) -> Segment:
-    """One segment of the saved times and rows of several kernel calls."""
+def _joined(times: list, parts: list[dict], failure, like: Callable[[], dict]) -> Segment:
+    """One segment of the saved times and rows of several kernel calls (``like()``: a state, for
+    the shapes of a segment of no rows)."""
     if not parts:
-        return Segment(np.empty(0), {name: np.empty((0, *np.shape(v))) for name, v in like.items()}, failure)
+        return Segment(np.empty(0), {name: np.empty((0, *np.shape(v))) for name, v in like().items()}, failure)
+    if len(parts) == 1:  # one call's rows, fresh already
+        return Segment(times[0], parts[0], failure)
     states = {name: np.concatenate([p[name] for p in parts]) for name in parts[0]}
     return Segment(np.concatenate(times), states, failure)
 

@@ -68,6 +68,9 @@ Tableau = namedtuple("Tableau", "A b c coeffs cayley")
 #: False: the observer reads it as a tableau's)
 Products = namedtuple("Products", "weights bounds c cayley")
 
+#: the largest step count a loop takes (``np.iinfo`` costs a few microseconds a look)
+_INT64_MAX = int(np.iinfo(np.int64).max)
+
 
 #: rows the controller loop buffers per call before handing them back (memory stays bounded) ...
 ROWS_PER_CALL = 4096
@@ -274,6 +277,18 @@ class Engine:
         # the largest ad radius bound over the states of this run (kept by advance); none yet
         self._radius2 = math.inf
         self.cacheable = True
+        # what the copies of this engine (:meth:`fresh`) share and work out once: the loops' typed
+        # context (typing a context with compiled pieces in it costs 10–20 µs a call)
+        self._shared: dict = {}
+
+    @property
+    def context(self):
+        """The layout's context of the loops, typed once (:func:`lieint.fast.dispatch.typed_context`)
+        for this engine and its copies."""
+        ctx = self._shared.get("context")
+        if ctx is None:
+            ctx = self._shared["context"] = typed_context(self.layout.context())
+        return ctx
 
     # -- description -------------------------------------------------------------------------
     def describe(self) -> str:
@@ -308,6 +323,11 @@ class Engine:
     def internal(self, y: dict) -> dict:
         """The form's flat states of the user's state ``y``."""
         return {"Y": np.ascontiguousarray(self.layout.start(y, self.N), dtype=float)}
+
+    @property
+    def row_bytes(self) -> int:
+        """The bytes of one saved row of the user's state (every field float64, the batch's bodies)."""
+        return 8 * self.N * self.layout.count
 
     @property
     def lanes(self) -> bool:
@@ -360,7 +380,7 @@ class Engine:
         kept_U = np.empty((steps, N, self.du))  # the steps write their increments: its length always
         grid = (float(plan.h), float(plan.last_step), int(k_from), int(k_to), int(plan.nsteps), bool(project))
         outs = (out[s:], fin, status, norm2, evals, kept_Y[1:], kept_U)
-        ctx, par, tab = typed_context(self.layout.context()), self.layout.params, self.tableau
+        ctx, par, tab = self.context, self.layout.params, self.tableau
         fixed = self.loops.fixed
         threads = min(self.threads, N)
         if threads > 1:
@@ -421,33 +441,40 @@ class Engine:
         towards ``t1``: backward in time when ``t1 < t0``)."""
         Yu = self.layout.user_flat(y, self.N)
         tolerances = (float(controller.rtol), float(controller.atol))
-        ctx, par, span = typed_context(self.layout.context()), self.layout.params, float(t1 - t0)
+        ctx, par, span = self.context, self.layout.params, float(t1 - t0)
         return float(self.loops.first_trial_step(ctx, Yu, par, self.tableau, tolerances, span, int(error_order)))
 
     def advance_adaptive(self, internal: dict, t, t1, h, k, max_accept, save_every, project, controller, h_min,
-                         h_max=math.inf, keep=False):  # fmt: skip
+                         h_max=math.inf, keep=False, with_start=False):  # fmt: skip
         """Accepted steps from ``(t, h)`` at step ``k`` until ``t1`` (backward in time when ``h`` is
         negative), ``max_accept`` accepted steps or a buffer of rows (:func:`row_capacity`); no
         trial step longer than ``h_max`` (scipy's ``max_step``).
 
         Returns the new internal state, ``(t, h, k)``, the accepted, rejected and evaluation
-        counts, the saved times and user states, whether the step size fell below ``h_min`` and,
-        with ``keep``, the saved rows' flat states and increments."""
+        counts, the saved times and user states (``with_start``: the starting state's row
+        first), whether the step size fell below ``h_min`` and, with ``keep``, the saved rows'
+        flat states and increments."""
+        if keep and with_start:
+            raise ValueError("`with_start` and `keep` together: the kept rows are the steps' own")
         Y = internal["Y"].copy()
         N, d = Y.shape
+        s = int(bool(with_start))
         cap = row_capacity(8 * d * N, max_accept, save_every)
-        out_t, out_Y = np.empty(cap), np.empty((cap, N, d))
+        out_t_all, out_Y_all = np.empty(cap + s), np.empty((cap + s, N, d))
+        if s:
+            out_t_all[0], out_Y_all[0] = t, Y
+        out_t, out_Y = out_t_all[s:], out_Y_all[s:]
         out_U = np.empty((cap if keep else 0, N, self.du))
         control = (
             float(controller.rtol), float(controller.atol), float(controller.safety), float(controller.factor_min),
             float(controller.factor_max), float(h_min), float(N * self.layout.count), float(h_max),
         )  # fmt: skip
         clock = (
-            float(t), float(t1), float(h), int(k), int(min(max_accept, np.iinfo(np.int64).max)), int(save_every),
+            float(t), float(t1), float(h), int(k), int(min(max_accept, _INT64_MAX)), int(save_every),
             bool(project),
         )  # fmt: skip
         status, t, h, k, accepted, rejected, nfev, rows = self.loops.adaptive(
-            typed_context(self.layout.context()),
+            self.context,
             Y,
             self.layout.params,
             self.tableau,
@@ -458,8 +485,8 @@ class Engine:
             out_Y,
             out_U,
         )
-        saved = self.user_rows(out_Y[:rows])
-        result = ({"Y": Y}, (t, h, k), (accepted, rejected, nfev), out_t[:rows].copy(), saved, status == 1)
+        saved = self.user_rows(out_Y_all[: rows + s])
+        result = ({"Y": Y}, (t, h, k), (accepted, rejected, nfev), out_t_all[: rows + s].copy(), saved, status == 1)
         if keep:
             return (*result, (out_Y[:rows], out_U[:rows]))
         return result

@@ -563,6 +563,7 @@ class TopNEnergyLayout(TopNLayout):
     def __init__(self, form: TopNForm, system):
         super().__init__(form)
         self.system = system
+        self.energy = system.invariants["energy"]  # the system's invariants are built at each look
         self.fields_size = self.d
         self.d = self.fields_size + 1  # count stays the fields' components: the level is no user's
 
@@ -571,7 +572,7 @@ class TopNEnergyLayout(TopNLayout):
 
     def start(self, y: dict, N: int) -> np.ndarray:
         # H₀ as the generic path takes it (the system's own energy): the level both paths aim at
-        level = np.asarray(self.system.invariants["energy"](0.0, y), dtype=float).reshape(N, 1)
+        level = np.asarray(self.energy(0.0, y), dtype=float).reshape(N, 1)
         return np.concatenate([super().start(y, N), level], axis=1)
 
     def user(self, Y: np.ndarray, batch: tuple) -> dict:
@@ -652,6 +653,7 @@ class PiecesEnergyLayout(PiecesLayout):
 
     def __init__(self, form: PiecesForm, system, needs_field: bool = True, needs_projection: bool = True):
         super().__init__(form, system, needs_field, needs_projection)
+        self.energy = system.invariants["energy"]  # the system's invariants are built at each look
         self.fields_size = self.d
         self.d = self.fields_size + 1  # count stays the fields' components: the level is no user's
         self.orbit = orbit_numbers(vector_factors(system.group), self.n, self.nv, self.m)
@@ -669,7 +671,7 @@ class PiecesEnergyLayout(PiecesLayout):
 
     def start(self, y: dict, N: int) -> np.ndarray:
         # H₀ as the generic path takes it (the system's own energy): the level both paths aim at
-        level = np.asarray(self.system.invariants["energy"](0.0, y), dtype=float).reshape(N, 1)
+        level = np.asarray(self.energy(0.0, y), dtype=float).reshape(N, 1)
         return np.concatenate([super().start(y, N), level], axis=1)
 
     def user(self, Y: np.ndarray, batch: tuple) -> dict:

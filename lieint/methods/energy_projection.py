@@ -83,7 +83,7 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass
-from functools import partial
+from functools import lru_cache, partial
 from typing import Any
 
 import numpy as np
@@ -110,12 +110,15 @@ LEVEL_ULPS = 64
 _ITERATIONS = 4
 
 
+@lru_cache(maxsize=16)
 def _skew_basis(n: int) -> np.ndarray:
-    """``E_jk − E_kj`` for j < k, stacked: a basis of the n × n skew matrices."""
+    """``E_jk − E_kj`` for j < k, stacked: a basis of the n × n skew matrices (read-only, made
+    once per n: every energy pair's call checks its system with it)."""
     pairs = [(j, k) for j in range(n) for k in range(j + 1, n)]
     out = np.zeros((len(pairs), n, n))
     for i, (j, k) in enumerate(pairs):
         out[i, j, k], out[i, k, j] = -1.0, 1.0
+    out.flags.writeable = False
     return out
 
 

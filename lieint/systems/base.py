@@ -37,6 +37,7 @@ import math
 from abc import ABC, abstractmethod
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -321,6 +322,24 @@ class LieGroupSystem(ABC):
             The declaration, or None: the system runs on the generic numpy path.
         """
         return None
+
+    def _declared_once(self, params: np.ndarray, build: Callable[[np.ndarray], Any]) -> Any:
+        """``build(params)``, made once per parameter vector: the declaration of the last call
+        when ``params`` holds the same numbers (bit for bit), else a new one.
+
+        A compiled engine is reused only for the very same declaration object
+        (:func:`lieint.fast.engine.engine_for`), so a system whose declaration is rebuilt at every
+        call never reuses one; keying on the numbers rather than on the system's arrays keeps an
+        edited array (``top.gravity[:] = …``) from running with the old numbers.
+        """
+        key = params.tobytes()
+        own = self.__dict__
+        cached = own.get("_declared_form")
+        if cached is not None and cached[0] == key:
+            return cached[1]
+        form = build(params)
+        own["_declared_form"] = (key, form)
+        return form
 
     def field_offsets(self) -> dict[str, int]:
         """Where each field starts in the state flattened field after field.

@@ -179,10 +179,16 @@ class ChaplyginBall(RollingPose, LieGroupSystem):
         offset = self.field_offsets()
         head = [self.n, offset.get("R", -1), offset.get("center", -1), self._Mr2, self.radius]
         params = np.concatenate([head, self.B_C.ravel(), self.normal])
-        lanes = None
-        if self.n == 3:  # ensembles of the 3D ball run in SIMD lanes
-            lanes = Chaplygin3Form(self.B_C, self._Mr2, self.radius, self.normal, "R" in self.fields, self.track_center)
-        return PiecesForm(BUILTIN_PIECES.chaplygin, params, self.n, self.track_center, 0, self.fields, lanes=lanes)
+
+        def build(params):
+            lanes = None
+            if self.n == 3:  # ensembles of the 3D ball run in SIMD lanes
+                lanes = Chaplygin3Form(
+                    self.B_C, self._Mr2, self.radius, self.normal, "R" in self.fields, self.track_center
+                )  # fmt: skip
+            return PiecesForm(BUILTIN_PIECES.chaplygin, params, self.n, self.track_center, 0, self.fields, lanes=lanes)
+
+        return self._declared_once(params, build)
 
     # -- the LieGroupSystem contract ---------------------------------------------------
     def generator(self, t: float | np.ndarray, y: State) -> np.ndarray:

@@ -133,7 +133,9 @@ class FreeBody(LieGroupSystem):
         g = np.zeros(n) if self.gravity is None else self.gravity
         head = [n, offset.get("R", -1), float(inertia.diagonal)]
         params = np.concatenate([head, inertia.kernel_params, [offset["center"]], g, [self.mass]])
-        return PiecesForm(BUILTIN_PIECES.free_body, params, n, False, 2 * n, self.fields)
+        return self._declared_once(
+            params, lambda params: PiecesForm(BUILTIN_PIECES.free_body, params, n, False, 2 * n, self.fields)
+        )
 
     def energy(self, y: State) -> np.ndarray:
         """Total energy ``T_rot + ½M|v|² − M⟨g, q_G⟩``.

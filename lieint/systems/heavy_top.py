@@ -235,11 +235,15 @@ class HeavyTop(LieGroupSystem):
         head = [n, self.field_offsets().get("R", -1), float(inertia.diagonal)]
         g = float(np.linalg.norm(self.gravity))
         params = np.concatenate([head, inertia.kernel_params, self._MXG, [g]])
-        lanes = None
-        if n == 3:  # ensembles of the 3D heavy top run in SIMD lanes
-            top = self.top
-            lanes = HeavyTop3Form(top.principal_moments, top.P, self._MXG, g, self.orientation)
-        return PiecesForm(BUILTIN_PIECES.heavy_top, params, n, True, 0, self.fields, lanes=lanes)
+
+        def build(params):
+            lanes = None
+            if n == 3:  # ensembles of the 3D heavy top run in SIMD lanes
+                top = self.top
+                lanes = HeavyTop3Form(top.principal_moments, top.P, self._MXG, g, self.orientation)
+            return PiecesForm(BUILTIN_PIECES.heavy_top, params, n, True, 0, self.fields, lanes=lanes)
+
+        return self._declared_once(params, build)
 
     # -- physics -----------------------------------------------------------------------
     def energy(self, A: np.ndarray, Gamma: np.ndarray) -> np.ndarray:

@@ -409,15 +409,20 @@ class RollingBall(RollingPose, LieGroupSystem):
         head += [self.mass, self.radius, mode, self._g_normal, gnorm]
         g = np.zeros(self.n) if self.gravity is None else self.gravity
         params = np.concatenate([head, self.B_C.ravel(), self.center_of_mass, self.normal, g])
-        lanes = None
-        if self.n == 3:  # ensembles of the 3D ball run in SIMD lanes
-            lanes = RollingBall3Form(
-                self.B_C, self.mass, self.radius, self.center_of_mass, self.normal, mode, self._g_normal, gnorm,
-                "R" in self.fields, self.track_center,
+
+        def build(params):
+            lanes = None
+            if self.n == 3:  # ensembles of the 3D ball run in SIMD lanes
+                lanes = RollingBall3Form(
+                    self.B_C, self.mass, self.radius, self.center_of_mass, self.normal, mode, self._g_normal, gnorm,
+                    "R" in self.fields, self.track_center,
+                )  # fmt: skip
+            return PiecesForm(
+                BUILTIN_PIECES.rolling_ball, params, self.n, self.track_center, self.n * self.n, self.fields,
+                lanes=lanes,
             )  # fmt: skip
-        return PiecesForm(
-            BUILTIN_PIECES.rolling_ball, params, self.n, self.track_center, self.n * self.n, self.fields, lanes=lanes
-        )
+
+        return self._declared_once(params, build)
 
     # -- the LieGroupSystem contract ---------------------------------------------------
     def generator(self, t: float | np.ndarray, y: State) -> np.ndarray | tuple[np.ndarray, ...]:

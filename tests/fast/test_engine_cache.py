@@ -137,3 +137,42 @@ def test_runs_in_threads_share_the_cache_and_each_gets_its_own_engine():
     for k, sol in runs:
         np.testing.assert_array_equal(sol.states["A"], alone[k % 8])
     assert len(engine._ENGINES) <= 3
+
+
+def _pieces_bodies():
+    import bodies  # tests/bodies.py: one variant of every compiled layout of the pieces systems
+
+    return bodies.variants(3)
+
+
+@pytest.mark.parametrize("label", sorted(_pieces_bodies()))
+def test_the_pieces_systems_declare_one_form_per_set_of_numbers_and_reuse_their_engines(label):
+    # the heavy top, the free body and the balls: their declaration is made once per parameter
+    # vector, so a second run gets the first run's engine, and runs the same bit for bit
+    import bodies
+
+    system = _pieces_bodies()[label]
+    y0 = bodies.initial(system, np.random.default_rng(3))
+    assert system.compiled() is system.compiled()
+    engine._ENGINES.clear()
+    for method, options in (("rkmk853+energy", {"rtol": 1e-8, "atol": 1e-10}), ("rkmk4", {"h": 0.01})):
+        cold = lieint.integrate(system, y0, (0.0, 0.2), method=method, **options)
+        first, _ = engine.engine_for(system, get_method(method), y0, adaptive=method != "rkmk4")
+        second, _ = engine.engine_for(system, get_method(method), y0, adaptive=method != "rkmk4")
+        assert first.layout is second.layout, method
+        warm = lieint.integrate(system, y0, (0.0, 0.2), method=method, **options)
+        assert cold.stats.backend == warm.stats.backend == "numba", method
+        for name in cold.states:
+            np.testing.assert_array_equal(cold.states[name], warm.states[name], err_msg=method)
+
+
+def test_a_pieces_system_with_edited_numbers_declares_a_new_form_with_them():
+    # the declaration is keyed on the numbers, not on the arrays: an array edited in place (here
+    # the heavy top's gravity, whose size |g| the pieces read) is seen at the next run
+    system = lieint.HeavyTop(np.diag([1.0, 2.0, 3.0]), 1.0, [0.1, 0.0, 0.2], [0.0, 0.0, -9.81])
+    before = system.compiled()
+    system.gravity[2] = -19.62
+    after = system.compiled()
+    assert after is not before
+    assert not np.array_equal(after.params, before.params) and after.params[-1] == 19.62
+    assert system.compiled() is after
