@@ -12,7 +12,6 @@ cached on disk by numba under its own name). The driver (:mod:`lieint.loops`) ca
 
 from __future__ import annotations
 
-import copy
 import math
 import threading
 import types
@@ -293,6 +292,12 @@ class Engine:
     # -- description -------------------------------------------------------------------------
     def describe(self) -> str:
         """Which loop runs, in words (``sol.stats.backend_reason``)."""
+        words = self._shared.get("describe")
+        if words is None:
+            words = self._shared["describe"] = self._description()
+        return words
+
+    def _description(self) -> str:
         m = self.method
         if m.family == "rkmk":
             kind = "RKMK (Cayley)" if m.coordinates == "cayley" else "RKMK"
@@ -414,7 +419,8 @@ class Engine:
     def fresh(self) -> Engine:
         """A copy for another run: the layout, numbers and bound loops shared (read-only), the
         per-run state (the step check's bound, the evaluations reported) its own."""
-        other = copy.copy(self)
+        other = object.__new__(type(self))  # copy.copy's result, without its generic protocol
+        other.__dict__.update(self.__dict__)
         other._radius2 = math.inf
         other.__dict__.pop("evaluations", None)
         return other
