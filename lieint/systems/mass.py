@@ -173,19 +173,26 @@ def solve_lyapunov(B: np.ndarray, C: np.ndarray) -> np.ndarray:
     """Solve ``B X + X B = C`` for symmetric positive definite B and skew C (batched).
 
     Real arrays in B's eigenbasis (:func:`eigh_or_nan`, :func:`solve_lyapunov_sym`). Complex
-    ones (the complex-step derivatives of :mod:`lieint.tangent`) by one dense solve of the
-    ``n² × n²`` system ``(B ⊗ I + I ⊗ B) vec X = vec C``: the eigendecomposition of a complex
-    matrix is the Hermitian one, not analytic in B, and would lose the derivative.
+    ones (the complex-step derivatives of :mod:`lieint.tangent`) by one dense solve on the skew
+    matrices, ``d = n(n − 1)/2`` unknowns ``X_ij`` (i < j): the eigendecomposition of a complex
+    matrix is the Hermitian one, not analytic in B, and would lose the derivative. The solve is
+    on the skew matrices, not on all n² entries, because the diagonal's equations ``2 b_i X_ii = 0``
+    are singular for a flat body (an eigenvalue ``b_i = 0``, e.g. I = (1, 2, 3)); on the skew
+    matrices the operator's eigenvalues are ``b_i + b_j`` (i < j), nonzero for any body.
     """
     if not (np.iscomplexobj(B) or np.iscomplexobj(C)):
         b, P = eigh_or_nan(B)
         return solve_lyapunov_sym(b, P, C)
     n = B.shape[-1]
-    eye = np.eye(n)
-    # (B X + X B)_ij = Σ_kl (B_ik δ_jl + δ_ik B_lj) X_kl
-    L = np.einsum("...ik,jl->...ijkl", B, eye) + np.einsum("ik,...lj->...ijkl", eye, B)
-    batch = np.broadcast_shapes(L.shape[:-4], C.shape[:-2])
-    L = np.broadcast_to(L, batch + L.shape[-4:]).reshape(batch + (n * n, n * n))
-    rhs = np.broadcast_to(C, batch + C.shape[-2:]).reshape(batch + (n * n, 1))
-    X = np.linalg.solve(L, rhs).reshape(batch + (n, n))
-    return 0.5 * (X - np.swapaxes(X, -1, -2))
+    i, j = np.triu_indices(n, k=1)
+    d = i.size
+    basis = np.zeros((d, n, n))
+    basis[np.arange(d), i, j], basis[np.arange(d), j, i] = 1.0, -1.0
+    # column m of the operator: the upper triangle of B E_m + E_m B
+    images = np.einsum("...ik,mkj->...mij", B, basis) + np.einsum("mik,...kj->...mij", basis, B)
+    L = np.swapaxes(images[..., i, j], -1, -2)  # (…, d rows (i < j), d columns (m))
+    batch = np.broadcast_shapes(L.shape[:-2], C.shape[:-2])
+    L = np.broadcast_to(L, batch + (d, d))
+    rhs = np.broadcast_to(C, batch + C.shape[-2:])[..., i, j][..., None]
+    x = np.linalg.solve(L, rhs)[..., 0]
+    return np.einsum("...m,mij->...ij", x, basis)
