@@ -15,8 +15,11 @@ Both carry tangent vectors along a run with the exact derivative of the method's
   ``⟨Y⟩`` by the trapezoidal rule (second order in h; a one-sided sum would add ``O(h/t)``).
 
 The tangent vectors are renormalised before their growth could reach the complex step's
-limit (a vector grown by 10²⁰ would make ``ε²|v|²`` felt in the real part). Not compiled:
-:data:`lieint.tangent.flow.BACKEND_REASON`.
+limit (a vector grown by 10²⁰ would make ``ε²|v|²`` felt in the real part). The steps run on the
+compiled engine where the method's tangent steps are compiled (the 3D top's splittings and
+Moser–Veselov maps, :mod:`lieint.tangent.compiled`): :func:`lyapunov` hands it the ``every`` steps
+between two QR decompositions at once, :func:`megno` one step at a time (its sums are taken in
+Python after every step). Elsewhere they run on the generic path; ``backend_reason`` says which.
 """
 
 from __future__ import annotations
@@ -55,7 +58,8 @@ class LyapunovSpectrum:
     h : float
         The step.
     backend_reason : str
-        Why the run is not compiled.
+        Where the tangent steps ran: the compiled engine (:mod:`lieint.tangent.compiled`) or
+        the generic path, and why.
     """
 
     exponents: np.ndarray
@@ -103,7 +107,8 @@ class Megno:
     h : float
         The step.
     backend_reason : str
-        Why the run is not compiled.
+        Where the tangent steps ran: the compiled engine (:mod:`lieint.tangent.compiled`) or
+        the generic path, and why.
     """
 
     mean: np.ndarray
@@ -118,8 +123,8 @@ class Megno:
     backend_reason: str = BACKEND_REASON
 
 
-def _start(system, y0, t_span, h, method, coordinates):
-    stepper = TangentStepper(system, method, coordinates)
+def _start(system, y0, t_span, h, method, coordinates, backend="auto"):
+    stepper = TangentStepper(system, method, coordinates, backend)
     y = system.validate_state(y0)
     t0, t1, starts, sizes = step_schedule(t_span, h, None)
     return stepper, y, t0, t1, starts, sizes
@@ -166,6 +171,7 @@ def lyapunov(
     every: int = 10,
     vectors: ArrayLike | None = None,
     seed: int = 0,
+    backend: str = "auto",
 ) -> LyapunovSpectrum:
     """Lyapunov exponents of a run (Benettin's QR algorithm on the exact tangent map).
 
@@ -191,6 +197,9 @@ def lyapunov(
         The initial tangent vectors (orthonormalised first); default random, from ``seed``.
     seed : int, default 0
         Seed of the random initial vectors.
+    backend : {"auto", "numpy", "numba"}, default "auto"
+        Where the tangent steps run (:class:`lieint.tangent.TangentStepper`: the compiled
+        engine where the method's tangent steps are compiled); ``backend_reason`` says.
 
     Returns
     -------
@@ -211,7 +220,7 @@ def lyapunov(
     >>> spec.exponents.shape, bool(abs(spec.exponents).max() < 0.2)  # regular: all → 0 like log(t)/t
     ((3,), True)
     """
-    stepper, y, t0, t1, starts, sizes = _start(system, y0, t_span, h, method, coordinates)
+    stepper, y, t0, t1, starts, sizes = _start(system, y0, t_span, h, method, coordinates, backend)
     chart = stepper.chart
     k = _check_count(k, chart.dim, "k")
     every = _check_every(every)
@@ -223,11 +232,12 @@ def lyapunov(
     times, history = [], []
     n = len(sizes)
     with np.errstate(over="ignore", invalid="ignore"):
-        for step, (tk, hk) in enumerate(zip(starts, sizes, strict=True)):
-            z, state = stepper.step(float(tk), z, float(hk), state)
+        for first in range(0, n, every):  # `every` steps (compiled where they can be), then a QR
+            last_of = min(first + every, n)
+            z, state = stepper.advance(z, starts[first:last_of], sizes[first:last_of], state)
+            step = last_of - 1
+            tk, hk = starts[step], sizes[step]
             last = step == n - 1
-            if (step + 1) % every and not last:
-                continue
             y, W = stepper.split(z)
             Q, Rm = np.linalg.qr(np.moveaxis(W, 0, -1))  # (*b, dim, k), (*b, k, k)
             growth = np.abs(np.diagonal(Rm, axis1=-2, axis2=-1))
@@ -244,7 +254,9 @@ def lyapunov(
     order = np.argsort(-history_arr[-1], axis=-1)
     exps = np.take_along_axis(history_arr[-1], order, axis=-1)
     hist = np.take_along_axis(history_arr, np.broadcast_to(order, history_arr.shape), axis=-1)
-    return LyapunovSpectrum(exps, np.asarray(times), hist, y, chart, stepper.method.name, float(h))
+    return LyapunovSpectrum(
+        exps, np.asarray(times), hist, y, chart, stepper.method.name, float(h), stepper.backend_reason
+    )
 
 
 def megno(
@@ -258,6 +270,7 @@ def megno(
     vector: ArrayLike | None = None,
     seed: int = 0,
     save_every: int = 1,
+    backend: str = "auto",
 ) -> Megno:
     """MEGNO of a run (Cincotta & Simó 2000) from one tangent vector on the exact tangent map.
 
@@ -281,6 +294,9 @@ def megno(
         Seed of the random initial vector.
     save_every : int, default 1
         Keep every ``save_every``-th step in the history (the sums use every step).
+    backend : {"auto", "numpy", "numba"}, default "auto"
+        Where the tangent steps run (:class:`lieint.tangent.TangentStepper`: the compiled
+        engine where the method's tangent steps are compiled); ``backend_reason`` says.
 
     Returns
     -------
@@ -301,7 +317,7 @@ def megno(
     >>> bool(abs(result.mean - 2.0) < 0.2)  # quasi-periodic
     True
     """
-    stepper, y, t0, t1, starts, sizes = _start(system, y0, t_span, h, method, coordinates)
+    stepper, y, t0, t1, starts, sizes = _start(system, y0, t_span, h, method, coordinates, backend)
     chart = stepper.chart
     save_every = _check_every(save_every)
     batch = system.batch_shape(y)
@@ -316,7 +332,7 @@ def megno(
     n = len(sizes)
     with np.errstate(over="ignore", invalid="ignore"):
         for step, (tk, hk) in enumerate(zip(starts, sizes, strict=True)):
-            z, state = stepper.step(float(tk), z, float(hk), state)
+            z, state = stepper.advance(z, starts[step : step + 1], sizes[step : step + 1], state)
             y, W = stepper.split(z)
             norm = np.linalg.norm(W[0], axis=-1)
             if not np.all(np.isfinite(norm)) or np.any(norm == 0):
@@ -347,4 +363,5 @@ def megno(
         y,
         stepper.method.name,
         float(h),
+        stepper.backend_reason,
     )

@@ -147,6 +147,43 @@ class Top3Layout(Layout):
         return hat(u).reshape(U.shape[:-2] + batch + (3, 3))
 
 
+class Top3TangentLayout(Top3Layout):
+    """The 3D top with k tangent vectors (:mod:`lieint.fast.top3_tangent`): a body's row is
+    ``(Π, R̃)`` in the principal frame, then k vectors ``(δΠ, δR̃)`` of the same layout. The
+    change of frame is linear, so the tangent vectors move with it as the state does; δR̃ is zero
+    where the top carries no attitude."""
+
+    module = "lieint.fast.top3_tangent"
+    label = "3D top with its tangent vectors (principal frame)"
+
+    def __init__(self, form: Top3Form, k: int):
+        super().__init__(form)
+        self.k = int(k)
+        self.d = 12 * (1 + self.k)
+
+    def pack(self, y: dict, dy: list[dict], N: int) -> np.ndarray:
+        """The rows ``(N, d)`` of the states ``y`` and the tangent vectors ``dy`` (k dicts of the
+        fields' derivatives, each of the batch's shape)."""
+        Y = np.empty((N, self.d))
+        Y[:, :12] = self.start(y, N)
+        for m, v in enumerate(dy, start=1):
+            rows = self.start(v, N)
+            if not self.orientation:
+                rows[:, 3:] = 0.0  # start() stands R = I in for a top without attitude: its δ is 0
+            Y[:, 12 * m : 12 * (m + 1)] = rows
+        return Y
+
+    def unpack(self, Y: np.ndarray, batch: tuple) -> tuple[dict, list[dict]]:
+        """The states and the k tangent vectors of the rows ``Y`` (:meth:`pack`'s inverse)."""
+        y = self.user(Y, batch)
+        dy = [Top3Layout.user(self, np.ascontiguousarray(Y[:, 12 * m : 12 * (m + 1)]), batch)
+              for m in range(1, self.k + 1)]  # fmt: skip
+        return y, dy
+
+    def user(self, Y: np.ndarray, batch: tuple) -> dict:
+        return super().user(np.ascontiguousarray(Y[..., :12]), batch)
+
+
 class Top3EnergyLayout(Top3Layout):
     """The 3D top under an energy-keeping pair: ``(Π, R P, H₀)``, the level every accepted step
     ends on carried as a 13th entry (:mod:`lieint.fast.top3`, family ``rkmk_energy``)."""

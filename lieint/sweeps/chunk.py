@@ -178,9 +178,10 @@ def compute_chunk(plan: SweepPlan, index: int, backend: str = "auto") -> ChunkRe
         backends.append(sol.stats.backend)
         reasons.append(sol.stats.backend_reason)
         if plan.indicators:
-            from ..tangent.flow import BACKEND_REASON
+            from ..tangent.flow import tangent_backend
 
-            reasons.append(f"{', '.join(plan.indicators)}: {BACKEND_REASON}")
+            tangent = tangent_backend(system, plan.options.get("method", "rkmk4"), plan.options.get("coordinates"))
+            reasons.append(f"{', '.join(plan.indicators)}: {tangent}")
         notes.extend(caught)
         nsteps = max(nsteps, sol.stats.nsteps)
         cpu_steps += sol.stats.cpu_time

@@ -19,8 +19,12 @@ take a symmetric eigendecomposition), and the methods whose step is not analytic
 by name (:data:`REFUSED`). ``docs/theory.md`` (§ "The tangent flow") says why this design
 was chosen over forward mode by hand.
 
-Not compiled: the complex copies run on the generic numpy path (the compiled kernels are
-real); :data:`BACKEND_REASON` says so in every result.
+The complex copies run on the generic numpy path (the compiled kernels are real), except where
+the compiled engine has the method's tangent steps written out in forward mode — the 3D top's
+splittings into exact rotations and its Moser–Veselov maps (:mod:`lieint.tangent.compiled`):
+:meth:`TangentStepper.advance` reads the copies as a real state and its derivatives and steps
+them there. Every result's ``backend_reason`` says which path ran (:data:`BACKEND_REASON`,
+:data:`lieint.tangent.compiled.COMPILED_REASON`).
 """
 
 from __future__ import annotations
@@ -38,6 +42,7 @@ from ..control import Plan
 from ..methods.base import Method
 from ..methods.registry import get_method, method_specs
 from ..systems.base import LieGroupSystem
+from .compiled import COMPILED_REASON
 from .coordinates import TangentChart, chart_of
 
 __all__ = [
@@ -49,8 +54,12 @@ __all__ = [
     "family_of",
     "run_steps",
     "step_schedule",
+    "tangent_backend",
     "tangent_flow",
 ]
+
+#: the values of ``backend``
+BACKENDS = ("auto", "numpy", "numba")
 
 #: the imaginary step ε: small enough that ε² vanishes below the smallest double next to 1
 COMPLEX_STEP = 1e-30
@@ -70,6 +79,32 @@ REFUSED = {
 _REFUSED_NAMES = {
     f"moser_veselov{p}": "the modified moments are computed from the invariants on real arrays" for p in (4, 6, 8, 10)
 }
+
+
+def tangent_backend(system: LieGroupSystem, method: str | Method, coordinates: str | None = None) -> str:
+    """Where the tangent steps of ``method`` on ``system`` run, in words: the compiled engine
+    (:data:`lieint.tangent.compiled.COMPILED_REASON`) or the generic path and why."""
+    reason = _compiled_reason(system, get_method(method, coordinates=coordinates))
+    return COMPILED_REASON if not reason else f"{BACKEND_REASON} ({reason})"
+
+
+def _compiled_reason(system: LieGroupSystem, method: Method) -> str:
+    """Why ``method``'s tangent steps on ``system`` run on the generic path ("" when compiled).
+    A system with complex parameters (a parameter's complex step) always does."""
+    from .compiled import compiled_reason
+    from .sensitivity import offered_parameters
+
+    complex_step = "the system's parameters are complex (a parameter's complex step)"
+    try:
+        values, _ = offered_parameters(system)
+        if any(np.iscomplexobj(value) for value in values.values()):
+            return complex_step
+        form = system.compiled()
+    except (TypeError, ValueError):  # a declaration that cannot be made of complex parameters
+        return complex_step
+    if form is not None and not all(np.isrealobj(getattr(form, name, 0.0)) for name in ("moments", "P", "b")):
+        return complex_step
+    return compiled_reason(system, method)
 
 
 def _refusal(method: Method) -> str | None:
@@ -100,12 +135,16 @@ class TangentStepper:
         A method name or object (not one of :data:`REFUSED`).
     coordinates : {"exp", "cayley"}, optional
         The coordinate map of a Lie-group method.
+    backend : {"auto", "numpy", "numba"}, default "auto"
+        "auto" steps on the compiled engine where the method's tangent steps are compiled
+        (:mod:`lieint.tangent.compiled`), else on the generic path; "numpy" forces the generic
+        path (the complex step: the reference); "numba" requires the compiled steps.
 
     Raises
     ------
     ValueError
         A method whose step is not analytic in the state (naming why), or one that does not
-        apply to the system.
+        apply to the system; ``backend="numba"`` where no compiled tangent steps exist.
 
     Examples
     --------
@@ -120,9 +159,17 @@ class TangentStepper:
     (6, 6)
     """
 
-    def __init__(self, system: LieGroupSystem, method: str | Method = "rkmk4", coordinates: str | None = None):
+    def __init__(
+        self,
+        system: LieGroupSystem,
+        method: str | Method = "rkmk4",
+        coordinates: str | None = None,
+        backend: str = "auto",
+    ):
         if not isinstance(system, LieGroupSystem):
             raise TypeError(f"`system` must be a lieint system (LieGroupSystem); got {type(system).__name__}.")
+        if backend not in BACKENDS:
+            raise ValueError(f"`backend` must be one of {list(BACKENDS)}; got {backend!r}.")
         self.system = system
         self.method = get_method(method, coordinates=coordinates)
         why = _refusal(self.method)
@@ -130,6 +177,17 @@ class TangentStepper:
             raise ValueError(f"`method` {self.method.name!r} has no tangent map here: {why}.")
         self.method.check_system(system)
         self.chart: TangentChart = chart_of(system)
+        #: why the steps run on the generic path ("" when :meth:`advance` runs them compiled)
+        forced = "backend='numpy' asked for the generic path"
+        self.compiled_reason = forced if backend == "numpy" else _compiled_reason(system, self.method)
+        if backend == "numba" and self.compiled_reason:
+            raise ValueError(
+                f"`backend='numba'`: no compiled tangent steps for {self.method.name!r} on {type(system).__name__}: "
+                f"{self.compiled_reason}. Use 'auto' or 'numpy'."
+            )
+        self._compiled: dict = {}  # (k, batch) → lieint.tangent.compiled.CompiledTangent
+        #: what the last :meth:`advance` ran on (``backend_reason`` of the results)
+        self.backend_reason = BACKEND_REASON
 
     def seed(self, y: dict, vectors: np.ndarray) -> dict:
         """Complex copies ``y + iε v`` of the real state ``y``, one per tangent vector.
@@ -210,6 +268,62 @@ class TangentStepper:
                     f"state to real ({exc}); its tangent map cannot be computed by the complex step."
                 ) from None
 
+    def advance(self, z: dict, starts: np.ndarray, sizes: np.ndarray, state: Any = None) -> tuple[dict, Any]:
+        """The complex state ``z`` after the steps ``sizes`` (starting at the times ``starts``).
+
+        On the compiled engine where the method's tangent steps are compiled
+        (:mod:`lieint.tangent.compiled`: the 3D top's splittings and Moser–Veselov maps, steps of
+        one size with a last of its own), else step by step on the generic path
+        (:meth:`step`); :attr:`backend_reason` says which.
+
+        Parameters
+        ----------
+        z : dict of ndarray
+            The complex state (:meth:`seed`).
+        starts, sizes : ndarray
+            The time at the start of each step and its size.
+        state : any, optional
+            The method's state (None for one-step methods).
+
+        Returns
+        -------
+        z1 : dict of ndarray
+            The complex state after the steps.
+        state : any
+            The method's state after them.
+        """
+        if not self.compiled_reason and state is None and len(sizes):
+            moved = self._advance_compiled(z, sizes)
+            if moved is not None:
+                self.backend_reason = COMPILED_REASON
+                return moved, state
+        self.backend_reason = BACKEND_REASON
+        with np.errstate(over="ignore", invalid="ignore"):
+            for tk, hk in zip(starts, sizes, strict=True):
+                z, state = self.step(float(tk), z, float(hk), state)
+        return z, state
+
+    def _advance_compiled(self, z: dict, sizes: np.ndarray) -> dict | None:
+        """:meth:`advance` on the compiled engine: the copies read as the real state and its
+        derivatives ``Im z / ε``, stepped in forward mode, written back as copies."""
+        from .compiled import CompiledTangent
+
+        names = self.chart.names
+        first = z[names[0]]
+        k = first.shape[0]
+        batch = first.shape[1 : first.ndim - len(self.system.fields[names[0]])]
+        key = (k, batch)
+        engine = self._compiled.get(key)
+        if engine is None:
+            engine = self._compiled[key] = CompiledTangent(self.system, self.method, k, batch)
+        y = {name: np.ascontiguousarray(z[name][0].real) for name in names}
+        dy = [{name: z[name][m].imag / COMPLEX_STEP for name in names} for m in range(k)]
+        moved = engine.advance(y, dy, sizes)
+        if moved is None:
+            return None
+        y1, dy1 = moved
+        return {name: y1[name][None] + (1j * COMPLEX_STEP) * np.stack([v[name] for v in dy1]) for name in names}
+
     def step(self, t: float, z: dict, h: float, state: Any = None) -> tuple[dict, Any]:
         """One step of the method on the complex copies.
 
@@ -259,7 +373,8 @@ class TangentFlow:
     nsteps : int
         Steps taken.
     backend_reason : str
-        Why the run is not compiled (:data:`BACKEND_REASON`).
+        Where the tangent steps ran: the compiled engine (:data:`lieint.tangent.compiled.COMPILED_REASON`)
+        or the generic path (:data:`BACKEND_REASON`).
     """
 
     t: float
@@ -285,6 +400,7 @@ def tangent_flow(
     coordinates: str | None = None,
     vectors: ArrayLike | None = None,
     steps: ArrayLike | None = None,
+    backend: str = "auto",
 ) -> TangentFlow:
     """Run a method and the exact derivative of its discrete map with respect to ``y₀``.
 
@@ -310,6 +426,8 @@ def tangent_flow(
     steps : array_like of float, optional
         The step sizes to take from ``t0`` instead of ``h`` (e.g. ``np.diff(sol.t)`` of an
         adaptive run saved at every step: the map of that run with its controller held fixed).
+    backend : {"auto", "numpy", "numba"}, default "auto"
+        Where the steps run (:class:`TangentStepper`); the result's ``backend_reason`` says.
 
     Returns
     -------
@@ -330,7 +448,7 @@ def tangent_flow(
     >>> run.jacobian.shape, run.chart.labels()[:3]
     ((6, 6), ['A[0,1]', 'A[0,2]', 'A[1,2]'])
     """
-    stepper = TangentStepper(system, method, coordinates)
+    stepper = TangentStepper(system, method, coordinates, backend)
     y = system.validate_state(y0)
     t0, t1, starts, sizes = step_schedule(t_span, h, steps)
     chart = stepper.chart
@@ -348,7 +466,7 @@ def tangent_flow(
         raise FloatingPointError(
             f"the run or its tangent map became non-finite before t = {t1:g}; reduce the step (h = {h}) or the horizon."
         )
-    return TangentFlow(t1, y1, out, chart, len(sizes))
+    return TangentFlow(t1, y1, out, chart, len(sizes), stepper.backend_reason)
 
 
 def run_steps(stepper: TangentStepper, z: dict, t0: float, starts: np.ndarray, sizes: np.ndarray) -> dict:
@@ -371,9 +489,7 @@ def run_steps(stepper: TangentStepper, z: dict, t0: float, starts: np.ndarray, s
         The complex state after the last step (overflow left to the caller's finiteness check).
     """
     state = stepper.init(t0, z, float(sizes[0]))
-    with np.errstate(over="ignore", invalid="ignore"):
-        for tk, hk in zip(starts, sizes, strict=True):
-            z, state = stepper.step(float(tk), z, float(hk), state)
+    z, _ = stepper.advance(z, starts, sizes, state)
     return z
 
 

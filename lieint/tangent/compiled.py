@@ -1,0 +1,99 @@
+"""The tangent map on the compiled engine, where a system's form has compiled tangent steps.
+
+:mod:`lieint.tangent.flow` carries k tangent vectors as complex copies of the state (the complex
+step) on the generic numpy path. Where the compiled engine has the derivative of the method's
+step written out — the 3D Euler top's splittings into exact rotations (``splitting2/4/6``) and
+its Moser–Veselov maps (``moser_veselov``, ``moser_veselov_composed4/6``),
+:mod:`lieint.fast.top3_tangent` — the same steps run there instead: the complex copies are read
+as a real state and its derivatives (``Im z / ε``), stepped together in forward mode, and written
+back as complex copies. Both paths compute the derivative of the same discrete map, to round-off;
+the compiled one costs about one step per tangent vector instead of a complex run each.
+
+Everything else — other systems and methods, steps that are not one grid of equal steps with a
+shorter last one — runs on the generic path, and says so (:func:`compiled_reason`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..control import Plan
+
+__all__ = ["COMPILED_REASON", "CompiledTangent", "compiled_reason"]
+
+#: what a result says when its tangent map ran on the compiled engine
+COMPILED_REASON = "compiled engine: the 3D top's tangent steps in forward mode (lieint.fast.top3_tangent)"
+
+#: the method families with compiled tangent steps on the 3D top
+_FAMILIES = ("splitting", "moser_veselov")
+
+
+@dataclass(frozen=True)
+class _Steps(Plan):
+    """A grid of equal steps h and a last one of its own size, as the engine's loop reads it."""
+
+    last: float = 0.0
+
+    @property
+    def last_step(self) -> float:
+        return self.last
+
+
+def compiled_reason(system, method) -> str:
+    """Why the tangent map of ``method`` on ``system`` does not run compiled ("" when it does)."""
+    from ..fast.forms import MapForm, Top3Form
+
+    form = system.compiled()
+    if not isinstance(form, Top3Form):
+        return "compiled tangent steps exist for the 3D Euler top only"
+    meth = method.compiled()
+    if not isinstance(meth, MapForm) or meth.family not in _FAMILIES or not meth.covers(form):
+        return (
+            f"{method.name!r} has no compiled tangent steps (compiled: the splittings into exact rotations and "
+            "the Moser–Veselov maps of the 3D top)"
+        )
+    if meth.degree:
+        return f"{method.name!r}: its modified moments depend on the state (no compiled tangent steps)"
+    return ""
+
+
+class CompiledTangent:
+    """The compiled tangent steps of one method on one 3D top, for k vectors and a batch.
+
+    Parameters
+    ----------
+    system : lieint.EulerTop
+        A 3D top (:func:`compiled_reason` is "").
+    method : Method
+        ``splitting2/4/6``, ``moser_veselov`` or ``moser_veselov_composed4/6``.
+    k : int
+        Tangent vectors per body.
+    batch : tuple of int
+        The bodies' batch shape.
+    """
+
+    def __init__(self, system, method, k: int, batch: tuple[int, ...]):
+        from ..fast.engine import Engine
+        from ..fast.layouts import Top3TangentLayout
+
+        self.system, self.batch, self.k = system, tuple(batch), int(k)
+        self.N = math.prod(self.batch)
+        self.layout = Top3TangentLayout(system.compiled(), self.k)
+        self.engine = Engine(self.layout, method.compiled(), self.batch, False, self.layout.module, system.group)
+
+    def advance(self, y: dict, dy: list[dict], sizes: np.ndarray) -> tuple[dict, list[dict]] | None:
+        """``y`` and its tangent vectors ``dy`` (k dicts of the fields' derivatives) after the
+        steps ``sizes``; None when the steps are not equal ones with a last of its own size
+        (the generic path takes those)."""
+        sizes = np.asarray(sizes, dtype=float)
+        n = int(sizes.size)
+        h = float(sizes[0])
+        if n == 0 or (n > 1 and not np.all(sizes[:-1] == h)):
+            return None
+        steps = _Steps(0.0, float(sizes.sum()), h, n, float(sizes[-1]))
+        Y = np.ascontiguousarray(self.layout.pack(y, dy, self.N))
+        new, _ = self.engine.advance({"Y": Y}, 0, n, steps, np.empty(0, dtype=np.int64), False)
+        return self.layout.unpack(new["Y"], self.batch)
