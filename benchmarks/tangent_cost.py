@@ -1,70 +1,101 @@
 """What the tangent map costs: a run with k tangent vectors against the plain run, side by side.
 
-``python benchmarks/tangent_cost.py [--steps 2000]`` times, for the 3D heavy top (rkmk4,
-h = 0.01) and the 3D free top (moser_veselov, splitting2), one body:
+``OPENBLAS_NUM_THREADS=1 python benchmarks/tangent_cost.py [--steps 2000] [--hog]`` times, one
+body each, CPU time of whole calls (the least of several, alternating between the series):
 
-* the plain run, compiled (``lieint.integrate``, the engine) and generic (``backend="numpy"``);
-* ``lieint.tangent_flow`` with k = 1, 3 and the whole dimension of tangent vectors;
-* a batch of 12 bodies with k = 1 (``lieint.megno``), per body.
+* the plain run, ``lieint.integrate`` (compiled);
+* ``lieint.tangent_flow`` with k = 1, 3 and the whole dimension of tangent vectors, on the path
+  it takes by itself (``backend="auto"``: compiled where the method's tangent steps are, the
+  generic path's complex step elsewhere), and the ratio to the plain run beside the issue's
+  bound ``2 (1 + k)``;
+* ``lieint.lyapunov`` (every exponent, a QR every 10 steps) and ``lieint.megno`` likewise.
 
-The tangent map runs on the generic path (complex copies; the compiled kernels are real), so
-the ratio to the compiled plain run is what a user pays today. Prints the load average.
+The cases: the free 3D top with ``moser_veselov`` and ``splitting2`` (compiled tangent steps) and
+the heavy top with ``rkmk4`` (generic path: its tangent steps are not compiled). ``--hog`` keeps
+one busy-looping process running meanwhile (the machine busy); the load average is printed.
 """
 
 from __future__ import annotations
 
 import argparse
 import os
+import subprocess
+import sys
 import time
+from functools import partial
 
 import numpy as np
 
 import lieint
 
 
-def _best(fn, repeat: int = 3) -> float:
-    best = np.inf
-    for _ in range(repeat):
-        start = time.perf_counter()
-        fn()
-        best = min(best, time.perf_counter() - start)
+def _cpu_min(fns, repeats: int) -> list[float]:
+    """The least CPU time of each call over ``repeats`` rounds, the calls alternating."""
+    best = [np.inf] * len(fns)
+    for _ in range(repeats):
+        for i, fn in enumerate(fns):
+            start = time.process_time()
+            fn()
+            best[i] = min(best[i], time.process_time() - start)
     return best
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--steps", type=int, default=2000)
+    parser.add_argument("--hog", action="store_true", help="a CPU-bound process running meanwhile")
     args = parser.parse_args()
+    hog = subprocess.Popen([sys.executable, "-c", "while True: pass"]) if args.hog else None
+    try:
+        run(args.steps, args.hog)
+    finally:
+        if hog is not None:
+            hog.kill()
+            hog.wait()
+
+
+def _calls(system, y0, method, span, h):
+    """(run, k, call) of every series timed for one case: the plain run first."""
+    dim = lieint.tangent.chart_of(system).dim
+    out = [("integrate", 0, partial(lieint.integrate, system, y0, span, h=h, method=method))]
+    for k in sorted({1, 3, dim}):
+        out.append(("tangent_flow", k, partial(lieint.tangent_flow, system, y0, span, h=h, method=method,
+                                               vectors=np.eye(dim)[:k])))  # fmt: skip
+    out.append(("lyapunov", dim, partial(lieint.lyapunov, system, y0, span, h, method)))
+    out.append(("megno", 1, partial(lieint.megno, system, y0, span, h, method, save_every=100)))
+    return out
+
+
+def run(steps: int, hogging: bool) -> None:
     h = 0.01
-    T = args.steps * h
+    T = steps * h
     heavy = lieint.HeavyTop(lieint.EulerTop.from_principal_moments([1.0, 1.5, 2.0]).B, 1.0, [0.1, 0.05, 0.08],
                             [0.0, 0.0, -9.81])  # fmt: skip
     free = lieint.EulerTop.from_principal_moments([1.0, 2.0, 3.0])
     cases = [
-        ("heavy top, rkmk4", heavy, heavy.initial_state(angular_velocity=[1.0, 2.0, 1.5]), "rkmk4"),
-        ("free top, moser_veselov", free, free.initial_state(angular_velocity=[1.0, 0.3, 0.2]), "moser_veselov"),
-        ("free top, splitting2", free, free.initial_state(angular_velocity=[1.0, 0.3, 0.2]), "splitting2"),
+        ("free top", free, free.initial_state(angular_velocity=[1.0, 0.3, 0.2]), "moser_veselov"),
+        ("free top", free, free.initial_state(angular_velocity=[1.0, 0.3, 0.2]), "splitting2"),
+        ("heavy top", heavy, heavy.initial_state(angular_velocity=[1.0, 2.0, 1.5]), "rkmk4"),
     ]
-    print(f"load average {os.getloadavg()[0]:.2f}; {args.steps} steps of h = {h:g}; best of 3, seconds")
-    for name, system, y0, method in cases:
-        lieint.integrate(system, y0, (0.0, 10 * h), h=h, method=method)  # compile / warm up
-        plain = _best(lambda s=system, y=y0, m=method: lieint.integrate(s, y, (0.0, T), h=h, method=m))
-        generic = _best(lambda s=system, y=y0, m=method: lieint.integrate(s, y, (0.0, T), h=h, method=m,
-                                                                          backend="numpy"))  # fmt: skip
-        dim = lieint.tangent.chart_of(system).dim
-        row = f"{name:24s} plain {plain:.3f} (compiled: {plain < generic}), generic {generic:.3f}"
-        for k in (1, 3, dim):
-            V = np.eye(dim)[:k]
-            cost = _best(lambda s=system, y=y0, m=method, V=V: lieint.tangent_flow(s, y, (0.0, T), h=h, method=m,
-                                                                                   vectors=V))  # fmt: skip
-            row += f" | k={k}: {cost:.2f} s = {cost / plain:.0f}× plain, {cost / generic:.1f}× generic"
-        print(row, flush=True)
-    bodies = 12
-    rng = np.random.default_rng(1)
-    batch = heavy.initial_state(angular_velocity=rng.normal(size=(bodies, 3)) * 2.0)
-    one = _best(lambda: lieint.megno(heavy, heavy.initial_state(angular_velocity=[1.0, 2.0, 1.5]), (0.0, T), h=h), 1)
-    many = _best(lambda: lieint.megno(heavy, batch, (0.0, T), h=h), 1)
-    print(f"MEGNO, heavy top: one body {one:.2f} s, {bodies} bodies {many:.2f} s ({many / bodies:.3f} s a body)")
+    time.sleep(0.5)
+    beside = "with a busy-looping process" if hogging else "no busy-looping process"
+    load = os.getloadavg()[0]
+    print(f"{steps} steps of h = {h:g}; CPU time, least of the repeats ({beside}; load average {load:.2f})")
+    print("| system | method | run | k | CPU [ms] | × plain | bound 2(1+k) | tangent steps on |")
+    print("|---|---|---|---|---|---|---|---|")
+    for label, system, y0, method in cases:
+        calls = _calls(system, y0, method, (0.0, T), h)
+        results = [fn() for _, _, fn in calls]  # compiles (or loads) every kernel first
+        compiled = lieint.tangent.flow.tangent_backend(system, method).startswith("compiled")
+        times = _cpu_min([fn for _, _, fn in calls], 7 if compiled else 1)
+        base = times[0]
+        for (kind, k, _), cpu, result in zip(calls, times, results, strict=True):
+            if kind == "integrate":
+                print(f"| {label} | {method} | integrate | — | {1e3 * cpu:.2f} | 1 | — | {result.stats.backend} |")
+                continue
+            where = "compiled" if result.backend_reason.startswith("compiled") else "generic (complex step)"
+            ratio = cpu / base
+            print(f"| {label} | {method} | {kind} | {k} | {1e3 * cpu:.2f} | {ratio:.1f} | {2 * (1 + k)} | {where} |")
 
 
 if __name__ == "__main__":

@@ -17,9 +17,9 @@ Both carry tangent vectors along a run with the exact derivative of the method's
 The tangent vectors are renormalised before their growth could reach the complex step's
 limit (a vector grown by 10²⁰ would make ``ε²|v|²`` felt in the real part). The steps run on the
 compiled engine where the method's tangent steps are compiled (the 3D top's splittings and
-Moser–Veselov maps, :mod:`lieint.tangent.compiled`): :func:`lyapunov` hands it the ``every`` steps
-between two QR decompositions at once, :func:`megno` one step at a time (its sums are taken in
-Python after every step). Elsewhere they run on the generic path; ``backend_reason`` says which.
+Moser–Veselov maps, :mod:`lieint.tangent.compiled`), the whole run in one call of the loop: the
+re-orthonormalisations (modified Gram–Schmidt in the chart's norm) and MEGNO's sums are taken in
+the steps there. Elsewhere they run on the generic path; ``backend_reason`` says which.
 """
 
 from __future__ import annotations
@@ -228,9 +228,28 @@ def lyapunov(
     V = _initial_vectors(chart, batch, k, vectors, seed)
     z = stepper.seed(y, V)
     state = stepper.init(t0, z, float(sizes[0]))
+    compiled = None
+    if not stepper.compiled_reason and state is None:
+        compiled = _lyapunov_compiled(stepper, z, starts, sizes, every, t0, t1, float(h))
+    if compiled is not None:
+        times, history_arr, y = compiled
+    else:
+        times, history_arr, y = _lyapunov_steps(stepper, z, state, starts, sizes, every, t0, t1, h, batch, k)
+    order = np.argsort(-history_arr[-1], axis=-1)
+    exps = np.take_along_axis(history_arr[-1], order, axis=-1)
+    hist = np.take_along_axis(history_arr, np.broadcast_to(order, history_arr.shape), axis=-1)
+    return LyapunovSpectrum(
+        exps, np.asarray(times), hist, y, chart, stepper.method.name, float(h), stepper.backend_reason
+    )
+
+
+def _lyapunov_steps(stepper, z, state, starts, sizes, every, t0, t1, h, batch, k):
+    """:func:`lyapunov`'s steps and QR decompositions on the generic path: the times of the
+    history, the history ``(m, *batch, k)`` and the final state."""
     sums = np.zeros((*batch, k))
     times, history = [], []
     n = len(sizes)
+    y = None
     with np.errstate(over="ignore", invalid="ignore"):
         for first in range(0, n, every):  # `every` steps (compiled where they can be), then a QR
             last_of = min(first + every, n)
@@ -250,13 +269,34 @@ def lyapunov(
             times.append(t)
             history.append(sums / (t - t0))
             z = stepper.seed(y, np.moveaxis(Q, -1, 0))
-    history_arr = np.asarray(history)
-    order = np.argsort(-history_arr[-1], axis=-1)
-    exps = np.take_along_axis(history_arr[-1], order, axis=-1)
-    hist = np.take_along_axis(history_arr, np.broadcast_to(order, history_arr.shape), axis=-1)
-    return LyapunovSpectrum(
-        exps, np.asarray(times), hist, y, chart, stepper.method.name, float(h), stepper.backend_reason
-    )
+    return times, np.asarray(history), y
+
+
+def _lyapunov_compiled(stepper, z, starts, sizes, every: int, t0: float, t1: float, h: float):
+    """:func:`lyapunov` on the compiled engine (:class:`lieint.tangent.compiled.CompiledLyapunov`:
+    the steps and the re-orthonormalisations in one call of the loop); None when the steps are
+    not one grid."""
+    from ..tangent.compiled import COMPILED_REASON, CompiledLyapunov
+    from ..tangent.flow import COMPLEX_STEP
+
+    names = stepper.chart.names
+    first = z[names[0]]
+    k = first.shape[0]
+    batch = first.shape[1 : first.ndim - len(stepper.system.fields[names[0]])]
+    y = {name: np.ascontiguousarray(z[name][0].real) for name in names}
+    dy = [{name: z[name][m].imag / COMPLEX_STEP for name in names} for m in range(k)]
+    done = CompiledLyapunov(stepper.system, stepper.method, k, batch, every, len(sizes)).run(y, dy, sizes, every)
+    if done is None:
+        return None
+    y1, sums, saves = done
+    if not (np.all(np.isfinite(sums)) and all(np.all(np.isfinite(v)) for v in y1.values())):
+        raise FloatingPointError(
+            f"the tangent vectors became non-finite or degenerate before t = {t1:g}; reduce `h` = {h:g}."
+        )
+    times = starts[saves - 1] + sizes[saves - 1]
+    times[-1] = t1  # the last step lands on t1, as the step-by-step sums take it
+    stepper.backend_reason = COMPILED_REASON
+    return list(times), sums / (times - t0).reshape((-1,) + (1,) * (sums.ndim - 1)), y1
 
 
 def megno(
@@ -324,6 +364,10 @@ def megno(
     V = _initial_vectors(chart, batch, 1, None if vector is None else np.asarray(vector)[None], seed)
     z = stepper.seed(y, V)
     state = stepper.init(t0, z, float(sizes[0]))
+    if not stepper.compiled_reason and state is None:
+        compiled = _megno_compiled(stepper, z, starts, sizes, save_every, t0, t1, float(h))
+        if compiled is not None:
+            return compiled
     log_norm = np.zeros(batch)  # log|δ(t)|, renormalisations added back
     weighted = np.zeros(batch)  # ∫ s d log|δ|
     y_sum = np.zeros(batch)  # ∫ Y dt, by the trapezoidal rule (Y(t0) = 0)
@@ -364,4 +408,40 @@ def megno(
         stepper.method.name,
         float(h),
         stepper.backend_reason,
+    )
+
+
+def _megno_compiled(stepper, z, starts, sizes, save_every: int, t0: float, t1: float, h: float) -> Megno | None:
+    """:func:`megno` on the compiled engine (:class:`lieint.tangent.compiled.CompiledMegno`: the
+    steps and the sums after each in one call of the loop); None when the steps are not one grid."""
+    from ..tangent.compiled import COMPILED_REASON, CompiledMegno
+    from ..tangent.flow import COMPLEX_STEP
+
+    names = stepper.chart.names
+    first = z[names[0]]
+    batch = first.shape[1 : first.ndim - len(stepper.system.fields[names[0]])]
+    y = {name: np.ascontiguousarray(z[name][0].real) for name in names}
+    dy = {name: z[name][0].imag / COMPLEX_STEP for name in names}
+    done = CompiledMegno(stepper.system, stepper.method, batch).run(y, dy, sizes, save_every)
+    if done is None:
+        return None
+    y1, sums, saves = done
+    if not (np.all(np.isfinite(sums)) and all(np.all(np.isfinite(v)) for v in y1.values())):
+        raise FloatingPointError(f"the tangent vector became non-finite before t = {t1:g}; reduce `h` = {h:g}.")
+    times = starts[saves - 1] + sizes[saves - 1]
+    times[-1] = t1  # the last step lands on t1, as the step-by-step sums take it
+    span = (times - t0).reshape((-1,) + (1,) * len(batch))
+    means = sums[..., 3] / span
+    exponents = sums[..., 1] / span
+    return Megno(
+        np.asarray(means[-1]),
+        times,
+        np.asarray(sums[..., 4]),
+        means,
+        sums[-1, ..., 1] / (t1 - t0),
+        exponents,
+        y1,
+        stepper.method.name,
+        h,
+        COMPILED_REASON,
     )

@@ -184,6 +184,61 @@ class Top3TangentLayout(Top3Layout):
         return super().user(np.ascontiguousarray(Y[..., :12]), batch)
 
 
+class Top3MegnoLayout(Top3TangentLayout):
+    """The 3D top with one tangent vector and MEGNO's sums after it
+    (:func:`lieint.fast.top3_tangent._megno_update`): the steps' family is the map's own with
+    ``_megno``; a row's user fields carry the sums as ``"megno"`` (five numbers)."""
+
+    label = "3D top with its tangent vector and MEGNO's sums (principal frame)"
+
+    def __init__(self, form: Top3Form):
+        from .top3_tangent import MEGNO_SLOTS
+
+        super().__init__(form, 1)
+        self.d = 24 + MEGNO_SLOTS
+
+    def family(self, method) -> str:
+        return f"{method.family}_megno"
+
+    def pack(self, y: dict, dy: list[dict], N: int) -> np.ndarray:
+        Y = np.zeros((N, self.d))
+        Y[:, :24] = super().pack(y, dy, N)[:, :24]
+        return Y
+
+    def user(self, Y: np.ndarray, batch: tuple) -> dict:
+        states = super().user(Y, batch)
+        states["megno"] = Y[..., 24:].reshape(Y.shape[:-2] + batch + (self.d - 24,))
+        return states
+
+
+class Top3LyapunovLayout(Top3TangentLayout):
+    """The 3D top with k tangent vectors re-orthonormalised every ``every`` of ``total`` steps
+    (:func:`lieint.fast.top3_tangent._lyapunov_update`): after the vectors a step counter and the
+    k sums of ``log |diag R|``; the steps' family is the map's own with ``_lyapunov``, and a row's
+    user fields carry the sums as ``"lyapunov"``."""
+
+    label = "3D top with its tangent vectors and their growth sums (principal frame)"
+
+    def __init__(self, form: Top3Form, k: int, every: int, total: int):
+        super().__init__(form, k)
+        self.d = 12 * (1 + self.k) + 1 + self.k
+        self.params = np.concatenate([self.params, [float(every), float(total)]])
+
+    def family(self, method) -> str:
+        return f"{method.family}_lyapunov"
+
+    def pack(self, y: dict, dy: list[dict], N: int) -> np.ndarray:
+        Y = np.zeros((N, self.d))
+        width = 12 * (1 + self.k)
+        Y[:, :width] = super().pack(y, dy, N)[:, :width]
+        return Y
+
+    def user(self, Y: np.ndarray, batch: tuple) -> dict:
+        states = super().user(Y, batch)
+        states["lyapunov"] = Y[..., 12 * (1 + self.k) + 1 :].reshape(Y.shape[:-2] + batch + (self.k,))
+        return states
+
+
 class Top3EnergyLayout(Top3Layout):
     """The 3D top under an energy-keeping pair: ``(Π, R P, H₀)``, the level every accepted step
     ends on carried as a 13th entry (:mod:`lieint.fast.top3`, family ``rkmk_energy``)."""

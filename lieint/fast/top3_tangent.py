@@ -31,7 +31,7 @@ from .top3_mv import _solve, form_project, form_scratch
 from .top3_mv import numbers as _mv_numbers
 from .top3_split import numbers as _split_numbers
 
-__all__ = ["NAMESPACES", "numbers"]
+__all__ = ["MEGNO_ROW", "MEGNO_SLOTS", "NAMESPACES", "numbers"]
 
 
 def numbers(form, layout):
@@ -205,6 +205,148 @@ def form_mv_tangent_step(fx, y, par, meth, h, y1, inc, aux, scr):
     return spent
 
 
+#: the MEGNO sums after a body's state and its tangent vector (:data:`MEGNO_ROW`): the time
+#: since the start, ``log|δ|`` (renormalisations added back), ``∫ s d log|δ|``, ``∫ Y dt``, ``Y``
+MEGNO_SLOTS = 5
+#: where the MEGNO sums start in a row of the state and one tangent vector
+MEGNO_ROW = 24
+
+
+@njit(cache=True, inline="always")
+def _megno_update(y1, par, h):
+    """After a step of size h: ``|δ|`` in the tangent coordinates (``δΠ`` and, for a top with
+    attitude, ``vee`` of the skew part of ``R̃ᵀδR̃``: the chart's norm, the frame being a rotation),
+    MEGNO's sums (:func:`lieint.megno`: ``Y(t) = (2/t) ∫ s d log|δ|``, ⟨Y⟩ by the trapezoidal
+    rule), and δ renormalised to 1. Where |δ| is not finite and positive the sums become NaN (and
+    stay so: the caller refuses the run, naming it)."""
+    n2 = y1[12] * y1[12] + y1[13] * y1[13] + y1[14] * y1[14]
+    if par[12] != 0.0:  # the attitude's part: M = R̃ᵀ δR̃, δ = vee((M − Mᵀ)/2)
+        m01, m10, m02, m20, m12, m21 = 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+        for r in range(3):
+            a0, a1, a2 = y1[3 + 3 * r], y1[4 + 3 * r], y1[5 + 3 * r]
+            b0, b1, b2 = y1[15 + 3 * r], y1[16 + 3 * r], y1[17 + 3 * r]
+            m01 += a0 * b1
+            m10 += a1 * b0
+            m02 += a0 * b2
+            m20 += a2 * b0
+            m12 += a1 * b2
+            m21 += a2 * b1
+        d0, d1, d2 = 0.5 * (m21 - m12), 0.5 * (m02 - m20), 0.5 * (m10 - m01)
+        n2 += d0 * d0 + d1 * d1 + d2 * d2
+    norm = np.sqrt(n2)
+    s = MEGNO_ROW
+    if not (norm > 0.0 and np.isfinite(norm)):
+        for i in range(s + 1, s + 5):
+            y1[i] = np.nan
+        y1[s] += h
+        return
+    tk = y1[s]
+    t = tk + h
+    dlog = np.log(norm)
+    y1[s] = t
+    y1[s + 1] += dlog
+    y1[s + 2] += (tk + 0.5 * h) * dlog
+    Y = 2.0 * y1[s + 2] / t
+    y1[s + 3] += 0.5 * (y1[s + 4] + Y) * h
+    y1[s + 4] = Y
+    for i in range(12, 24):
+        y1[i] /= norm
+
+
+@njit(cache=True)
+def form_split_megno_step(fx, y, par, meth, h, y1, inc, aux, scr):
+    """:func:`form_split_tangent_step` of the state and one tangent vector, then MEGNO's sums
+    (:func:`_megno_update`)."""
+    spent = form_split_tangent_step(fx, y, par, meth, h, y1, inc, aux, scr)
+    _megno_update(y1, par, h)
+    return spent
+
+
+@njit(cache=True)
+def form_mv_megno_step(fx, y, par, meth, h, y1, inc, aux, scr):
+    """:func:`form_mv_tangent_step` of the state and one tangent vector, then MEGNO's sums
+    (:func:`_megno_update`); −1 when Newton failed."""
+    spent = form_mv_tangent_step(fx, y, par, meth, h, y1, inc, aux, scr)
+    if spent >= 0:
+        _megno_update(y1, par, h)
+    return spent
+
+
+@njit(cache=True, inline="always")
+def _chart_coordinates(y1, o, orient, u):
+    """``u`` = the tangent vector at ``y1[o : o + 12]`` in coordinates of the chart's norm: δΠ, then
+    (for a top with attitude) ``vee`` of the skew part of ``R̃ᵀδR̃`` (:func:`_megno_update`)."""
+    u[0], u[1], u[2] = y1[o], y1[o + 1], y1[o + 2]
+    u[3], u[4], u[5] = 0.0, 0.0, 0.0
+    if orient:
+        m01, m10, m02, m20, m12, m21 = 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+        for r in range(3):
+            a0, a1, a2 = y1[3 + 3 * r], y1[4 + 3 * r], y1[5 + 3 * r]
+            b0, b1, b2 = y1[o + 3 + 3 * r], y1[o + 4 + 3 * r], y1[o + 5 + 3 * r]
+            m01 += a0 * b1
+            m10 += a1 * b0
+            m02 += a0 * b2
+            m20 += a2 * b0
+            m12 += a1 * b2
+            m21 += a2 * b1
+        u[3], u[4], u[5] = 0.5 * (m21 - m12), 0.5 * (m02 - m20), 0.5 * (m10 - m01)
+
+
+@njit(cache=True, inline="always")
+def _lyapunov_update(y1, par, k):
+    """Every ``every`` steps (``par[14]``) and after the last (``par[15]``): the k tangent vectors
+    orthonormalised by modified Gram–Schmidt in the chart's norm (:func:`_chart_coordinates`; the
+    combinations applied to the vectors themselves, the coordinates being linear in them), and
+    ``log`` of each vector's norm before its normalisation (the diagonal of QR's R) added to its
+    sum. The row's step counter is at ``12 (1 + k)``, the k sums after it."""
+    c = 12 * (1 + k)
+    y1[c] += 1.0
+    done, every, total = y1[c], par[14], par[15]
+    if done % every != 0.0 and done != total:
+        return
+    orient = par[12] != 0.0
+    u = np.empty(6)
+    w = np.empty(6)
+    for j in range(1, k + 1):
+        oj = 12 * j
+        for i in range(1, j):  # v_j ← v_j − ⟨q_i, v_j⟩ q_i, q_i already normalised
+            oi = 12 * i
+            _chart_coordinates(y1, oi, orient, u)
+            _chart_coordinates(y1, oj, orient, w)
+            dot = 0.0
+            for a in range(6):
+                dot += u[a] * w[a]
+            for a in range(12):
+                y1[oj + a] -= dot * y1[oi + a]
+        _chart_coordinates(y1, oj, orient, w)
+        n2 = 0.0
+        for a in range(6):
+            n2 += w[a] * w[a]
+        norm = np.sqrt(n2)
+        y1[c + j] += np.log(norm)  # −inf or NaN when the vectors degenerate: the caller refuses
+        for a in range(12):
+            y1[oj + a] /= norm
+
+
+@njit(cache=True)
+def form_split_lyapunov_step(fx, y, par, meth, h, y1, inc, aux, scr):
+    """:func:`form_split_tangent_step`, then the re-orthonormalisation of :func:`_lyapunov_update`
+    when it is due."""
+    spent = form_split_tangent_step(fx, y, par, meth, h, y1, inc, aux, scr)
+    _lyapunov_update(y1, par, y.shape[0] // 12 - 1)
+    return spent
+
+
+@njit(cache=True)
+def form_mv_lyapunov_step(fx, y, par, meth, h, y1, inc, aux, scr):
+    """:func:`form_mv_tangent_step`, then the re-orthonormalisation of :func:`_lyapunov_update`
+    when it is due; −1 when Newton failed."""
+    spent = form_mv_tangent_step(fx, y, par, meth, h, y1, inc, aux, scr)
+    if spent >= 0:
+        _lyapunov_update(y1, par, y.shape[0] // 12 - 1)
+    return spent
+
+
 _COMMON = {
     "prepare": form_prepare,
     "scratch": form_scratch,
@@ -220,4 +362,8 @@ _COMMON = {
 NAMESPACES = {
     "splitting": {**_COMMON, "step": form_split_tangent_step},
     "moser_veselov": {**_COMMON, "step": form_mv_tangent_step},
+    "splitting_megno": {**_COMMON, "step": form_split_megno_step},
+    "moser_veselov_megno": {**_COMMON, "step": form_mv_megno_step},
+    "splitting_lyapunov": {**_COMMON, "step": form_split_lyapunov_step},
+    "moser_veselov_lyapunov": {**_COMMON, "step": form_mv_lyapunov_step},
 }

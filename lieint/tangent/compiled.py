@@ -22,7 +22,7 @@ import numpy as np
 
 from ..control import Plan
 
-__all__ = ["COMPILED_REASON", "CompiledTangent", "compiled_reason"]
+__all__ = ["COMPILED_REASON", "CompiledLyapunov", "CompiledMegno", "CompiledTangent", "compiled_reason"]
 
 #: what a result says when its tangent map ran on the compiled engine
 COMPILED_REASON = "compiled engine: the 3D top's tangent steps in forward mode (lieint.fast.top3_tangent)"
@@ -97,3 +97,90 @@ class CompiledTangent:
         Y = np.ascontiguousarray(self.layout.pack(y, dy, self.N))
         new, _ = self.engine.advance({"Y": Y}, 0, n, steps, np.empty(0, dtype=np.int64), False)
         return self.layout.unpack(new["Y"], self.batch)
+
+
+class CompiledMegno:
+    """MEGNO's sums of one tangent vector carried by the compiled steps of one method on one 3D
+    top (:func:`lieint.fast.top3_tangent._megno_update`): the whole run in one call of the loop,
+    the sums saved every ``save_every`` steps.
+
+    Parameters
+    ----------
+    system : lieint.EulerTop
+        A 3D top (:func:`compiled_reason` is "").
+    method : Method
+        ``splitting2/4/6``, ``moser_veselov`` or ``moser_veselov_composed4/6``.
+    batch : tuple of int
+        The bodies' batch shape.
+    """
+
+    def __init__(self, system, method, batch: tuple[int, ...]):
+        from ..fast.engine import Engine
+        from ..fast.layouts import Top3MegnoLayout
+
+        self.batch = tuple(batch)
+        self.N = math.prod(self.batch)
+        self.layout = Top3MegnoLayout(system.compiled())
+        self.engine = Engine(self.layout, method.compiled(), self.batch, False, self.layout.module, system.group)
+
+    def run(self, y: dict, dy: dict, sizes: np.ndarray, save_every: int):
+        """The final state and the sums ``(elapsed, log|δ|, ∫ s dlog|δ|, ∫ Y dt, Y)`` (last axis)
+        after the steps that a run saving every ``save_every``-th step and the last keeps,
+        ``(m, *batch, 5)``, with those steps' numbers (1-based); None when the steps are not
+        equal ones with a last of its own size."""
+        sizes = np.asarray(sizes, dtype=float)
+        n = int(sizes.size)
+        h = float(sizes[0])
+        if n == 0 or (n > 1 and not np.all(sizes[:-1] == h)):
+            return None
+        steps = _Steps(0.0, float(sizes.sum()), h, n, float(sizes[-1]))
+        saves = steps.saves_between(save_every, 0, n)
+        Y = np.ascontiguousarray(self.layout.pack(y, [dy], self.N))
+        new, rows = self.engine.advance({"Y": Y}, 0, n, steps, saves, False)
+        final = self.layout.user(new["Y"][None], self.batch)
+        return {k: v[0] for k, v in final.items() if k != "megno"}, rows["megno"], saves
+
+
+class CompiledLyapunov:
+    """Benettin's sums of k tangent vectors carried by the compiled steps of one method on one 3D
+    top, re-orthonormalised every ``every`` steps and after the last
+    (:func:`lieint.fast.top3_tangent._lyapunov_update`), the whole run in one call of the loop.
+
+    Parameters
+    ----------
+    system : lieint.EulerTop
+        A 3D top (:func:`compiled_reason` is "").
+    method : Method
+        ``splitting2/4/6``, ``moser_veselov`` or ``moser_veselov_composed4/6``.
+    k : int
+        Tangent vectors per body.
+    batch : tuple of int
+        The bodies' batch shape.
+    every, total : int
+        Steps between re-orthonormalisations, and the run's steps.
+    """
+
+    def __init__(self, system, method, k: int, batch: tuple[int, ...], every: int, total: int):
+        from ..fast.engine import Engine
+        from ..fast.layouts import Top3LyapunovLayout
+
+        self.batch, self.k = tuple(batch), int(k)
+        self.N = math.prod(self.batch)
+        self.layout = Top3LyapunovLayout(system.compiled(), self.k, every, total)
+        self.engine = Engine(self.layout, method.compiled(), self.batch, False, self.layout.module, system.group)
+
+    def run(self, y: dict, dy: list[dict], sizes: np.ndarray, every: int):
+        """The final state and the k sums of ``log |diag R|`` at every re-orthonormalisation,
+        ``(m, *batch, k)``, with those steps' numbers (1-based); None when the steps are not
+        equal ones with a last of its own size."""
+        sizes = np.asarray(sizes, dtype=float)
+        n = int(sizes.size)
+        h = float(sizes[0])
+        if n == 0 or (n > 1 and not np.all(sizes[:-1] == h)):
+            return None
+        steps = _Steps(0.0, float(sizes.sum()), h, n, float(sizes[-1]))
+        saves = steps.saves_between(every, 0, n)
+        Y = np.ascontiguousarray(self.layout.pack(y, dy, self.N))
+        new, rows = self.engine.advance({"Y": Y}, 0, n, steps, saves, False)
+        final = self.layout.user(new["Y"][None], self.batch)
+        return {k: v[0] for k, v in final.items() if k != "lyapunov"}, rows["lyapunov"], saves
