@@ -1,5 +1,5 @@
-"""The tangent maps of the 3D top's exact-rotation splittings and Moser–Veselov maps, as forms of
-the one compiled loop (forward mode, numba, cached on disk).
+"""The tangent maps of the 3D top's RKMK methods, exact-rotation splittings and Moser–Veselov maps,
+as forms of the one compiled loop (forward mode, numba, cached on disk).
 
 A body's row is its state in the principal frame, ``(Π, R̃)`` (12 numbers, :mod:`lieint.fast.top3`),
 followed by k tangent vectors ``(δΠ, δR̃)`` of the same layout: ``d = 12 (1 + k)``. A step moves
@@ -10,6 +10,9 @@ tangent vector by the derivative of that step, ``δy ↦ DΦ_h(y) δy``, differe
 * a splitting's rotation of the plane (i, j) by ``θ = −w τ a/I_k`` (``a = ±Π_k``, w its fraction
   of τ) moves ``δθ = −w τ δa/I_k``, ``δ(cos θ) = −sin θ δθ``, ``δ(sin θ) = cos θ δθ``, and the two
   components of Π and two columns of R̃ it turns by the product rule;
+* an RKMK step (exponential coordinates, dexp⁻¹ truncated) moves its stages' ``u`` by
+  ``δu = h Σ a_ij δK_j``, ``exp(u)`` by ``Qᵀ δQ = (J_r(u) δu)^`` (the right Jacobian of so(3)), and
+  the truncated series' terms ``t_d = (−u) × t_{d−1}`` by ``δt_d = (−δu) × t_{d−1} + (−u) × δt_{d−1}``;
 * a Moser–Veselov substep solves ``F(c; a) = c − (1 + |c|²) a − f ⊙ (c₂c₃, c₃c₁, c₁c₂) = 0`` with
   ``a = (h_s/2) Π/I``: by the implicit function theorem ``δc = (1 + |c|²) J⁻¹ δa``, J = ∂F/∂c at
   the converged c (its adjugate, as Newton solves with it), then ``K = g (ĉ + ccᵀ − |c|² I)``,
@@ -26,7 +29,18 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .top3 import form_embedded, form_error_sum, form_prepare, form_radius2, form_user_field
+from .top3 import (
+    _RADIUS2,
+    _cross,
+    _rodrigues,
+    form_embedded,
+    form_error_sum,
+    form_prepare,
+    form_radius2,
+    form_user_field,
+)
+from .top3 import form_project as form_top3_project
+from .top3 import form_scratch as form_top3_scratch
 from .top3_mv import _solve, form_project, form_scratch
 from .top3_mv import numbers as _mv_numbers
 from .top3_split import numbers as _split_numbers
@@ -205,6 +219,176 @@ def form_mv_tangent_step(fx, y, par, meth, h, y1, inc, aux, scr):
     return spent
 
 
+@njit(cache=True, inline="always")
+def _right_jacobian(u0, u1, u2, v0, v1, v2):
+    """``J_r(u) v`` with ``exp(u + δu) = exp(u) exp((J_r(u) δu)^) + O(δu²)``:
+    ``J_r(u) = I − β û + γ û²``, ``β = (1 − cos θ)/θ²``, ``γ = (θ − sin θ)/θ³`` (their even series
+    below θ = 0.1, exact to round-off there)."""
+    t2 = u0 * u0 + u1 * u1 + u2 * u2
+    if t2 < 1e-2:
+        beta = 0.5 + t2 * (-1.0 / 24 + t2 * (1.0 / 720 + t2 * (-1.0 / 40320 + t2 * (1.0 / 3628800))))
+        gamma = 1.0 / 6 + t2 * (-1.0 / 120 + t2 * (1.0 / 5040 + t2 * (-1.0 / 362880 + t2 * (1.0 / 39916800))))
+    else:
+        th = np.sqrt(t2)
+        beta = (1.0 - np.cos(th)) / t2
+        gamma = (th - np.sin(th)) / (t2 * th)
+    c0, c1, c2 = _cross(u0, u1, u2, v0, v1, v2)
+    e0, e1, e2 = _cross(u0, u1, u2, c0, c1, c2)
+    return v0 - beta * c0 + gamma * e0, v1 - beta * c1 + gamma * e1, v2 - beta * c2 + gamma * e2
+
+
+@njit(cache=True)
+def form_rkmk_tangent_scratch(fx, meth, par, d):
+    """The 3D top's scratch (:func:`lieint.fast.top3.form_scratch`), then the tangent vectors'
+    stage slopes ``δK`` (k, s, 3) and the stage's ``(Π_i, δΠ_i)`` temporaries."""
+    s = meth.b.shape[0]
+    k = d // 12 - 1
+    base = form_top3_scratch(fx, meth, par, d)
+    return (*base, np.zeros((max(k, 1), s, 3)), np.zeros((max(k, 1), 3)))
+
+
+@njit(cache=True)
+def form_rkmk_tangent_step(fx, y, par, meth, h, y1, inc, aux, scr):
+    """One RKMK step (exponential coordinates, dexp⁻¹ truncated at ``meth.coeffs``) of a body's
+    state — :func:`lieint.fast.top3._lie_step`'s operations — and of its tangent vectors, in
+    forward mode: a stage's ``δu = h Σ_j a_ij δK_j``; ``exp(u)`` moves by ``Qᵀ δQ = ŵ``,
+    ``w = J_r(u) δu`` (:func:`_right_jacobian`), so ``δΠ_i = Qᵀ δΠ − w × Π_i``; ``δξ = I⁻¹ δΠ_i``; the
+    series' terms ``t_d = (−u) × t_{d−1}`` move by ``δt_d = (−δu) × t_{d−1} + (−u) × δt_{d−1}``;
+    the step's end ``Π₁ = QᵀΠ``, ``R₁ = RQ`` by ``δΠ₁ = QᵀδΠ − w × Π₁``, ``δR₁ = δR Q + R₁ ŵ``.
+    Returns −1 when a stage reaches the dexp⁻¹ radius (as the plain step)."""
+    K, u, Q, tpi, tR = scr[0], scr[1], scr[2], scr[3], scr[4]
+    dK, du = scr[9], scr[10]
+    d = y.shape[0]
+    k = d // 12 - 1
+    for i in range(d):
+        y1[i] = y[i]
+    Iinv = par[0:3]
+    A, b, coeffs = meth.A, meth.b, meth.coeffs
+    s = b.shape[0]
+    degree = coeffs.shape[0] - 1
+    pi = y1[0:3]
+    for i in range(s):
+        u[0] = 0.0
+        u[1] = 0.0
+        u[2] = 0.0
+        for m in range(k):
+            du[m, 0] = 0.0
+            du[m, 1] = 0.0
+            du[m, 2] = 0.0
+        for j in range(i):
+            if A[i, j] != 0.0:
+                w = h * A[i, j]
+                u[0] += w * K[j, 0]
+                u[1] += w * K[j, 1]
+                u[2] += w * K[j, 2]
+                for m in range(k):
+                    du[m, 0] += w * dK[m, j, 0]
+                    du[m, 1] += w * dK[m, j, 1]
+                    du[m, 2] += w * dK[m, j, 2]
+        if i == 0 or (u[0] == 0.0 and u[1] == 0.0 and u[2] == 0.0):
+            # the plain step's ξ = I⁻¹Π (u = 0: Q = I, and δu is 0 with it unless the weights are,
+            # which they are not here: a zero u from nonzero weights is a zero combination)
+            K[i, 0], K[i, 1], K[i, 2] = Iinv[0] * pi[0], Iinv[1] * pi[1], Iinv[2] * pi[2]
+            for m in range(k):
+                o = 12 * (m + 1)
+                if i == 0:
+                    dK[m, i, 0], dK[m, i, 1], dK[m, i, 2] = Iinv[0] * y1[o], Iinv[1] * y1[o + 1], Iinv[2] * y1[o + 2]
+                else:  # u = 0 from nonzero weights: Q = I to first order, δΠ_i = δΠ − δu × Π
+                    e0, e1, e2 = _cross(du[m, 0], du[m, 1], du[m, 2], pi[0], pi[1], pi[2])
+                    q0, q1, q2 = y1[o] - e0, y1[o + 1] - e1, y1[o + 2] - e2
+                    x0, x1, x2 = Iinv[0] * q0, Iinv[1] * q1, Iinv[2] * q2
+                    # the series at u = 0 is ξ; to first order its term c₁ (−δu) × ξ moves it
+                    c0, c1, c2 = _cross(du[m, 0], du[m, 1], du[m, 2], K[i, 0], K[i, 1], K[i, 2])
+                    c = coeffs[1]
+                    dK[m, i, 0], dK[m, i, 1], dK[m, i, 2] = x0 - c * c0, x1 - c * c1, x2 - c * c2
+            continue
+        if u[0] * u[0] + u[1] * u[1] + u[2] * u[2] >= _RADIUS2:
+            return -1
+        _rodrigues(u, Q)
+        p0 = Q[0, 0] * pi[0] + Q[1, 0] * pi[1] + Q[2, 0] * pi[2]
+        p1 = Q[0, 1] * pi[0] + Q[1, 1] * pi[1] + Q[2, 1] * pi[2]
+        p2 = Q[0, 2] * pi[0] + Q[1, 2] * pi[1] + Q[2, 2] * pi[2]
+        x0, x1, x2 = Iinv[0] * p0, Iinv[1] * p1, Iinv[2] * p2
+        for m in range(k):
+            o = 12 * (m + 1)
+            w0, w1, w2 = _right_jacobian(u[0], u[1], u[2], du[m, 0], du[m, 1], du[m, 2])
+            e0, e1, e2 = _cross(w0, w1, w2, p0, p1, p2)
+            dp0 = Q[0, 0] * y1[o] + Q[1, 0] * y1[o + 1] + Q[2, 0] * y1[o + 2] - e0
+            dp1 = Q[0, 1] * y1[o] + Q[1, 1] * y1[o + 1] + Q[2, 1] * y1[o + 2] - e1
+            dp2 = Q[0, 2] * y1[o] + Q[1, 2] * y1[o + 1] + Q[2, 2] * y1[o + 2] - e2
+            dx0, dx1, dx2 = Iinv[0] * dp0, Iinv[1] * dp1, Iinv[2] * dp2
+            t0, t1, t2 = x0, x1, x2
+            dt0, dt1, dt2 = dx0, dx1, dx2
+            dk0, dk1, dk2 = dx0, dx1, dx2
+            for dd in range(1, degree + 1):
+                a0, a1, a2 = _cross(-du[m, 0], -du[m, 1], -du[m, 2], t0, t1, t2)
+                b0, b1, b2 = _cross(-u[0], -u[1], -u[2], dt0, dt1, dt2)
+                dt0, dt1, dt2 = a0 + b0, a1 + b1, a2 + b2
+                t0, t1, t2 = _cross(-u[0], -u[1], -u[2], t0, t1, t2)
+                c = coeffs[dd]
+                if c != 0.0:
+                    dk0 += c * dt0
+                    dk1 += c * dt1
+                    dk2 += c * dt2
+            dK[m, i, 0], dK[m, i, 1], dK[m, i, 2] = dk0, dk1, dk2
+        # the plain step's series (lieint.fast.top3._lie_step, reduce=False)
+        k0, k1, k2 = x0, x1, x2
+        t0, t1, t2 = x0, x1, x2
+        for dd in range(1, degree + 1):
+            t0, t1, t2 = _cross(-u[0], -u[1], -u[2], t0, t1, t2)
+            c = coeffs[dd]
+            if c != 0.0:
+                k0 += c * t0
+                k1 += c * t1
+                k2 += c * t2
+        K[i, 0] = k0
+        K[i, 1] = k1
+        K[i, 2] = k2
+    u[0] = 0.0
+    u[1] = 0.0
+    u[2] = 0.0
+    for m in range(k):
+        du[m, 0] = 0.0
+        du[m, 1] = 0.0
+        du[m, 2] = 0.0
+    for j in range(s):
+        w = h * b[j]
+        u[0] += w * K[j, 0]
+        u[1] += w * K[j, 1]
+        u[2] += w * K[j, 2]
+        for m in range(k):
+            du[m, 0] += w * dK[m, j, 0]
+            du[m, 1] += w * dK[m, j, 1]
+            du[m, 2] += w * dK[m, j, 2]
+    _rodrigues(u, Q)
+    for r in range(3):
+        tpi[r] = Q[0, r] * pi[0] + Q[1, r] * pi[1] + Q[2, r] * pi[2]
+    for r in range(3):
+        for c2 in range(3):
+            tR[r, c2] = y1[3 + 3 * r] * Q[0, c2] + y1[4 + 3 * r] * Q[1, c2] + y1[5 + 3 * r] * Q[2, c2]
+    for m in range(k):
+        o = 12 * (m + 1)
+        w0, w1, w2 = _right_jacobian(u[0], u[1], u[2], du[m, 0], du[m, 1], du[m, 2])
+        e0, e1, e2 = _cross(w0, w1, w2, tpi[0], tpi[1], tpi[2])
+        q0 = Q[0, 0] * y1[o] + Q[1, 0] * y1[o + 1] + Q[2, 0] * y1[o + 2] - e0
+        q1 = Q[0, 1] * y1[o] + Q[1, 1] * y1[o + 1] + Q[2, 1] * y1[o + 2] - e1
+        q2 = Q[0, 2] * y1[o] + Q[1, 2] * y1[o + 1] + Q[2, 2] * y1[o + 2] - e2
+        y1[o], y1[o + 1], y1[o + 2] = q0, q1, q2
+        for r in range(3):  # δR₁ = δR Q + R₁ ŵ, ŵ = [[0, −w2, w1], [w2, 0, −w0], [−w1, w0, 0]]
+            s0, s1, s2 = y1[o + 3 + 3 * r], y1[o + 4 + 3 * r], y1[o + 5 + 3 * r]
+            r0, r1, r2 = tR[r, 0], tR[r, 1], tR[r, 2]
+            y1[o + 3 + 3 * r] = (s0 * Q[0, 0] + s1 * Q[1, 0] + s2 * Q[2, 0]) + (r1 * w2 - r2 * w1)
+            y1[o + 4 + 3 * r] = (s0 * Q[0, 1] + s1 * Q[1, 1] + s2 * Q[2, 1]) + (r2 * w0 - r0 * w2)
+            y1[o + 5 + 3 * r] = (s0 * Q[0, 2] + s1 * Q[1, 2] + s2 * Q[2, 2]) + (r0 * w1 - r1 * w0)
+    for r in range(3):
+        pi[r] = tpi[r]
+        for c2 in range(3):
+            y1[3 + 3 * r + c2] = tR[r, c2]
+    inc[0], inc[1], inc[2] = u[0], u[1], u[2]
+    aux[0] = K[0, 0] * K[0, 0] + K[0, 1] * K[0, 1] + K[0, 2] * K[0, 2]
+    return s
+
+
 #: the MEGNO sums after a body's state and its tangent vector (:data:`MEGNO_ROW`): the time
 #: since the start, ``log|δ|`` (renormalisations added back), ``∫ s d log|δ|``, ``∫ Y dt``, ``Y``
 MEGNO_SLOTS = 5
@@ -347,6 +531,26 @@ def form_mv_lyapunov_step(fx, y, par, meth, h, y1, inc, aux, scr):
     return spent
 
 
+@njit(cache=True)
+def form_rkmk_megno_step(fx, y, par, meth, h, y1, inc, aux, scr):
+    """:func:`form_rkmk_tangent_step` of the state and one tangent vector, then MEGNO's sums
+    (:func:`_megno_update`); −1 when a stage reached the dexp⁻¹ radius."""
+    spent = form_rkmk_tangent_step(fx, y, par, meth, h, y1, inc, aux, scr)
+    if spent >= 0:
+        _megno_update(y1, par, h)
+    return spent
+
+
+@njit(cache=True)
+def form_rkmk_lyapunov_step(fx, y, par, meth, h, y1, inc, aux, scr):
+    """:func:`form_rkmk_tangent_step`, then the re-orthonormalisation of :func:`_lyapunov_update`
+    when it is due; −1 when a stage reached the dexp⁻¹ radius."""
+    spent = form_rkmk_tangent_step(fx, y, par, meth, h, y1, inc, aux, scr)
+    if spent >= 0:
+        _lyapunov_update(y1, par, y.shape[0] // 12 - 1)
+    return spent
+
+
 _COMMON = {
     "prepare": form_prepare,
     "scratch": form_scratch,
@@ -357,6 +561,9 @@ _COMMON = {
     "user_field": form_user_field,
 }
 
+#: the RKMK steps' scratch is the 3D top's (and its projection reads it so)
+_RKMK = {**_COMMON, "scratch": form_rkmk_tangent_scratch, "project": form_top3_project}
+
 #: the names of :mod:`lieint.fast.loop` this form binds (fixed steps only, no projection: the
 #: projection's derivative is not carried)
 NAMESPACES = {
@@ -366,4 +573,7 @@ NAMESPACES = {
     "moser_veselov_megno": {**_COMMON, "step": form_mv_megno_step},
     "splitting_lyapunov": {**_COMMON, "step": form_split_lyapunov_step},
     "moser_veselov_lyapunov": {**_COMMON, "step": form_mv_lyapunov_step},
+    "rkmk": {**_RKMK, "step": form_rkmk_tangent_step},
+    "rkmk_megno": {**_RKMK, "step": form_rkmk_megno_step},
+    "rkmk_lyapunov": {**_RKMK, "step": form_rkmk_lyapunov_step},
 }

@@ -2,7 +2,8 @@
 
 :mod:`lieint.tangent.flow` carries k tangent vectors as complex copies of the state (the complex
 step) on the generic numpy path. Where the compiled engine has the derivative of the method's
-step written out — the 3D Euler top's splittings into exact rotations (``splitting2/4/6``) and
+step written out — the 3D Euler top's RKMK methods in exponential coordinates (``lie_euler``,
+``rkmk2/3/4/6``: dexp⁻¹ truncated), its splittings into exact rotations (``splitting2/4/6``) and
 its Moser–Veselov maps (``moser_veselov``, ``moser_veselov_composed4/6``),
 :mod:`lieint.fast.top3_tangent` — the same steps run there instead: the complex copies are read
 as a real state and its derivatives (``Im z / ε``), stepped together in forward mode, and written
@@ -27,7 +28,7 @@ __all__ = ["COMPILED_REASON", "CompiledLyapunov", "CompiledMegno", "CompiledTang
 #: what a result says when its tangent map ran on the compiled engine
 COMPILED_REASON = "compiled engine: the 3D top's tangent steps in forward mode (lieint.fast.top3_tangent)"
 
-#: the method families with compiled tangent steps on the 3D top
+#: the map families with compiled tangent steps on the 3D top (and RKMK: its forms are RKMKForm)
 _FAMILIES = ("splitting", "moser_veselov")
 
 
@@ -44,17 +45,21 @@ class _Steps(Plan):
 
 def compiled_reason(system, method) -> str:
     """Why the tangent map of ``method`` on ``system`` does not run compiled ("" when it does)."""
-    from ..fast.forms import MapForm, Top3Form
+    from ..fast.forms import MapForm, RKMKForm, Top3Form
 
     form = system.compiled()
     if not isinstance(form, Top3Form):
         return "compiled tangent steps exist for the 3D Euler top only"
     meth = method.compiled()
+    what = (
+        f"{method.name!r} has no compiled tangent steps (compiled: RKMK in exponential coordinates with "
+        "truncated dexp⁻¹, the splittings into exact rotations and the Moser–Veselov maps of the 3D top)"
+    )
+    if isinstance(meth, RKMKForm):
+        plain = meth.coordinates == "exp" and meth.degree is not None and not meth.pair and not meth.keeps_energy
+        return "" if plain else what
     if not isinstance(meth, MapForm) or meth.family not in _FAMILIES or not meth.covers(form):
-        return (
-            f"{method.name!r} has no compiled tangent steps (compiled: the splittings into exact rotations and "
-            "the Moser–Veselov maps of the 3D top)"
-        )
+        return what
     if meth.degree:
         return f"{method.name!r}: its modified moments depend on the state (no compiled tangent steps)"
     return ""
@@ -68,7 +73,8 @@ class CompiledTangent:
     system : lieint.EulerTop
         A 3D top (:func:`compiled_reason` is "").
     method : Method
-        ``splitting2/4/6``, ``moser_veselov`` or ``moser_veselov_composed4/6``.
+        One whose :func:`compiled_reason` is "" (RKMK in exponential coordinates, the
+        splittings, the Moser–Veselov maps).
     k : int
         Tangent vectors per body.
     batch : tuple of int
@@ -109,7 +115,8 @@ class CompiledMegno:
     system : lieint.EulerTop
         A 3D top (:func:`compiled_reason` is "").
     method : Method
-        ``splitting2/4/6``, ``moser_veselov`` or ``moser_veselov_composed4/6``.
+        One whose :func:`compiled_reason` is "" (RKMK in exponential coordinates, the
+        splittings, the Moser–Veselov maps).
     batch : tuple of int
         The bodies' batch shape.
     """
@@ -151,7 +158,8 @@ class CompiledLyapunov:
     system : lieint.EulerTop
         A 3D top (:func:`compiled_reason` is "").
     method : Method
-        ``splitting2/4/6``, ``moser_veselov`` or ``moser_veselov_composed4/6``.
+        One whose :func:`compiled_reason` is "" (RKMK in exponential coordinates, the
+        splittings, the Moser–Veselov maps).
     k : int
         Tangent vectors per body.
     batch : tuple of int

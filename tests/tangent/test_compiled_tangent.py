@@ -1,4 +1,5 @@
-"""The compiled tangent steps (:mod:`lieint.tangent.compiled`, :mod:`lieint.fast.top3_tangent`).
+"""The compiled tangent steps (:mod:`lieint.tangent.compiled`, :mod:`lieint.fast.top3_tangent`): the
+3D top's RKMK methods, splittings and Moser–Veselov maps.
 
 Truths: the generic path's complex step (``backend="numpy"``), which shares no step code with the
 compiled forward mode; the plain compiled run of :func:`lieint.integrate` (the state, bit for bit);
@@ -42,12 +43,15 @@ def _compiled_methods() -> list[str]:
     return names
 
 
-def test_the_registry_s_splittings_and_moser_veselov_maps_have_compiled_tangent_steps():
+def test_the_registry_s_rkmk_methods_splittings_and_moser_veselov_maps_have_compiled_tangent_steps():
     names = _compiled_methods()
-    for expected in ("splitting2", "splitting4", "splitting6", "moser_veselov", "moser_veselov_composed4"):
+    for expected in ("lie_euler", "rkmk2", "rkmk4", "rkmk6", "splitting2", "splitting4", "splitting6",
+                     "moser_veselov", "moser_veselov_composed4"):  # fmt: skip
         assert expected in names
     assert not compiled_reason(TOP, get_method("splitting2"))
-    assert "no compiled tangent steps" in compiled_reason(TOP, get_method("rkmk4"))
+    assert not compiled_reason(TOP, get_method("rkmk4"))
+    assert "no compiled tangent steps" in compiled_reason(TOP, get_method("cf4"))
+    assert "no compiled tangent steps" in compiled_reason(TOP, get_method("rkmk4", coordinates="cayley"))
     heavy = lieint.HeavyTop(np.diag([1.0, 2.0, 3.0]), 1.0, [0.1, 0.0, 0.2], [0.0, 0.0, -9.81])
     assert "3D Euler top only" in compiled_reason(heavy, get_method("rkmk4"))
 
@@ -72,7 +76,7 @@ def test_compiled_tangent_map_is_the_complex_step_s_and_its_state_the_plain_run_
         np.testing.assert_array_equal(compiled.y[name], plain.states[name][-1], err_msg=method)
 
 
-@pytest.mark.parametrize("method", ["splitting2", "moser_veselov_composed4"])
+@pytest.mark.parametrize("method", ["splitting2", "moser_veselov_composed4", "rkmk4"])
 def test_compiled_tangent_map_is_the_derivative_of_the_run_by_central_differences(method):
     import tangent_cases  # finite differences written apart from lieint.tangent
 
@@ -99,11 +103,11 @@ def test_steps_that_are_not_one_grid_and_other_methods_take_the_generic_path_and
     y0 = TOP.initial_state(angular_velocity=[0.3, 1.0, 0.4])
     uneven = lieint.tangent_flow(TOP, y0, (0.0, 1.0), steps=[0.25, 0.5, 0.25], method="splitting2")
     assert uneven.backend_reason == BACKEND_REASON
-    assert lieint.tangent_flow(TOP, y0, (0.0, 0.1), h=0.01, method="rkmk4").backend_reason == BACKEND_REASON
-    assert "no compiled tangent steps" in tangent_backend(TOP, "rkmk4")
-    assert tangent_backend(TOP, "splitting2") == COMPILED_REASON
-    with pytest.raises(ValueError, match=r"backend=.numba.*rkmk4"):
-        lieint.tangent_flow(TOP, y0, (0.0, 0.1), h=0.01, method="rkmk4", backend="numba")
+    assert lieint.tangent_flow(TOP, y0, (0.0, 0.1), h=0.01, method="cf4").backend_reason == BACKEND_REASON
+    assert "no compiled tangent steps" in tangent_backend(TOP, "cf4")
+    assert tangent_backend(TOP, "splitting2") == tangent_backend(TOP, "rkmk4") == COMPILED_REASON
+    with pytest.raises(ValueError, match=r"backend=.numba.*cf4"):
+        lieint.tangent_flow(TOP, y0, (0.0, 0.1), h=0.01, method="cf4", backend="numba")
     with pytest.raises(ValueError, match="`backend` must be one of"):
         lieint.tangent_flow(TOP, y0, (0.0, 0.1), h=0.01, method="splitting2", backend="gpu")
 
@@ -111,29 +115,29 @@ def test_steps_that_are_not_one_grid_and_other_methods_take_the_generic_path_and
 @pytest.mark.parametrize("label", sorted(_tops()))
 @pytest.mark.parametrize("method", _compiled_methods())
 def test_lyapunov_and_megno_run_whole_in_the_engine_as_the_generic_path_runs_them(label, method):
-    # a batch of two bodies; every = 7 does not divide the 400 steps (the last QR is after the last step)
+    # a batch of two bodies; every = 7 does not divide the 160 steps (the last QR is after the last step)
     top = _tops()[label]
     y0 = top.initial_state(angular_velocity=[[0.3, 1.0, 0.4], [1.0, 0.3, 0.2]])
     # how far the two paths' plain runs part by round-off (the generic splitting turns a tilted
-    # frame at every rotation: up to 1e-11 over these 400 steps): the indicators part no more
-    ends = [lieint.integrate(top, y0, (0.0, 20.0), h=0.05, method=method, backend=b).states for b in ("numba", "numpy")]
+    # frame at every rotation: up to 1e-11 over 400 steps): the indicators part no more
+    ends = [lieint.integrate(top, y0, (0.0, 8.0), h=0.05, method=method, backend=b).states for b in ("numba", "numpy")]
     tol = 1e-12 + 3 * max(np.max(np.abs(ends[0][k][-1] - ends[1][k][-1])) for k in ends[0])
-    fast = lieint.lyapunov(top, y0, (0.0, 20.0), h=0.05, method=method, every=7)
-    slow = lieint.lyapunov(top, y0, (0.0, 20.0), h=0.05, method=method, every=7, backend="numpy")
+    fast = lieint.lyapunov(top, y0, (0.0, 8.0), h=0.05, method=method, every=7)
+    slow = lieint.lyapunov(top, y0, (0.0, 8.0), h=0.05, method=method, every=7, backend="numpy")
     assert fast.backend_reason == COMPILED_REASON and slow.backend_reason == BACKEND_REASON
     np.testing.assert_array_equal(fast.t, slow.t)
     np.testing.assert_allclose(fast.history, slow.history, rtol=0, atol=tol)
     for name in slow.y:
         np.testing.assert_allclose(fast.y[name], slow.y[name], rtol=0, atol=tol)
-    fast_m = lieint.megno(top, y0, (0.0, 20.0), h=0.05, method=method, save_every=3)
-    slow_m = lieint.megno(top, y0, (0.0, 20.0), h=0.05, method=method, save_every=3, backend="numpy")
+    fast_m = lieint.megno(top, y0, (0.0, 8.0), h=0.05, method=method, save_every=3)
+    slow_m = lieint.megno(top, y0, (0.0, 8.0), h=0.05, method=method, save_every=3, backend="numpy")
     assert fast_m.backend_reason == COMPILED_REASON and slow_m.backend_reason == BACKEND_REASON
     np.testing.assert_array_equal(fast_m.t, slow_m.t)
-    # MEGNO weights each step's log-growth by its time (up to T = 20) and sums 400 of them: the
-    # tangent vectors' round-off apart (tilted frame: up to 1e-12 a step) adds up to 2e-9 in Y
+    # MEGNO weights each step's log-growth by its time (up to T = 8) and sums 160 of them: the
+    # tangent vectors' round-off apart (tilted frame: up to 1e-12 a step) adds up in Y
     for field in ("y_history", "mean_history", "lyapunov_history", "lyapunov", "mean"):
         np.testing.assert_allclose(
-            getattr(fast_m, field), getattr(slow_m, field), rtol=0, atol=400 * tol, err_msg=field
+            getattr(fast_m, field), getattr(slow_m, field), rtol=0, atol=160 * tol, err_msg=field
         )
 
 
