@@ -456,6 +456,7 @@ class _AdaptiveKernelLoop(_CompiledRows, _AdaptiveLoop):
                 carry.state, carry.t, d.t1, carry.h, carry.k, min(left, room), d.save_every, d.project, d.controller,
                 self.h_min, d.max_step, with_start=start,
             )  # fmt: skip
+            held -= int(start)  # the starting row is the run's first, not one its steps saved
             start = False
             carry.state, carry.t, carry.h, carry.k = state, t, h, k
             carry.nrejected += rej
