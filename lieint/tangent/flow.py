@@ -92,12 +92,10 @@ def _compiled_reason(system: LieGroupSystem, method: Method) -> str:
     """Why ``method``'s tangent steps on ``system`` run on the generic path ("" when compiled).
     A system with complex parameters (a parameter's complex step) always does."""
     from .compiled import compiled_reason
-    from .sensitivity import offered_parameters
 
     complex_step = "the system's parameters are complex (a parameter's complex step)"
     try:
-        values, _ = offered_parameters(system)
-        if any(np.iscomplexobj(value) for value in values.values()):
+        if any(np.iscomplexobj(value) for value in system.parameter_values().values()):
             return complex_step
         form = system.compiled()
     except (TypeError, ValueError):  # a declaration that cannot be made of complex parameters

@@ -29,6 +29,18 @@ def _tops():
     }
 
 
+def _cases() -> list[tuple[str, str]]:
+    """(top, method): every compiled method on the tilted top (the frame the steps turn through),
+    and one method of each family on the others (the principal frame, a top without attitude)."""
+    names = _compiled_methods()
+    families = {}
+    for name in names:
+        families.setdefault(get_method(name).compiled().family, name)
+    return [("tilted frame", name) for name in names] + [
+        (label, name) for label in ("principal frame", "no R") for name in families.values()
+    ]
+
+
 def _compiled_methods() -> list[str]:
     """Every method of the registry with compiled tangent steps on the 3D top."""
     names = []
@@ -56,8 +68,7 @@ def test_the_registry_s_rkmk_methods_splittings_and_moser_veselov_maps_have_comp
     assert "3D Euler top only" in compiled_reason(heavy, get_method("rkmk4"))
 
 
-@pytest.mark.parametrize("label", sorted(_tops()))
-@pytest.mark.parametrize("method", _compiled_methods())
+@pytest.mark.parametrize(("label", "method"), _cases())
 def test_compiled_tangent_map_is_the_complex_step_s_and_its_state_the_plain_run_s(label, method):
     top = _tops()[label]
     y0 = top.initial_state(angular_velocity=[0.3, 1.0, 0.4])
@@ -112,8 +123,7 @@ def test_steps_that_are_not_one_grid_and_other_methods_take_the_generic_path_and
         lieint.tangent_flow(TOP, y0, (0.0, 0.1), h=0.01, method="splitting2", backend="gpu")
 
 
-@pytest.mark.parametrize("label", sorted(_tops()))
-@pytest.mark.parametrize("method", _compiled_methods())
+@pytest.mark.parametrize(("label", "method"), _cases())
 def test_lyapunov_and_megno_run_whole_in_the_engine_as_the_generic_path_runs_them(label, method):
     # a batch of two bodies; every = 7 does not divide the 160 steps (the last QR is after the last step)
     top = _tops()[label]
