@@ -65,7 +65,46 @@ def compiled_reason(system, method) -> str:
     return ""
 
 
-class CompiledTangent:
+def _grid(sizes: np.ndarray) -> _Steps | None:
+    """The steps ``sizes`` as the engine's grid: equal steps and a last of its own size, or None
+    (steps of other sizes: the generic path takes them)."""
+    sizes = np.asarray(sizes, dtype=float)
+    n = int(sizes.size)
+    if n == 0 or (n > 1 and not np.all(sizes[:-1] == sizes[0])):
+        return None
+    return _Steps(0.0, float(sizes.sum()), float(sizes[0]), n, float(sizes[-1]))
+
+
+class _CompiledRun:
+    """A layout of the 3D top with tangent vectors (:mod:`lieint.fast.layouts`) and its engine,
+    for one method and a batch; :meth:`_steps` runs a grid of steps in one call of the loop."""
+
+    def __init__(self, system, method, batch: tuple[int, ...], layout):
+        from ..fast.engine import Engine
+
+        self.batch, self.layout = tuple(batch), layout
+        self.N = math.prod(self.batch)
+        self.engine = Engine(layout, method.compiled(), self.batch, False, layout.module, system.group)
+
+    def _steps(self, y: dict, dy: list[dict], steps: _Steps, saves: np.ndarray):
+        """The final rows (N, d) and the user's fields of the rows saved after the steps ``saves``."""
+        Y = np.ascontiguousarray(self.layout.pack(y, dy, self.N))
+        new, rows = self.engine.advance({"Y": Y}, 0, steps.nsteps, steps, saves, False)
+        return new["Y"], rows
+
+    def _sums(self, y, dy, sizes, every: int, name: str):
+        """The final state and the layout's sums ``name`` after every ``every``-th step and the
+        last, with those steps' numbers (1-based); None off a grid."""
+        steps = _grid(sizes)
+        if steps is None:
+            return None
+        saves = steps.saves_between(every, 0, steps.nsteps)
+        Y, rows = self._steps(y, dy, steps, saves)
+        final = self.layout.user(Y[None], self.batch)
+        return {k: v[0] for k, v in final.items() if k != name}, rows[name], saves
+
+
+class CompiledTangent(_CompiledRun):
     """The compiled tangent steps of one method on one 3D top, for k vectors and a batch.
 
     Parameters
@@ -82,30 +121,22 @@ class CompiledTangent:
     """
 
     def __init__(self, system, method, k: int, batch: tuple[int, ...]):
-        from ..fast.engine import Engine
         from ..fast.layouts import Top3TangentLayout
 
-        self.system, self.batch, self.k = system, tuple(batch), int(k)
-        self.N = math.prod(self.batch)
-        self.layout = Top3TangentLayout(system.compiled(), self.k)
-        self.engine = Engine(self.layout, method.compiled(), self.batch, False, self.layout.module, system.group)
+        super().__init__(system, method, batch, Top3TangentLayout(system.compiled(), k))
 
     def advance(self, y: dict, dy: list[dict], sizes: np.ndarray) -> tuple[dict, list[dict]] | None:
         """``y`` and its tangent vectors ``dy`` (k dicts of the fields' derivatives) after the
         steps ``sizes``; None when the steps are not equal ones with a last of its own size
         (the generic path takes those)."""
-        sizes = np.asarray(sizes, dtype=float)
-        n = int(sizes.size)
-        h = float(sizes[0])
-        if n == 0 or (n > 1 and not np.all(sizes[:-1] == h)):
+        steps = _grid(sizes)
+        if steps is None:
             return None
-        steps = _Steps(0.0, float(sizes.sum()), h, n, float(sizes[-1]))
-        Y = np.ascontiguousarray(self.layout.pack(y, dy, self.N))
-        new, _ = self.engine.advance({"Y": Y}, 0, n, steps, np.empty(0, dtype=np.int64), False)
-        return self.layout.unpack(new["Y"], self.batch)
+        Y, _ = self._steps(y, dy, steps, np.empty(0, dtype=np.int64))
+        return self.layout.unpack(Y, self.batch)
 
 
-class CompiledMegno:
+class CompiledMegno(_CompiledRun):
     """MEGNO's sums of one tangent vector carried by the compiled steps of one method on one 3D
     top (:func:`lieint.fast.top3_tangent._megno_update`): the whole run in one call of the loop,
     the sums saved every ``save_every`` steps.
@@ -122,33 +153,19 @@ class CompiledMegno:
     """
 
     def __init__(self, system, method, batch: tuple[int, ...]):
-        from ..fast.engine import Engine
         from ..fast.layouts import Top3MegnoLayout
 
-        self.batch = tuple(batch)
-        self.N = math.prod(self.batch)
-        self.layout = Top3MegnoLayout(system.compiled())
-        self.engine = Engine(self.layout, method.compiled(), self.batch, False, self.layout.module, system.group)
+        super().__init__(system, method, batch, Top3MegnoLayout(system.compiled()))
 
     def run(self, y: dict, dy: dict, sizes: np.ndarray, save_every: int):
         """The final state and the sums ``(elapsed, log|δ|, ∫ s dlog|δ|, ∫ Y dt, Y)`` (last axis)
         after the steps that a run saving every ``save_every``-th step and the last keeps,
         ``(m, *batch, 5)``, with those steps' numbers (1-based); None when the steps are not
         equal ones with a last of its own size."""
-        sizes = np.asarray(sizes, dtype=float)
-        n = int(sizes.size)
-        h = float(sizes[0])
-        if n == 0 or (n > 1 and not np.all(sizes[:-1] == h)):
-            return None
-        steps = _Steps(0.0, float(sizes.sum()), h, n, float(sizes[-1]))
-        saves = steps.saves_between(save_every, 0, n)
-        Y = np.ascontiguousarray(self.layout.pack(y, [dy], self.N))
-        new, rows = self.engine.advance({"Y": Y}, 0, n, steps, saves, False)
-        final = self.layout.user(new["Y"][None], self.batch)
-        return {k: v[0] for k, v in final.items() if k != "megno"}, rows["megno"], saves
+        return self._sums(y, [dy], sizes, save_every, "megno")
 
 
-class CompiledLyapunov:
+class CompiledLyapunov(_CompiledRun):
     """Benettin's sums of k tangent vectors carried by the compiled steps of one method on one 3D
     top, re-orthonormalised every ``every`` steps and after the last
     (:func:`lieint.fast.top3_tangent._lyapunov_update`), the whole run in one call of the loop.
@@ -169,26 +186,12 @@ class CompiledLyapunov:
     """
 
     def __init__(self, system, method, k: int, batch: tuple[int, ...], every: int, total: int):
-        from ..fast.engine import Engine
         from ..fast.layouts import Top3LyapunovLayout
 
-        self.batch, self.k = tuple(batch), int(k)
-        self.N = math.prod(self.batch)
-        self.layout = Top3LyapunovLayout(system.compiled(), self.k, every, total)
-        self.engine = Engine(self.layout, method.compiled(), self.batch, False, self.layout.module, system.group)
+        super().__init__(system, method, batch, Top3LyapunovLayout(system.compiled(), k, every, total))
 
     def run(self, y: dict, dy: list[dict], sizes: np.ndarray, every: int):
         """The final state and the k sums of ``log |diag R|`` at every re-orthonormalisation,
         ``(m, *batch, k)``, with those steps' numbers (1-based); None when the steps are not
         equal ones with a last of its own size."""
-        sizes = np.asarray(sizes, dtype=float)
-        n = int(sizes.size)
-        h = float(sizes[0])
-        if n == 0 or (n > 1 and not np.all(sizes[:-1] == h)):
-            return None
-        steps = _Steps(0.0, float(sizes.sum()), h, n, float(sizes[-1]))
-        saves = steps.saves_between(every, 0, n)
-        Y = np.ascontiguousarray(self.layout.pack(y, dy, self.N))
-        new, rows = self.engine.advance({"Y": Y}, 0, n, steps, saves, False)
-        final = self.layout.user(new["Y"][None], self.batch)
-        return {k: v[0] for k, v in final.items() if k != "lyapunov"}, rows["lyapunov"], saves
+        return self._sums(y, dy, sizes, every, "lyapunov")
