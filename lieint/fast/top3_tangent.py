@@ -29,6 +29,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from .tangent_sums import MEGNO_SLOTS, lyapunov_update, megno_update
 from .top3 import (
     _RADIUS2,
     _cross,
@@ -389,52 +390,22 @@ def form_rkmk_tangent_step(fx, y, par, meth, h, y1, inc, aux, scr):
     return s
 
 
-#: the MEGNO sums after a body's state and its tangent vector (:data:`MEGNO_ROW`): the time
-#: since the start, ``log|δ|`` (renormalisations added back), ``∫ s d log|δ|``, ``∫ Y dt``, ``Y``
-MEGNO_SLOTS = 5
-#: where the MEGNO sums start in a row of the state and one tangent vector
+#: where the MEGNO sums start in a row of the state and one tangent vector (two blocks of 12)
 MEGNO_ROW = 24
 
 
 @njit(cache=True, inline="always")
 def _megno_update(y1, par, h):
-    """After a step of size h: ``|δ|`` in the tangent coordinates (``δΠ`` and, for a top with
-    attitude, ``vee`` of the skew part of ``R̃ᵀδR̃``: the chart's norm, the frame being a rotation),
-    MEGNO's sums (:func:`lieint.megno`: ``Y(t) = (2/t) ∫ s d log|δ|``, ⟨Y⟩ by the trapezoidal
-    rule), and δ renormalised to 1. Where |δ| is not finite and positive the sums become NaN (and
-    stay so: the caller refuses the run, naming it)."""
-    n2 = y1[12] * y1[12] + y1[13] * y1[13] + y1[14] * y1[14]
-    if par[12] != 0.0:  # the attitude's part: M = R̃ᵀ δR̃, δ = vee((M − Mᵀ)/2)
-        m01, m10, m02, m20, m12, m21 = 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
-        for r in range(3):
-            a0, a1, a2 = y1[3 + 3 * r], y1[4 + 3 * r], y1[5 + 3 * r]
-            b0, b1, b2 = y1[15 + 3 * r], y1[16 + 3 * r], y1[17 + 3 * r]
-            m01 += a0 * b1
-            m10 += a1 * b0
-            m02 += a0 * b2
-            m20 += a2 * b0
-            m12 += a1 * b2
-            m21 += a2 * b1
-        d0, d1, d2 = 0.5 * (m21 - m12), 0.5 * (m02 - m20), 0.5 * (m10 - m01)
-        n2 += d0 * d0 + d1 * d1 + d2 * d2
-    norm = np.sqrt(n2)
-    s = MEGNO_ROW
-    if not (norm > 0.0 and np.isfinite(norm)):
-        for i in range(s + 1, s + 5):
-            y1[i] = np.nan
-        y1[s] += h
-        return
-    tk = y1[s]
-    t = tk + h
-    dlog = np.log(norm)
-    y1[s] = t
-    y1[s + 1] += dlog
-    y1[s + 2] += (tk + 0.5 * h) * dlog
-    Y = 2.0 * y1[s + 2] / t
-    y1[s + 3] += 0.5 * (y1[s + 4] + Y) * h
-    y1[s + 4] = Y
-    for i in range(12, 24):
-        y1[i] /= norm
+    """MEGNO's sums after a step (:func:`lieint.fast.tangent_sums.megno_update`) on the 3D top's
+    blocks of 12: Π, then R̃ when the top carries it (``par[12]``)."""
+    megno_update(y1, h, 12, 3, par[12] != 0.0)
+
+
+@njit(cache=True, inline="always")
+def _lyapunov_update(y1, par, k):
+    """Benettin's re-orthonormalisation when it is due (:func:`lieint.fast.tangent_sums.lyapunov_update`)
+    on the 3D top's blocks of 12, every ``par[14]`` of ``par[15]`` steps."""
+    lyapunov_update(y1, k, 12, 3, par[12] != 0.0, par[14], par[15])
 
 
 @njit(cache=True)
@@ -454,62 +425,6 @@ def form_mv_megno_step(fx, y, par, meth, h, y1, inc, aux, scr):
     if spent >= 0:
         _megno_update(y1, par, h)
     return spent
-
-
-@njit(cache=True, inline="always")
-def _chart_coordinates(y1, o, orient, u):
-    """``u`` = the tangent vector at ``y1[o : o + 12]`` in coordinates of the chart's norm: δΠ, then
-    (for a top with attitude) ``vee`` of the skew part of ``R̃ᵀδR̃`` (:func:`_megno_update`)."""
-    u[0], u[1], u[2] = y1[o], y1[o + 1], y1[o + 2]
-    u[3], u[4], u[5] = 0.0, 0.0, 0.0
-    if orient:
-        m01, m10, m02, m20, m12, m21 = 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
-        for r in range(3):
-            a0, a1, a2 = y1[3 + 3 * r], y1[4 + 3 * r], y1[5 + 3 * r]
-            b0, b1, b2 = y1[o + 3 + 3 * r], y1[o + 4 + 3 * r], y1[o + 5 + 3 * r]
-            m01 += a0 * b1
-            m10 += a1 * b0
-            m02 += a0 * b2
-            m20 += a2 * b0
-            m12 += a1 * b2
-            m21 += a2 * b1
-        u[3], u[4], u[5] = 0.5 * (m21 - m12), 0.5 * (m02 - m20), 0.5 * (m10 - m01)
-
-
-@njit(cache=True, inline="always")
-def _lyapunov_update(y1, par, k):
-    """Every ``every`` steps (``par[14]``) and after the last (``par[15]``): the k tangent vectors
-    orthonormalised by modified Gram–Schmidt in the chart's norm (:func:`_chart_coordinates`; the
-    combinations applied to the vectors themselves, the coordinates being linear in them), and
-    ``log`` of each vector's norm before its normalisation (the diagonal of QR's R) added to its
-    sum. The row's step counter is at ``12 (1 + k)``, the k sums after it."""
-    c = 12 * (1 + k)
-    y1[c] += 1.0
-    done, every, total = y1[c], par[14], par[15]
-    if done % every != 0.0 and done != total:
-        return
-    orient = par[12] != 0.0
-    u = np.empty(6)
-    w = np.empty(6)
-    for j in range(1, k + 1):
-        oj = 12 * j
-        for i in range(1, j):  # v_j ← v_j − ⟨q_i, v_j⟩ q_i, q_i already normalised
-            oi = 12 * i
-            _chart_coordinates(y1, oi, orient, u)
-            _chart_coordinates(y1, oj, orient, w)
-            dot = 0.0
-            for a in range(6):
-                dot += u[a] * w[a]
-            for a in range(12):
-                y1[oj + a] -= dot * y1[oi + a]
-        _chart_coordinates(y1, oj, orient, w)
-        n2 = 0.0
-        for a in range(6):
-            n2 += w[a] * w[a]
-        norm = np.sqrt(n2)
-        y1[c + j] += np.log(norm)  # −inf or NaN when the vectors degenerate: the caller refuses
-        for a in range(12):
-            y1[oj + a] /= norm
 
 
 @njit(cache=True)
