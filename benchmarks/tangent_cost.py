@@ -10,9 +10,10 @@ body each, CPU time of whole calls (the least of several, alternating between th
   bound ``2 (1 + k)``;
 * ``lieint.lyapunov`` (every exponent, a QR every 10 steps) and ``lieint.megno`` likewise.
 
-The cases: the free 3D top with ``moser_veselov``, ``splitting2`` and ``rkmk4`` (compiled tangent
-steps) and the heavy top with ``rkmk4`` (generic path: its tangent steps are not compiled). ``--hog`` keeps
-one busy-looping process running meanwhile (the machine busy); the load average is printed.
+The cases: the free 3D top with ``moser_veselov``, ``splitting2`` and ``rkmk4``, the heavy top
+with and without attitude with ``rkmk4`` (compiled tangent steps), and the Chaplygin ball with
+``rkmk4`` (generic path: its tangent steps are not compiled). ``--hog`` keeps one busy-looping
+process running meanwhile (the machine busy); the load average is printed.
 """
 
 from __future__ import annotations
@@ -71,12 +72,17 @@ def run(steps: int, hogging: bool) -> None:
     T = steps * h
     heavy = lieint.HeavyTop(lieint.EulerTop.from_principal_moments([1.0, 1.5, 2.0]).B, 1.0, [0.1, 0.05, 0.08],
                             [0.0, 0.0, -9.81])  # fmt: skip
+    flat = lieint.HeavyTop(lieint.EulerTop.from_principal_moments([1.0, 1.5, 2.0]).B, 1.0, [0.1, 0.05, 0.08],
+                           [0.0, 0.0, -9.81], orientation=False)  # fmt: skip
+    ball = lieint.ChaplyginBall(np.diag([0.08, 0.12, 0.16]), 1.0, 1.0)
     free = lieint.EulerTop.from_principal_moments([1.0, 2.0, 3.0])
     cases = [
         ("free top", free, free.initial_state(angular_velocity=[1.0, 0.3, 0.2]), "moser_veselov"),
         ("free top", free, free.initial_state(angular_velocity=[1.0, 0.3, 0.2]), "splitting2"),
         ("free top", free, free.initial_state(angular_velocity=[1.0, 0.3, 0.2]), "rkmk4"),
         ("heavy top", heavy, heavy.initial_state(angular_velocity=[1.0, 2.0, 1.5]), "rkmk4"),
+        ("heavy top, no R", flat, flat.initial_state(angular_velocity=[1.0, 2.0, 1.5]), "rkmk4"),
+        ("Chaplygin ball", ball, ball.initial_state(angular_velocity=[0.3, 1.0, 0.4]), "rkmk4"),
     ]
     time.sleep(0.5)
     beside = "with a busy-looping process" if hogging else "no busy-looping process"

@@ -186,13 +186,13 @@ class Top3TangentLayout(Top3Layout):
 
 class Top3MegnoLayout(Top3TangentLayout):
     """The 3D top with one tangent vector and MEGNO's sums after it
-    (:func:`lieint.fast.top3_tangent._megno_update`): the steps' family is the map's own with
+    (:func:`lieint.fast.tangent_sums.megno_update`): the steps' family is the map's own with
     ``_megno``; a row's user fields carry the sums as ``"megno"`` (five numbers)."""
 
     label = "3D top with its tangent vector and MEGNO's sums (principal frame)"
 
     def __init__(self, form: Top3Form):
-        from .top3_tangent import MEGNO_SLOTS
+        from .tangent_sums import MEGNO_SLOTS
 
         super().__init__(form, 1)
         self.d = 24 + MEGNO_SLOTS
@@ -213,7 +213,7 @@ class Top3MegnoLayout(Top3TangentLayout):
 
 class Top3LyapunovLayout(Top3TangentLayout):
     """The 3D top with k tangent vectors re-orthonormalised every ``every`` of ``total`` steps
-    (:func:`lieint.fast.top3_tangent._lyapunov_update`): after the vectors a step counter and the
+    (:func:`lieint.fast.tangent_sums.lyapunov_update`): after the vectors a step counter and the
     k sums of ``log |diag R|``; the steps' family is the map's own with ``_lyapunov``, and a row's
     user fields carry the sums as ``"lyapunov"``."""
 
@@ -236,6 +236,126 @@ class Top3LyapunovLayout(Top3TangentLayout):
     def user(self, Y: np.ndarray, batch: tuple) -> dict:
         states = super().user(Y, batch)
         states["lyapunov"] = Y[..., 12 * (1 + self.k) + 1 :].reshape(Y.shape[:-2] + batch + (self.k,))
+        return states
+
+
+class HeavyTop3TangentLayout(Layout):
+    """The 3D heavy top with k tangent vectors (:mod:`lieint.fast.heavy3_tangent`): a body's row is
+    ``(Π, Γ̃, R̃)`` in the principal frame of its top (``Γ̃ = PᵀΓ``, ``R̃ = R P``; R̃ = I for a top
+    without attitude), then k vectors ``(δΠ, δΓ̃, δR̃)`` of the same layout (δR̃ = 0 without
+    attitude). The change of frame is linear: the tangent vectors move with it as the state does.
+    Parameters: ``I⁻¹`` (3), ``Pᵀ M X_G`` (3), whether the top carries R."""
+
+    module = "lieint.fast.heavy3_tangent"
+    group = "se(3)"
+    label = "3D heavy top with its tangent vectors (principal frame)"
+    block = 15
+    exact_radius = True
+
+    def __init__(self, form: HeavyTop3Form, k: int):
+        from . import _proper_frame
+
+        self.moments = np.asarray(form.moments, dtype=float)
+        self.P, self.identity_frame = _proper_frame(form.P)
+        self.orientation = bool(form.orientation)
+        mxg = np.asarray(form.MXG, dtype=float) @ self.P
+        self.params = np.concatenate([1.0 / self.moments, mxg, [float(self.orientation)]])
+        self.count = 21 if self.orientation else 12
+        self.k = int(k)
+        self.d = self.block * (1 + self.k)
+
+    def increments_size(self, method) -> int:
+        return 6
+
+    def _block(self, y: dict, N: int, tangent: bool) -> np.ndarray:
+        from .top3 import minus_vee
+
+        A, G = y["A"].reshape(N, 3, 3), y["Gamma"].reshape(N, 3)
+        if self.orientation:
+            R = y["R"].reshape(N, 3, 3)
+        else:
+            R = np.broadcast_to(np.zeros((3, 3)) if tangent else np.eye(3), (N, 3, 3))
+        if not self.identity_frame:
+            A, G, R = self.P.T @ A @ self.P, G @ self.P, R @ self.P
+        Y = np.empty((N, self.block))
+        Y[:, :3], Y[:, 3:6], Y[:, 6:] = minus_vee(A), G, R.reshape(N, 9)
+        return Y
+
+    def _fields(self, Y: np.ndarray, batch: tuple) -> dict:
+        from .top3 import minus_hat
+
+        lead = Y.shape[:-2]
+        A, G = minus_hat(Y[..., :3]), Y[..., 3:6]
+        R = Y[..., 6:15].reshape(Y.shape[:-1] + (3, 3))
+        if not self.identity_frame:
+            A, G, R = self.P @ A @ self.P.T, G @ self.P.T, R @ self.P.T
+        states = {"A": A.reshape(lead + batch + (3, 3)), "Gamma": np.ascontiguousarray(G).reshape(lead + batch + (3,))}
+        if self.orientation:
+            states["R"] = np.ascontiguousarray(R).reshape(lead + batch + (3, 3))
+        return states
+
+    def pack(self, y: dict, dy: list[dict], N: int) -> np.ndarray:
+        """The rows ``(N, d)`` of the states ``y`` and the tangent vectors ``dy`` (k dicts of the
+        fields' derivatives, each of the batch's shape)."""
+        Y = np.zeros((N, self.d))
+        b = self.block
+        Y[:, :b] = self._block(y, N, False)
+        for m, v in enumerate(dy, start=1):
+            Y[:, b * m : b * (m + 1)] = self._block(v, N, True)
+        return Y
+
+    def unpack(self, Y: np.ndarray, batch: tuple) -> tuple[dict, list[dict]]:
+        """The states and the k tangent vectors of the rows ``Y`` (:meth:`pack`'s inverse)."""
+        b = self.block
+        y = self.user(Y, batch)
+        dy = [self._fields(Y[:, b * m : b * (m + 1)], batch) for m in range(1, self.k + 1)]
+        return y, dy
+
+    def user(self, Y: np.ndarray, batch: tuple) -> dict:
+        return self._fields(Y[..., : self.block], batch)
+
+
+class HeavyTop3MegnoLayout(HeavyTop3TangentLayout):
+    """The 3D heavy top with one tangent vector and MEGNO's sums after it
+    (:func:`lieint.fast.tangent_sums.megno_update`); a row's user fields carry the sums as
+    ``"megno"`` (five numbers)."""
+
+    label = "3D heavy top with its tangent vector and MEGNO's sums (principal frame)"
+
+    def __init__(self, form: HeavyTop3Form):
+        from .tangent_sums import MEGNO_SLOTS
+
+        super().__init__(form, 1)
+        self.d = 2 * self.block + MEGNO_SLOTS
+
+    def family(self, method) -> str:
+        return f"{method.family}_megno"
+
+    def user(self, Y: np.ndarray, batch: tuple) -> dict:
+        states = super().user(Y, batch)
+        states["megno"] = Y[..., 2 * self.block :].reshape(Y.shape[:-2] + batch + (self.d - 2 * self.block,))
+        return states
+
+
+class HeavyTop3LyapunovLayout(HeavyTop3TangentLayout):
+    """The 3D heavy top with k tangent vectors re-orthonormalised every ``every`` of ``total`` steps
+    (:func:`lieint.fast.tangent_sums.lyapunov_update`): after the vectors a step counter and the k
+    sums of ``log |diag R|``, carried in a row's user fields as ``"lyapunov"``."""
+
+    label = "3D heavy top with its tangent vectors and their growth sums (principal frame)"
+
+    def __init__(self, form: HeavyTop3Form, k: int, every: int, total: int):
+        super().__init__(form, k)
+        self.d = self.block * (1 + self.k) + 1 + self.k
+        self.params = np.concatenate([self.params, [float(every), float(total)]])
+
+    def family(self, method) -> str:
+        return f"{method.family}_lyapunov"
+
+    def user(self, Y: np.ndarray, batch: tuple) -> dict:
+        states = super().user(Y, batch)
+        start = self.block * (1 + self.k) + 1
+        states["lyapunov"] = Y[..., start:].reshape(Y.shape[:-2] + batch + (self.k,))
         return states
 
 

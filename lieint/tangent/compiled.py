@@ -2,13 +2,16 @@
 
 :mod:`lieint.tangent.flow` carries k tangent vectors as complex copies of the state (the complex
 step) on the generic numpy path. Where the compiled engine has the derivative of the method's
-step written out — the 3D Euler top's RKMK methods in exponential coordinates (``lie_euler``,
-``rkmk2/3/4/6``: dexp⁻¹ truncated), its splittings into exact rotations (``splitting2/4/6``) and
-its Moser–Veselov maps (``moser_veselov``, ``moser_veselov_composed4/6``),
-:mod:`lieint.fast.top3_tangent` — the same steps run there instead: the complex copies are read
-as a real state and its derivatives (``Im z / ε``), stepped together in forward mode, and written
-back as complex copies. Both paths compute the derivative of the same discrete map, to round-off;
-the compiled one costs about one step per tangent vector instead of a complex run each.
+step written out, the same steps run there instead: the complex copies are read as a real state
+and its derivatives (``Im z / ε``), stepped together in forward mode, and written back as complex
+copies. Both paths compute the derivative of the same discrete map, to round-off; the compiled one
+costs about one step per tangent vector instead of a complex run each. Compiled tangent steps:
+
+* the 3D Euler top (:mod:`lieint.fast.top3_tangent`): its RKMK methods in exponential coordinates
+  (``lie_euler``, ``rkmk2/3/4/6``: dexp⁻¹ truncated), its splittings into exact rotations
+  (``splitting2/4/6``) and its Moser–Veselov maps (``moser_veselov``, ``moser_veselov_composed4/6``);
+* the 3D heavy top (:mod:`lieint.fast.heavy3_tangent`): its RKMK methods in exponential
+  coordinates.
 
 Everything else — other systems and methods, steps that are not one grid of equal steps with a
 shorter last one — runs on the generic path, and says so (:func:`compiled_reason`).
@@ -26,7 +29,9 @@ from ..control import Plan
 __all__ = ["COMPILED_REASON", "CompiledLyapunov", "CompiledMegno", "CompiledTangent", "compiled_reason"]
 
 #: what a result says when its tangent map ran on the compiled engine
-COMPILED_REASON = "compiled engine: the 3D top's tangent steps in forward mode (lieint.fast.top3_tangent)"
+COMPILED_REASON = (
+    "compiled engine: the method's tangent steps in forward mode (lieint.fast.top3_tangent, lieint.fast.heavy3_tangent)"
+)
 
 #: the map families with compiled tangent steps on the 3D top (and RKMK: its forms are RKMKForm)
 _FAMILIES = ("splitting", "moser_veselov")
@@ -45,24 +50,41 @@ class _Steps(Plan):
 
 def compiled_reason(system, method) -> str:
     """Why the tangent map of ``method`` on ``system`` does not run compiled ("" when it does)."""
-    from ..fast.forms import MapForm, RKMKForm, Top3Form
+    from ..fast.forms import HeavyTop3Form, MapForm, RKMKForm, Top3Form
 
     form = system.compiled()
-    if not isinstance(form, Top3Form):
-        return "compiled tangent steps exist for the 3D Euler top only"
+    heavy = isinstance(getattr(form, "lanes", None), HeavyTop3Form)
+    if not isinstance(form, Top3Form) and not heavy:
+        return "compiled tangent steps exist for the 3D Euler top and the 3D heavy top only"
     meth = method.compiled()
-    what = (
-        f"{method.name!r} has no compiled tangent steps (compiled: RKMK in exponential coordinates with "
-        "truncated dexp⁻¹, the splittings into exact rotations and the Moser–Veselov maps of the 3D top)"
-    )
+    if heavy:
+        what = f"{method.name!r} has no compiled tangent steps on the 3D heavy top (compiled: RKMK in exponential "
+        what += "coordinates with truncated dexp⁻¹)"
+    else:
+        what = (
+            f"{method.name!r} has no compiled tangent steps (compiled: RKMK in exponential coordinates with "
+            "truncated dexp⁻¹, the splittings into exact rotations and the Moser–Veselov maps of the 3D top)"
+        )
     if isinstance(meth, RKMKForm):
         plain = meth.coordinates == "exp" and meth.degree is not None and not meth.pair and not meth.keeps_energy
         return "" if plain else what
-    if not isinstance(meth, MapForm) or meth.family not in _FAMILIES or not meth.covers(form):
+    if heavy or not isinstance(meth, MapForm) or meth.family not in _FAMILIES or not meth.covers(form):
         return what
     if meth.degree:
         return f"{method.name!r}: its modified moments depend on the state (no compiled tangent steps)"
     return ""
+
+
+def _layouts(system):
+    """The layouts of ``system``'s compiled tangent form: (tangent, MEGNO, Lyapunov) classes and the
+    form they are built from."""
+    from ..fast import layouts
+    from ..fast.forms import Top3Form
+
+    form = system.compiled()
+    if isinstance(form, Top3Form):
+        return form, (layouts.Top3TangentLayout, layouts.Top3MegnoLayout, layouts.Top3LyapunovLayout)
+    return form.lanes, (layouts.HeavyTop3TangentLayout, layouts.HeavyTop3MegnoLayout, layouts.HeavyTop3LyapunovLayout)
 
 
 def _grid(sizes: np.ndarray) -> _Steps | None:
@@ -76,7 +98,7 @@ def _grid(sizes: np.ndarray) -> _Steps | None:
 
 
 class _CompiledRun:
-    """A layout of the 3D top with tangent vectors (:mod:`lieint.fast.layouts`) and its engine,
+    """A layout of a 3D top or heavy top with tangent vectors (:mod:`lieint.fast.layouts`) and its engine,
     for one method and a batch; :meth:`_steps` runs a grid of steps in one call of the loop."""
 
     def __init__(self, system, method, batch: tuple[int, ...], layout):
@@ -105,12 +127,12 @@ class _CompiledRun:
 
 
 class CompiledTangent(_CompiledRun):
-    """The compiled tangent steps of one method on one 3D top, for k vectors and a batch.
+    """The compiled tangent steps of one method on one 3D top or heavy top, for k vectors and a batch.
 
     Parameters
     ----------
-    system : lieint.EulerTop
-        A 3D top (:func:`compiled_reason` is "").
+    system : lieint.EulerTop or lieint.HeavyTop
+        A 3D top or heavy top (:func:`compiled_reason` is "").
     method : Method
         One whose :func:`compiled_reason` is "" (RKMK in exponential coordinates, the
         splittings, the Moser–Veselov maps).
@@ -121,9 +143,8 @@ class CompiledTangent(_CompiledRun):
     """
 
     def __init__(self, system, method, k: int, batch: tuple[int, ...]):
-        from ..fast.layouts import Top3TangentLayout
-
-        super().__init__(system, method, batch, Top3TangentLayout(system.compiled(), k))
+        form, (tangent, _, _) = _layouts(system)
+        super().__init__(system, method, batch, tangent(form, k))
 
     def advance(self, y: dict, dy: list[dict], sizes: np.ndarray) -> tuple[dict, list[dict]] | None:
         """``y`` and its tangent vectors ``dy`` (k dicts of the fields' derivatives) after the
@@ -138,13 +159,13 @@ class CompiledTangent(_CompiledRun):
 
 class CompiledMegno(_CompiledRun):
     """MEGNO's sums of one tangent vector carried by the compiled steps of one method on one 3D
-    top (:func:`lieint.fast.top3_tangent._megno_update`): the whole run in one call of the loop,
+    top (:func:`lieint.fast.tangent_sums.megno_update`): the whole run in one call of the loop,
     the sums saved every ``save_every`` steps.
 
     Parameters
     ----------
-    system : lieint.EulerTop
-        A 3D top (:func:`compiled_reason` is "").
+    system : lieint.EulerTop or lieint.HeavyTop
+        A 3D top or heavy top (:func:`compiled_reason` is "").
     method : Method
         One whose :func:`compiled_reason` is "" (RKMK in exponential coordinates, the
         splittings, the Moser–Veselov maps).
@@ -153,9 +174,8 @@ class CompiledMegno(_CompiledRun):
     """
 
     def __init__(self, system, method, batch: tuple[int, ...]):
-        from ..fast.layouts import Top3MegnoLayout
-
-        super().__init__(system, method, batch, Top3MegnoLayout(system.compiled()))
+        form, (_, megno, _) = _layouts(system)
+        super().__init__(system, method, batch, megno(form))
 
     def run(self, y: dict, dy: dict, sizes: np.ndarray, save_every: int):
         """The final state and the sums ``(elapsed, log|δ|, ∫ s dlog|δ|, ∫ Y dt, Y)`` (last axis)
@@ -168,12 +188,12 @@ class CompiledMegno(_CompiledRun):
 class CompiledLyapunov(_CompiledRun):
     """Benettin's sums of k tangent vectors carried by the compiled steps of one method on one 3D
     top, re-orthonormalised every ``every`` steps and after the last
-    (:func:`lieint.fast.top3_tangent._lyapunov_update`), the whole run in one call of the loop.
+    (:func:`lieint.fast.tangent_sums.lyapunov_update`), the whole run in one call of the loop.
 
     Parameters
     ----------
-    system : lieint.EulerTop
-        A 3D top (:func:`compiled_reason` is "").
+    system : lieint.EulerTop or lieint.HeavyTop
+        A 3D top or heavy top (:func:`compiled_reason` is "").
     method : Method
         One whose :func:`compiled_reason` is "" (RKMK in exponential coordinates, the
         splittings, the Moser–Veselov maps).
@@ -186,9 +206,8 @@ class CompiledLyapunov(_CompiledRun):
     """
 
     def __init__(self, system, method, k: int, batch: tuple[int, ...], every: int, total: int):
-        from ..fast.layouts import Top3LyapunovLayout
-
-        super().__init__(system, method, batch, Top3LyapunovLayout(system.compiled(), k, every, total))
+        form, (_, _, lyapunov) = _layouts(system)
+        super().__init__(system, method, batch, lyapunov(form, k, every, total))
 
     def run(self, y: dict, dy: list[dict], sizes: np.ndarray, every: int):
         """The final state and the k sums of ``log |diag R|`` at every re-orthonormalisation,
