@@ -35,6 +35,15 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from .se3_tangent import (
+    coefficients,
+    dexpinv_series,
+    dexpinv_series_tangent,
+    phi1,
+    right_jacobian,
+    rotate_back,
+    translation,
+)
 from .tangent_sums import MEGNO_SLOTS, lyapunov_update, megno_update
 from .top3 import _cross, _rodrigues
 
@@ -50,80 +59,18 @@ _RADIUS2 = (2.0 * np.pi) ** 2
 
 
 @njit(cache=True, inline="always")
-def _coefficients(t2):
-    """``β = (1 − cos θ)/θ²``, ``γ = (θ − sin θ)/θ³`` and their derivatives in ``t2 = θ²``; below
-    θ = 0.1 their even series (the first omitted terms below 1e-20 relative)."""
-    if t2 < 1e-2:
-        beta = 0.5 + t2 * (-1.0 / 24 + t2 * (1.0 / 720 + t2 * (-1.0 / 40320 + t2 * (1.0 / 3628800))))
-        gamma = 1.0 / 6 + t2 * (-1.0 / 120 + t2 * (1.0 / 5040 + t2 * (-1.0 / 362880 + t2 * (1.0 / 39916800))))
-        dbeta = -1.0 / 24 + t2 * (2.0 / 720 + t2 * (-3.0 / 40320 + t2 * (4.0 / 3628800 + t2 * (-5.0 / 479001600))))
-        dgamma = -1.0 / 120 + t2 * (2.0 / 5040 + t2 * (-3.0 / 362880 + t2 * (4.0 / 39916800 - t2 * 5.0 / 6227020800)))
-        return beta, gamma, dbeta, dgamma
-    th = np.sqrt(t2)
-    s = np.sin(th)
-    beta = (1.0 - np.cos(th)) / t2
-    gamma = (th - s) / (t2 * th)
-    return beta, gamma, (0.5 * s / th - beta) / t2, (beta - 3.0 * gamma) / (2.0 * t2)
-
-
-@njit(cache=True, inline="always")
-def _phi1(a0, a1, a2, b0, b1, b2, beta, gamma):
-    """``φ₁(â) b = b + β a × b + γ a × (a × b)``."""
-    c0, c1, c2 = _cross(a0, a1, a2, b0, b1, b2)
-    e0, e1, e2 = _cross(a0, a1, a2, c0, c1, c2)
-    return b0 + beta * c0 + gamma * e0, b1 + beta * c1 + gamma * e1, b2 + beta * c2 + gamma * e2
-
-
-@njit(cache=True, inline="always")
-def _rotate_back(Q, x0, x1, x2):
-    """``Qᵀx``."""
-    return (
-        Q[0, 0] * x0 + Q[1, 0] * x1 + Q[2, 0] * x2,
-        Q[0, 1] * x0 + Q[1, 1] * x1 + Q[2, 1] * x2,
-        Q[0, 2] * x0 + Q[1, 2] * x1 + Q[2, 2] * x2,
-    )
-
-
-@njit(cache=True, inline="always")
 def _moved(u, du, beta, gamma, dbeta, dgamma, p, g, dp, dg):
     """What a point ``(Π, Γ̃)`` and a tangent vector ``(δΠ, δΓ̃)`` at it become under ``exp(u)``
     moved by ``δu`` (module docstring): ``w = J_r(u_w) δu_w``, ``x = Π + t × Γ̃`` and
     ``δx = δΠ + δt × Γ̃ + t × δΓ̃`` (``Qᵀx`` and ``Qᵀδx − w × Qᵀx`` are the caller's)."""
-    a0, a1, a2 = u[0], u[1], u[2]
-    d0, d1, d2 = du[0], du[1], du[2]
-    # w = J_r(a) δa = δa − β a × δa + γ a × (a × δa)
-    c0, c1, c2 = _cross(a0, a1, a2, d0, d1, d2)
-    e0, e1, e2 = _cross(a0, a1, a2, c0, c1, c2)
-    w0, w1, w2 = d0 - beta * c0 + gamma * e0, d1 - beta * c1 + gamma * e1, d2 - beta * c2 + gamma * e2
-    # t = φ₁(a) b and δt
-    b0, b1, b2 = u[3], u[4], u[5]
-    t0, t1, t2 = _phi1(a0, a1, a2, b0, b1, b2, beta, gamma)
-    f0, f1, f2 = _phi1(a0, a1, a2, du[3], du[4], du[5], beta, gamma)  # φ₁(a) δb
-    ab0, ab1, ab2 = _cross(a0, a1, a2, b0, b1, b2)  # a × b
-    aab0, aab1, aab2 = _cross(a0, a1, a2, ab0, ab1, ab2)  # a × (a × b)
-    db0, db1, db2 = _cross(d0, d1, d2, b0, b1, b2)  # δa × b
-    q0, q1, q2 = _cross(d0, d1, d2, ab0, ab1, ab2)  # δa × (a × b)
-    r0, r1, r2 = _cross(a0, a1, a2, db0, db1, db2)  # a × (δa × b)
-    two_dot = 2.0 * (a0 * d0 + a1 * d1 + a2 * d2)
-    dbe, dga = dbeta * two_dot, dgamma * two_dot
-    dt0 = f0 + dbe * ab0 + beta * db0 + dga * aab0 + gamma * (q0 + r0)
-    dt1 = f1 + dbe * ab1 + beta * db1 + dga * aab1 + gamma * (q1 + r1)
-    dt2 = f2 + dbe * ab2 + beta * db2 + dga * aab2 + gamma * (q2 + r2)
+    w0, w1, w2 = right_jacobian(u, du, beta, gamma)
+    t0, t1, t2, dt0, dt1, dt2 = translation(u, du, beta, gamma, dbeta, dgamma)
     x0, x1, x2 = _cross(t0, t1, t2, g[0], g[1], g[2])
     x0, x1, x2 = p[0] + x0, p[1] + x1, p[2] + x2
     y0, y1, y2 = _cross(dt0, dt1, dt2, g[0], g[1], g[2])
     z0, z1, z2 = _cross(t0, t1, t2, dg[0], dg[1], dg[2])
     dx0, dx1, dx2 = dp[0] + y0 + z0, dp[1] + y1 + z1, dp[2] + y2 + z2
     return w0, w1, w2, x0, x1, x2, dx0, dx1, dx2
-
-
-@njit(cache=True, inline="always")
-def _ad_minus(u, x0, x1, x2, y0, y1, y2):
-    """``ad_{−u}(x, y) = (x × u_w, y × u_w + x × u_v)`` on se(3)."""
-    a0, a1, a2 = _cross(x0, x1, x2, u[0], u[1], u[2])
-    b0, b1, b2 = _cross(y0, y1, y2, u[0], u[1], u[2])
-    c0, c1, c2 = _cross(x0, x1, x2, u[3], u[4], u[5])
-    return a0, a1, a2, b0 + c0, b1 + c1, b2 + c2
 
 
 @njit(cache=True)
@@ -172,7 +119,6 @@ def form_rkmk_tangent_step(fx, y, par, meth, h, y1, inc, aux, scr):
     orient = par[6] != 0.0
     A, b, coeffs = meth.A, meth.b, meth.coeffs
     s = b.shape[0]
-    degree = coeffs.shape[0] - 1
     p, g = y1[0:3], y1[3:6]
     for i in range(s + 1):  # the stages, then (i = s) the step's end
         for c in range(6):
@@ -203,13 +149,13 @@ def form_rkmk_tangent_step(fx, y, par, meth, h, y1, inc, aux, scr):
         if i < s and t2 >= _RADIUS2:
             return -1
         _rodrigues(u, Q)
-        beta, gamma, dbeta, dgamma = _coefficients(t2)
+        beta, gamma, dbeta, dgamma = coefficients(t2)
         b0, b1, b2 = u[3], u[4], u[5]
-        t0, t1, t2_ = _phi1(u[0], u[1], u[2], b0, b1, b2, beta, gamma)
+        t0, t1, t2_ = phi1(u[0], u[1], u[2], b0, b1, b2, beta, gamma)
         x0, x1, x2 = _cross(t0, t1, t2_, g[0], g[1], g[2])
-        pi0, pi1, pi2 = _rotate_back(Q, p[0] + x0, p[1] + x1, p[2] + x2)
+        pi0, pi1, pi2 = rotate_back(Q, p[0] + x0, p[1] + x1, p[2] + x2)
         if i == s:  # the step's end: the tangent vectors first, they read the state before it moves
-            g0, g1, g2 = _rotate_back(Q, g[0], g[1], g[2])
+            g0, g1, g2 = rotate_back(Q, g[0], g[1], g[2])
             for r in range(3):
                 for c in range(3):
                     newR[r, c] = y1[6 + 3 * r] * Q[0, c] + y1[7 + 3 * r] * Q[1, c] + y1[8 + 3 * r] * Q[2, c]
@@ -218,9 +164,9 @@ def form_rkmk_tangent_step(fx, y, par, meth, h, y1, inc, aux, scr):
                 w0, w1, w2, _, _, _, dx0, dx1, dx2 = _moved(
                     u, du[m], beta, gamma, dbeta, dgamma, p, g, y1[o : o + 3], y1[o + 3 : o + 6]
                 )
-                q0, q1, q2 = _rotate_back(Q, dx0, dx1, dx2)
+                q0, q1, q2 = rotate_back(Q, dx0, dx1, dx2)
                 e0, e1, e2 = _cross(w0, w1, w2, pi0, pi1, pi2)
-                r0, r1, r2 = _rotate_back(Q, y1[o + 3], y1[o + 4], y1[o + 5])
+                r0, r1, r2 = rotate_back(Q, y1[o + 3], y1[o + 4], y1[o + 5])
                 f0, f1, f2 = _cross(w0, w1, w2, g0, g1, g2)
                 y1[o], y1[o + 1], y1[o + 2] = q0 - e0, q1 - e1, q2 - e2
                 y1[o + 3], y1[o + 4], y1[o + 5] = r0 - f0, r1 - f1, r2 - f2
@@ -250,40 +196,16 @@ def form_rkmk_tangent_step(fx, y, par, meth, h, y1, inc, aux, scr):
             w0, w1, w2, _, _, _, dx0, dx1, dx2 = _moved(
                 u, du[m], beta, gamma, dbeta, dgamma, p, g, y1[o : o + 3], y1[o + 3 : o + 6]
             )
-            q0, q1, q2 = _rotate_back(Q, dx0, dx1, dx2)
+            q0, q1, q2 = rotate_back(Q, dx0, dx1, dx2)
             e0, e1, e2 = _cross(w0, w1, w2, pi0, pi1, pi2)
-            # T₀ = ξ_i, δT₀ = (I⁻¹δΠ_i, 0)
-            T0, T1, T2, T3, T4, T5 = xw0, xw1, xw2, v[0], v[1], v[2]
+            # δξ_i = (I⁻¹δΠ_i, 0)
             D0, D1, D2 = Iinv[0] * (q0 - e0), Iinv[1] * (q1 - e1), Iinv[2] * (q2 - e2)
-            D3, D4, D5 = 0.0, 0.0, 0.0
-            k0, k1, k2, k3, k4, k5 = D0, D1, D2, D3, D4, D5
-            for dd in range(1, degree + 1):
-                a0, a1, a2, a3, a4, a5 = _ad_minus(du[m], T0, T1, T2, T3, T4, T5)
-                c0, c1, c2, c3, c4, c5 = _ad_minus(u, D0, D1, D2, D3, D4, D5)
-                D0, D1, D2, D3, D4, D5 = a0 + c0, a1 + c1, a2 + c2, a3 + c3, a4 + c4, a5 + c5
-                T0, T1, T2, T3, T4, T5 = _ad_minus(u, T0, T1, T2, T3, T4, T5)
-                cd = coeffs[dd]
-                if cd != 0.0:
-                    k0 += cd * D0
-                    k1 += cd * D1
-                    k2 += cd * D2
-                    k3 += cd * D3
-                    k4 += cd * D4
-                    k5 += cd * D5
+            k0, k1, k2, k3, k4, k5 = dexpinv_series_tangent(
+                u, du[m], coeffs, xw0, xw1, xw2, v[0], v[1], v[2], D0, D1, D2, 0.0, 0.0, 0.0
+            )
             dK[m, i, 0], dK[m, i, 1], dK[m, i, 2] = k0, k1, k2
             dK[m, i, 3], dK[m, i, 4], dK[m, i, 5] = k3, k4, k5
-        T0, T1, T2, T3, T4, T5 = xw0, xw1, xw2, v[0], v[1], v[2]
-        k0, k1, k2, k3, k4, k5 = T0, T1, T2, T3, T4, T5
-        for dd in range(1, degree + 1):
-            T0, T1, T2, T3, T4, T5 = _ad_minus(u, T0, T1, T2, T3, T4, T5)
-            cd = coeffs[dd]
-            if cd != 0.0:
-                k0 += cd * T0
-                k1 += cd * T1
-                k2 += cd * T2
-                k3 += cd * T3
-                k4 += cd * T4
-                k5 += cd * T5
+        k0, k1, k2, k3, k4, k5 = dexpinv_series(u, coeffs, xw0, xw1, xw2, v[0], v[1], v[2])
         K[i, 0], K[i, 1], K[i, 2], K[i, 3], K[i, 4], K[i, 5] = k0, k1, k2, k3, k4, k5
     return s  # not reached: the loop returns at i = s
 

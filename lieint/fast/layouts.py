@@ -29,7 +29,13 @@ from .forms import (
 
 __all__ = [
     "Chaplygin3LanesLayout",
+    "Chaplygin3LyapunovLayout",
+    "Chaplygin3MegnoLayout",
+    "Chaplygin3TangentLayout",
     "HeavyTop3LanesLayout",
+    "HeavyTop3LyapunovLayout",
+    "HeavyTop3MegnoLayout",
+    "HeavyTop3TangentLayout",
     "Layout",
     "PiecesEnergyLayout",
     "PiecesLayout",
@@ -239,12 +245,89 @@ class Top3LyapunovLayout(Top3TangentLayout):
         return states
 
 
-class HeavyTop3TangentLayout(Layout):
-    """The 3D heavy top with k tangent vectors (:mod:`lieint.fast.heavy3_tangent`): a body's row is
-    ``(Π, Γ̃, R̃)`` in the principal frame of its top (``Γ̃ = PᵀΓ``, ``R̃ = R P``; R̃ = I for a top
-    without attitude), then k vectors ``(δΠ, δΓ̃, δR̃)`` of the same layout (δR̃ = 0 without
-    attitude). The change of frame is linear: the tangent vectors move with it as the state does.
-    Parameters: ``I⁻¹`` (3), ``Pᵀ M X_G`` (3), whether the top carries R."""
+class _TangentRows(Layout):
+    """A compiled tangent form's rows (:mod:`lieint.fast.tangent_sums`): a body's state block of
+    ``block`` numbers, then k tangent vectors of the same layout. A subclass says how the user's
+    fields fill a block (``_block``, for a state or, ``tangent``, a derivative) and back
+    (``_fields``)."""
+
+    block: int
+
+    def __init__(self, k: int):
+        self.k = int(k)
+        self.d = self.block * (1 + self.k)
+
+    def increments_size(self, method) -> int:
+        return 6
+
+    def pack(self, y: dict, dy: list[dict], N: int) -> np.ndarray:
+        """The rows ``(N, d)`` of the states ``y`` and the tangent vectors ``dy`` (k dicts of the
+        fields' derivatives, each of the batch's shape); the sums after them zero."""
+        Y = np.zeros((N, self.d))
+        b = self.block
+        Y[:, :b] = self._block(y, N, False)
+        for m, v in enumerate(dy, start=1):
+            Y[:, b * m : b * (m + 1)] = self._block(v, N, True)
+        return Y
+
+    def unpack(self, Y: np.ndarray, batch: tuple) -> tuple[dict, list[dict]]:
+        """The states and the k tangent vectors of the rows ``Y`` (:meth:`pack`'s inverse)."""
+        b = self.block
+        y = self.user(Y, batch)
+        dy = [self._fields(Y[:, b * m : b * (m + 1)], batch) for m in range(1, self.k + 1)]
+        return y, dy
+
+    def user(self, Y: np.ndarray, batch: tuple) -> dict:
+        return self._fields(Y[..., : self.block], batch)
+
+
+class _MegnoRows(_TangentRows):
+    """One tangent vector and MEGNO's sums after it (:func:`lieint.fast.tangent_sums.megno_update`):
+    the steps' family is the map's own with ``_megno``; a row's user fields carry the sums as
+    ``"megno"`` (five numbers)."""
+
+    def __init__(self, form):
+        from .tangent_sums import MEGNO_SLOTS
+
+        super().__init__(form, 1)
+        self.d = 2 * self.block + MEGNO_SLOTS
+
+    def family(self, method) -> str:
+        return f"{method.family}_megno"
+
+    def user(self, Y: np.ndarray, batch: tuple) -> dict:
+        states = super().user(Y, batch)
+        states["megno"] = Y[..., 2 * self.block :].reshape(Y.shape[:-2] + batch + (self.d - 2 * self.block,))
+        return states
+
+
+class _LyapunovRows(_TangentRows):
+    """k tangent vectors re-orthonormalised every ``every`` of ``total`` steps
+    (:func:`lieint.fast.tangent_sums.lyapunov_update`): after the vectors a step counter and the k
+    sums of ``log |diag R|``, carried in a row's user fields as ``"lyapunov"``; ``every`` and
+    ``total`` follow the form's parameters."""
+
+    def __init__(self, form, k: int, every: int, total: int):
+        super().__init__(form, k)
+        self.d = self.block * (1 + self.k) + 1 + self.k
+        self.params = np.concatenate([self.params, [float(every), float(total)]])
+
+    def family(self, method) -> str:
+        return f"{method.family}_lyapunov"
+
+    def user(self, Y: np.ndarray, batch: tuple) -> dict:
+        states = super().user(Y, batch)
+        start = self.block * (1 + self.k) + 1
+        states["lyapunov"] = Y[..., start:].reshape(Y.shape[:-2] + batch + (self.k,))
+        return states
+
+
+class HeavyTop3TangentLayout(_TangentRows):
+    """The 3D heavy top with k tangent vectors (:mod:`lieint.fast.heavy3_tangent`): a body's block
+    is ``(Π, Γ̃, R̃)`` in the principal frame of its top (``Γ̃ = PᵀΓ``, ``R̃ = R P``; R̃ = I for a
+    top without attitude), a tangent vector's ``(δΠ, δΓ̃, δR̃)`` (δR̃ = 0 without attitude). The
+    change of frame is linear: the tangent vectors move with it as the state does. Parameters:
+    ``I⁻¹`` (3), ``Pᵀ M X_G`` (3), whether the top carries R."""
 
     module = "lieint.fast.heavy3_tangent"
     group = "se(3)"
@@ -261,11 +344,7 @@ class HeavyTop3TangentLayout(Layout):
         mxg = np.asarray(form.MXG, dtype=float) @ self.P
         self.params = np.concatenate([1.0 / self.moments, mxg, [float(self.orientation)]])
         self.count = 21 if self.orientation else 12
-        self.k = int(k)
-        self.d = self.block * (1 + self.k)
-
-    def increments_size(self, method) -> int:
-        return 6
+        super().__init__(k)
 
     def _block(self, y: dict, N: int, tangent: bool) -> np.ndarray:
         from .top3 import minus_vee
@@ -294,69 +373,80 @@ class HeavyTop3TangentLayout(Layout):
             states["R"] = np.ascontiguousarray(R).reshape(lead + batch + (3, 3))
         return states
 
-    def pack(self, y: dict, dy: list[dict], N: int) -> np.ndarray:
-        """The rows ``(N, d)`` of the states ``y`` and the tangent vectors ``dy`` (k dicts of the
-        fields' derivatives, each of the batch's shape)."""
-        Y = np.zeros((N, self.d))
-        b = self.block
-        Y[:, :b] = self._block(y, N, False)
-        for m, v in enumerate(dy, start=1):
-            Y[:, b * m : b * (m + 1)] = self._block(v, N, True)
-        return Y
 
-    def unpack(self, Y: np.ndarray, batch: tuple) -> tuple[dict, list[dict]]:
-        """The states and the k tangent vectors of the rows ``Y`` (:meth:`pack`'s inverse)."""
-        b = self.block
-        y = self.user(Y, batch)
-        dy = [self._fields(Y[:, b * m : b * (m + 1)], batch) for m in range(1, self.k + 1)]
-        return y, dy
-
-    def user(self, Y: np.ndarray, batch: tuple) -> dict:
-        return self._fields(Y[..., : self.block], batch)
-
-
-class HeavyTop3MegnoLayout(HeavyTop3TangentLayout):
-    """The 3D heavy top with one tangent vector and MEGNO's sums after it
-    (:func:`lieint.fast.tangent_sums.megno_update`); a row's user fields carry the sums as
-    ``"megno"`` (five numbers)."""
+class HeavyTop3MegnoLayout(_MegnoRows, HeavyTop3TangentLayout):
+    """The 3D heavy top with one tangent vector and MEGNO's sums after it."""
 
     label = "3D heavy top with its tangent vector and MEGNO's sums (principal frame)"
 
-    def __init__(self, form: HeavyTop3Form):
-        from .tangent_sums import MEGNO_SLOTS
 
-        super().__init__(form, 1)
-        self.d = 2 * self.block + MEGNO_SLOTS
-
-    def family(self, method) -> str:
-        return f"{method.family}_megno"
-
-    def user(self, Y: np.ndarray, batch: tuple) -> dict:
-        states = super().user(Y, batch)
-        states["megno"] = Y[..., 2 * self.block :].reshape(Y.shape[:-2] + batch + (self.d - 2 * self.block,))
-        return states
-
-
-class HeavyTop3LyapunovLayout(HeavyTop3TangentLayout):
-    """The 3D heavy top with k tangent vectors re-orthonormalised every ``every`` of ``total`` steps
-    (:func:`lieint.fast.tangent_sums.lyapunov_update`): after the vectors a step counter and the k
-    sums of ``log |diag R|``, carried in a row's user fields as ``"lyapunov"``."""
+class HeavyTop3LyapunovLayout(_LyapunovRows, HeavyTop3TangentLayout):
+    """The 3D heavy top with k tangent vectors and Benettin's sums (every, total: ``par[7]``, ``par[8]``)."""
 
     label = "3D heavy top with its tangent vectors and their growth sums (principal frame)"
 
-    def __init__(self, form: HeavyTop3Form, k: int, every: int, total: int):
-        super().__init__(form, k)
-        self.d = self.block * (1 + self.k) + 1 + self.k
-        self.params = np.concatenate([self.params, [float(every), float(total)]])
 
-    def family(self, method) -> str:
-        return f"{method.family}_lyapunov"
+class Chaplygin3TangentLayout(_TangentRows):
+    """The 3D Chaplygin ball with k tangent vectors (:mod:`lieint.fast.chaplygin3_tangent`): a
+    body's block is ``(Π, Γ, c, R)`` in the user's frame (``A_K = −Π̂``; the centre zero when it is
+    not tracked, R = I without attitude), a tangent vector's ``(δΠ, δΓ, δc, δR)`` (zero where the
+    ball carries no such field). Parameters: ``J = tr(B_C) I − B_C`` (9), ``M r²``, r, whether the
+    ball carries R and whether it tracks its centre."""
 
-    def user(self, Y: np.ndarray, batch: tuple) -> dict:
-        states = super().user(Y, batch)
-        start = self.block * (1 + self.k) + 1
-        states["lyapunov"] = Y[..., start:].reshape(Y.shape[:-2] + batch + (self.k,))
+    module = "lieint.fast.chaplygin3_tangent"
+    label = "3D Chaplygin ball with its tangent vectors"
+    block = 18
+    exact_radius = True
+
+    def __init__(self, form: Chaplygin3Form, k: int):
+        B = np.asarray(form.B_C, dtype=float)
+        J = np.trace(B) * np.eye(3) - B
+        self.orientation, self.center = bool(form.orientation), bool(form.center)
+        flags = [float(self.orientation), float(self.center)]
+        self.params = np.concatenate([J.ravel(), [form.Mr2, form.radius], flags])
+        self.group = "se(3)" if self.center else "so(3)"
+        self.count = 12 + (9 if self.orientation else 0) + (3 if self.center else 0)
+        super().__init__(k)
+
+    def _block(self, y: dict, N: int, tangent: bool) -> np.ndarray:
+        from .top3 import minus_vee
+
+        Y = np.zeros((N, self.block))
+        Y[:, :3], Y[:, 3:6] = minus_vee(y["A"].reshape(N, 3, 3)), y["Gamma"].reshape(N, 3)
+        if self.center:
+            Y[:, 6:9] = y["center"].reshape(N, 3)
+        if self.orientation:
+            Y[:, 9:] = y["R"].reshape(N, 9)
+        elif not tangent:
+            Y[:, 9:] = np.eye(3).ravel()
+        return Y
+
+    def _fields(self, Y: np.ndarray, batch: tuple) -> dict:
+        from .top3 import minus_hat
+
+        lead = Y.shape[:-2] + batch
+        states = {
+            "A": minus_hat(np.ascontiguousarray(Y[..., :3])).reshape(lead + (3, 3)),
+            "Gamma": np.ascontiguousarray(Y[..., 3:6]).reshape(lead + (3,)),
+        }
+        if self.orientation:
+            states["R"] = np.ascontiguousarray(Y[..., 9:18]).reshape(lead + (3, 3))
+        if self.center:
+            states["center"] = np.ascontiguousarray(Y[..., 6:9]).reshape(lead + (3,))
         return states
+
+
+class Chaplygin3MegnoLayout(_MegnoRows, Chaplygin3TangentLayout):
+    """The 3D Chaplygin ball with one tangent vector and MEGNO's sums after it."""
+
+    label = "3D Chaplygin ball with its tangent vector and MEGNO's sums"
+
+
+class Chaplygin3LyapunovLayout(_LyapunovRows, Chaplygin3TangentLayout):
+    """The 3D Chaplygin ball with k tangent vectors and Benettin's sums (every, total: ``par[13]``,
+    ``par[14]``)."""
+
+    label = "3D Chaplygin ball with its tangent vectors and their growth sums"
 
 
 class Top3EnergyLayout(Top3Layout):

@@ -10,8 +10,8 @@ costs about one step per tangent vector instead of a complex run each. Compiled 
 * the 3D Euler top (:mod:`lieint.fast.top3_tangent`): its RKMK methods in exponential coordinates
   (``lie_euler``, ``rkmk2/3/4/6``: dexp⁻¹ truncated), its splittings into exact rotations
   (``splitting2/4/6``) and its Moser–Veselov maps (``moser_veselov``, ``moser_veselov_composed4/6``);
-* the 3D heavy top (:mod:`lieint.fast.heavy3_tangent`): its RKMK methods in exponential
-  coordinates.
+* the 3D heavy top (:mod:`lieint.fast.heavy3_tangent`) and the 3D Chaplygin ball
+  (:mod:`lieint.fast.chaplygin3_tangent`): their RKMK methods in exponential coordinates.
 
 Everything else — other systems and methods, steps that are not one grid of equal steps with a
 shorter last one — runs on the generic path, and says so (:func:`compiled_reason`).
@@ -30,7 +30,8 @@ __all__ = ["COMPILED_REASON", "CompiledLyapunov", "CompiledMegno", "CompiledTang
 
 #: what a result says when its tangent map ran on the compiled engine
 COMPILED_REASON = (
-    "compiled engine: the method's tangent steps in forward mode (lieint.fast.top3_tangent, lieint.fast.heavy3_tangent)"
+    "compiled engine: the method's tangent steps in forward mode "
+    "(lieint.fast.top3_tangent, heavy3_tangent, chaplygin3_tangent)"
 )
 
 #: the map families with compiled tangent steps on the 3D top (and RKMK: its forms are RKMKForm)
@@ -50,15 +51,15 @@ class _Steps(Plan):
 
 def compiled_reason(system, method) -> str:
     """Why the tangent map of ``method`` on ``system`` does not run compiled ("" when it does)."""
-    from ..fast.forms import HeavyTop3Form, MapForm, RKMKForm, Top3Form
+    from ..fast.forms import MapForm, RKMKForm, Top3Form
 
     form = system.compiled()
-    heavy = isinstance(getattr(form, "lanes", None), HeavyTop3Form)
-    if not isinstance(form, Top3Form) and not heavy:
-        return "compiled tangent steps exist for the 3D Euler top and the 3D heavy top only"
+    body = _BODIES.get(type(getattr(form, "lanes", None)).__name__)
+    if not isinstance(form, Top3Form) and body is None:
+        return "compiled tangent steps exist for the 3D Euler top, the 3D heavy top and the 3D Chaplygin ball only"
     meth = method.compiled()
-    if heavy:
-        what = f"{method.name!r} has no compiled tangent steps on the 3D heavy top (compiled: RKMK in exponential "
+    if body is not None:
+        what = f"{method.name!r} has no compiled tangent steps on the {body} (compiled: RKMK in exponential "
         what += "coordinates with truncated dexp⁻¹)"
     else:
         what = (
@@ -68,23 +69,37 @@ def compiled_reason(system, method) -> str:
     if isinstance(meth, RKMKForm):
         plain = meth.coordinates == "exp" and meth.degree is not None and not meth.pair and not meth.keeps_energy
         return "" if plain else what
-    if heavy or not isinstance(meth, MapForm) or meth.family not in _FAMILIES or not meth.covers(form):
+    if body is not None or not isinstance(meth, MapForm) or meth.family not in _FAMILIES or not meth.covers(form):
         return what
     if meth.degree:
         return f"{method.name!r}: its modified moments depend on the state (no compiled tangent steps)"
     return ""
 
 
+#: the bodies with compiled tangent steps of RKMK besides the 3D top, by their lanes form's class
+_BODIES = {"HeavyTop3Form": "3D heavy top", "Chaplygin3Form": "3D Chaplygin ball"}
+
+
 def _layouts(system):
     """The layouts of ``system``'s compiled tangent form: (tangent, MEGNO, Lyapunov) classes and the
     form they are built from."""
     from ..fast import layouts
-    from ..fast.forms import Top3Form
+    from ..fast.forms import HeavyTop3Form, Top3Form
 
     form = system.compiled()
     if isinstance(form, Top3Form):
         return form, (layouts.Top3TangentLayout, layouts.Top3MegnoLayout, layouts.Top3LyapunovLayout)
-    return form.lanes, (layouts.HeavyTop3TangentLayout, layouts.HeavyTop3MegnoLayout, layouts.HeavyTop3LyapunovLayout)
+    if isinstance(form.lanes, HeavyTop3Form):
+        return form.lanes, (
+            layouts.HeavyTop3TangentLayout,
+            layouts.HeavyTop3MegnoLayout,
+            layouts.HeavyTop3LyapunovLayout,
+        )
+    return form.lanes, (
+        layouts.Chaplygin3TangentLayout,
+        layouts.Chaplygin3MegnoLayout,
+        layouts.Chaplygin3LyapunovLayout,
+    )
 
 
 def _grid(sizes: np.ndarray) -> _Steps | None:
@@ -98,7 +113,7 @@ def _grid(sizes: np.ndarray) -> _Steps | None:
 
 
 class _CompiledRun:
-    """A layout of a 3D top or heavy top with tangent vectors (:mod:`lieint.fast.layouts`) and its engine,
+    """A layout of a 3D body with tangent vectors (:mod:`lieint.fast.layouts`) and its engine,
     for one method and a batch; :meth:`_steps` runs a grid of steps in one call of the loop."""
 
     def __init__(self, system, method, batch: tuple[int, ...], layout):
@@ -127,12 +142,12 @@ class _CompiledRun:
 
 
 class CompiledTangent(_CompiledRun):
-    """The compiled tangent steps of one method on one 3D top or heavy top, for k vectors and a batch.
+    """The compiled tangent steps of one method on one 3D top, heavy top or Chaplygin ball, for k vectors and a batch.
 
     Parameters
     ----------
-    system : lieint.EulerTop or lieint.HeavyTop
-        A 3D top or heavy top (:func:`compiled_reason` is "").
+    system : lieint.EulerTop, lieint.HeavyTop or lieint.ChaplyginBall
+        A 3D top, heavy top or Chaplygin ball (:func:`compiled_reason` is "").
     method : Method
         One whose :func:`compiled_reason` is "" (RKMK in exponential coordinates, the
         splittings, the Moser–Veselov maps).
@@ -164,8 +179,8 @@ class CompiledMegno(_CompiledRun):
 
     Parameters
     ----------
-    system : lieint.EulerTop or lieint.HeavyTop
-        A 3D top or heavy top (:func:`compiled_reason` is "").
+    system : lieint.EulerTop, lieint.HeavyTop or lieint.ChaplyginBall
+        A 3D top, heavy top or Chaplygin ball (:func:`compiled_reason` is "").
     method : Method
         One whose :func:`compiled_reason` is "" (RKMK in exponential coordinates, the
         splittings, the Moser–Veselov maps).
@@ -192,8 +207,8 @@ class CompiledLyapunov(_CompiledRun):
 
     Parameters
     ----------
-    system : lieint.EulerTop or lieint.HeavyTop
-        A 3D top or heavy top (:func:`compiled_reason` is "").
+    system : lieint.EulerTop, lieint.HeavyTop or lieint.ChaplyginBall
+        A 3D top, heavy top or Chaplygin ball (:func:`compiled_reason` is "").
     method : Method
         One whose :func:`compiled_reason` is "" (RKMK in exponential coordinates, the
         splittings, the Moser–Veselov maps).

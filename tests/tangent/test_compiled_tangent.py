@@ -1,12 +1,13 @@
 """The compiled tangent steps (:mod:`lieint.tangent.compiled`, :mod:`lieint.fast.top3_tangent`,
-:mod:`lieint.fast.heavy3_tangent`): the 3D top's RKMK methods, splittings and Moser–Veselov maps,
-the 3D heavy top's RKMK methods.
+:mod:`lieint.fast.heavy3_tangent`, :mod:`lieint.fast.chaplygin3_tangent`): the 3D top's RKMK
+methods, splittings and Moser–Veselov maps, the 3D heavy top's and the 3D Chaplygin ball's RKMK
+methods.
 
 Truths: the generic path's complex step (``backend="numpy"``), which shares no step code with the
 compiled forward mode; the plain compiled run of :func:`lieint.integrate` (the state, bit for bit);
 central finite differences of whole runs (``tangent_cases``); the symplectic form of the free top's
-phase space for the symplectic maps. The heavy top's compiled state is stepped in vectors, its plain
-run's in matrices: they agree to round-off, not to the bit."""
+phase space for the symplectic maps. The heavy top's and the ball's compiled state is stepped in
+vectors, their plain run's in matrices: they agree to round-off, not to the bit."""
 
 from __future__ import annotations
 
@@ -70,8 +71,9 @@ def test_the_registry_s_rkmk_methods_splittings_and_moser_veselov_maps_have_comp
     assert not compiled_reason(heavy, get_method("rkmk4"))
     for refused in (get_method("rkmk4", coordinates="cayley"), get_method("cf4"), get_method("rkmk45")):
         assert "no compiled tangent steps on the 3D heavy top" in compiled_reason(heavy, refused)
-    ball = lieint.ChaplyginBall(np.diag([0.08, 0.12, 0.16]), 1.0, 1.0)
-    assert "3D Euler top and the 3D heavy top only" in compiled_reason(ball, get_method("rkmk4"))
+    ball = lieint.RollingBall(np.diag([0.1, 0.15, 0.2]), 1.0, 1.0, [0.0, 0.1, -0.2])
+    assert "the 3D Chaplygin ball only" in compiled_reason(ball, get_method("rkmk4"))
+    assert "only" in compiled_reason(lieint.EulerTop(np.diag([1.0, 2.0, 3.0, 4.0])), get_method("rkmk4"))
 
 
 @pytest.mark.parametrize(("label", "method"), _cases())
@@ -173,90 +175,114 @@ def test_a_parameter_sensitivity_runs_on_the_generic_path():
     assert np.all(np.isfinite(sens.jacobian)) and sens.backend_reason == BACKEND_REASON
 
 
-# -- the 3D heavy top ------------------------------------------------------------------------------
+# -- the 3D heavy top and the 3D Chaplygin ball ----------------------------------------------------
 
 
-def _heavy_tops():
+def _bodies():
+    """The 3D bodies with compiled tangent steps of RKMK besides the free top, in frames the steps
+    turn through (a tilted principal frame, a tilted contact tensor) and with fields left out."""
     rng = np.random.default_rng(5)
     Q, _ = np.linalg.qr(rng.normal(size=(3, 3)))
-    B = Q @ np.diag([1.0, 1.5, 2.0]) @ Q.T  # a tilted principal frame: the steps turn through it
+    B = Q @ np.diag([1.0, 1.5, 2.0]) @ Q.T
     centre, g = [0.1, 0.05, 0.08], [0.0, 0.0, -9.81]
+    B_C = Q @ np.diag([0.08, 0.12, 0.16]) @ Q.T
     return {
-        "tilted frame": lieint.HeavyTop(B, 1.0, centre, g),
-        "no R": lieint.HeavyTop(np.diag([1.0, 1.5, 2.0]), 1.0, centre, g, orientation=False),
+        "heavy top, tilted frame": lieint.HeavyTop(B, 1.0, centre, g),
+        "heavy top, no R": lieint.HeavyTop(np.diag([1.0, 1.5, 2.0]), 1.0, centre, g, orientation=False),
+        "Chaplygin ball, tilted": lieint.ChaplyginBall(B_C, 1.0, 1.0),
+        "Chaplygin ball, no centre": lieint.ChaplyginBall(B_C, 1.0, 1.0, track_center=False),
+        "Chaplygin ball, no R": lieint.ChaplyginBall(B_C, 1.0, 1.0, orientation=False, track_center=False),
     }
 
 
-def _heavy_methods() -> list[str]:
-    """Every method of the registry with compiled tangent steps on the 3D heavy top."""
-    heavy = _heavy_tops()["tilted frame"]
+def _start(body):
+    return body.initial_state(
+        angular_velocity=[1.0, 2.0, 1.5] if isinstance(body, lieint.HeavyTop) else [0.3, 1.0, 0.4]
+    )
+
+
+def _body_methods(body) -> list[str]:
+    """Every method of the registry with compiled tangent steps on ``body``."""
     names = []
     for name in method_specs():
         method = get_method(name)
         try:
-            TangentStepper(heavy, method)
+            TangentStepper(body, method)
         except ValueError:
             continue
-        if not compiled_reason(heavy, method):
+        if not compiled_reason(body, method):
             names.append(name)
     return names
 
 
-def test_the_heavy_top_s_rkmk_methods_have_compiled_tangent_steps():
-    names = _heavy_methods()
+def _body_cases() -> list[tuple[str, str]]:
+    """(body, method): every compiled method on the tilted bodies, rkmk4 on the others."""
+    out = []
+    for label, body in _bodies().items():
+        out += [(label, name) for name in (_body_methods(body) if "tilted" in label else ["rkmk4"])]
+    return out
+
+
+@pytest.mark.parametrize("label", sorted(_bodies()))
+def test_the_rkmk_methods_of_the_heavy_top_and_the_chaplygin_ball_have_compiled_tangent_steps(label):
+    names = _body_methods(_bodies()[label])
     for expected in ("lie_euler", "rkmk2", "rkmk3", "rkmk4", "rkmk6"):
         assert expected in names
-    assert "splitting2" not in names and "rkmk45" not in names
+    assert "rkmk45" not in names and "cf4" not in names
 
 
-@pytest.mark.parametrize("label", sorted(_heavy_tops()))
-@pytest.mark.parametrize("method", _heavy_methods())
-def test_heavy_top_compiled_tangent_map_is_the_complex_step_s_and_its_state_the_plain_run_s(label, method):
-    top = _heavy_tops()[label]
-    y0 = top.initial_state(angular_velocity=[1.0, 2.0, 1.5])
-    compiled = lieint.tangent_flow(top, y0, (0.0, 3.0), h=0.03, method=method)
-    generic = lieint.tangent_flow(top, y0, (0.0, 3.0), h=0.03, method=method, backend="numpy")
+@pytest.mark.parametrize(("label", "method"), _body_cases())
+def test_body_compiled_tangent_map_is_the_complex_step_s_and_its_state_the_plain_run_s(label, method):
+    body = _bodies()[label]
+    y0 = _start(body)
+    compiled = lieint.tangent_flow(body, y0, (0.0, 3.0), h=0.03, method=method)
+    generic = lieint.tangent_flow(body, y0, (0.0, 3.0), h=0.03, method=method, backend="numpy")
     assert compiled.backend_reason == COMPILED_REASON and generic.backend_reason == BACKEND_REASON
-    assert compiled.vectors.shape == generic.vectors.shape == ((9, 9) if label == "tilted frame" else (6, 6))
-    # vectors against matrices, principal frame against the user's: round-off apart (5e-14 after
-    # 100 steps of rkmk6), and the tangent maps as much
-    plain = lieint.integrate(top, y0, (0.0, 3.0), h=0.03, method=method)
+    dim = lieint.tangent.chart_of(body).dim
+    assert compiled.vectors.shape == generic.vectors.shape == (dim, dim)
+    # vectors against matrices (and the principal frame against the user's): round-off apart
+    # (5e-14 after 100 steps of rkmk6), and the tangent maps as much, entry by entry
+    plain = lieint.integrate(body, y0, (0.0, 3.0), h=0.03, method=method)
     assert plain.stats.backend == "numba"
     runs_apart = max(np.max(np.abs(compiled.y[k] - plain.states[k][-1])) for k in compiled.y)
     assert runs_apart < 1e-12, runs_apart
     scale = np.max(np.abs(generic.vectors))
-    assert np.max(np.abs(compiled.vectors - generic.vectors)) <= 1e-13 * scale, method
+    np.testing.assert_allclose(compiled.vectors, generic.vectors, rtol=1e-10, atol=1e-13 * scale, err_msg=method)
 
 
-def test_heavy_top_compiled_tangent_map_is_the_derivative_of_the_run_by_central_differences():
+@pytest.mark.parametrize("label", ["heavy top, tilted frame", "Chaplygin ball, tilted"])
+def test_body_compiled_tangent_map_is_the_derivative_of_the_run_by_central_differences(label):
     import tangent_cases  # finite differences written apart from lieint.tangent
 
-    top = _heavy_tops()["tilted frame"]
-    y0 = top.initial_state(angular_velocity=[1.0, 2.0, 1.5])
-    run = lieint.tangent_flow(top, y0, (0.0, 2.0), h=0.02, method="rkmk4", backend="numba")
+    body = _bodies()[label]
+    y0 = _start(body)
+    dim = lieint.tangent.chart_of(body).dim
+    run = lieint.tangent_flow(body, y0, (0.0, 2.0), h=0.02, method="rkmk4", backend="numba")
 
     def flow(y):
-        return {k: v[-1] for k, v in lieint.integrate(top, y, (0.0, 2.0), h=0.02, method="rkmk4").states.items()}
+        return {k: v[-1] for k, v in lieint.integrate(body, y, (0.0, 2.0), h=0.02, method="rkmk4").states.items()}
 
-    for j in range(9):
-        fd, _spread = tangent_cases.central_difference(flow, top, y0, np.eye(9)[j])
+    for j in range(dim):
+        fd, _spread = tangent_cases.central_difference(flow, body, y0, np.eye(dim)[j])
         np.testing.assert_allclose(run.vectors[j], fd, rtol=1e-6, atol=1e-7 * np.abs(fd).max())
 
 
-@pytest.mark.parametrize("label", sorted(_heavy_tops()))
+@pytest.mark.parametrize("label", sorted(_bodies()))
 @pytest.mark.parametrize("method", ["lie_euler", "rkmk4"])
-def test_heavy_top_lyapunov_and_megno_run_whole_in_the_engine_as_the_generic_path_runs_them(label, method):
-    top = _heavy_tops()[label]
-    y0 = top.initial_state(angular_velocity=[[1.0, 2.0, 1.5], [0.3, 0.2, 1.0]])
-    fast = lieint.lyapunov(top, y0, (0.0, 8.0), h=0.05, method=method, every=7)
-    slow = lieint.lyapunov(top, y0, (0.0, 8.0), h=0.05, method=method, every=7, backend="numpy")
+def test_body_lyapunov_and_megno_run_whole_in_the_engine_as_the_generic_path_runs_them(label, method):
+    body = _bodies()[label]
+    one = _start(body)
+    two = _start(body) if isinstance(body, lieint.HeavyTop) else body.initial_state(angular_velocity=[1.0, 0.3, 0.2])
+    y0 = {k: np.stack([one[k], two[k]]) for k in one}
+    fast = lieint.lyapunov(body, y0, (0.0, 8.0), h=0.05, method=method, every=7)
+    slow = lieint.lyapunov(body, y0, (0.0, 8.0), h=0.05, method=method, every=7, backend="numpy")
     assert fast.backend_reason == COMPILED_REASON and slow.backend_reason == BACKEND_REASON
     np.testing.assert_array_equal(fast.t, slow.t)
     np.testing.assert_allclose(fast.history, slow.history, rtol=0, atol=1e-13)
     for name in slow.y:
         np.testing.assert_allclose(fast.y[name], slow.y[name], rtol=0, atol=1e-12)
-    fast_m = lieint.megno(top, y0, (0.0, 8.0), h=0.05, method=method, save_every=3)
-    slow_m = lieint.megno(top, y0, (0.0, 8.0), h=0.05, method=method, save_every=3, backend="numpy")
+    fast_m = lieint.megno(body, y0, (0.0, 8.0), h=0.05, method=method, save_every=3)
+    slow_m = lieint.megno(body, y0, (0.0, 8.0), h=0.05, method=method, save_every=3, backend="numpy")
     assert fast_m.backend_reason == COMPILED_REASON and slow_m.backend_reason == BACKEND_REASON
     np.testing.assert_array_equal(fast_m.t, slow_m.t)
     for field in ("y_history", "mean_history", "lyapunov_history", "lyapunov", "mean"):
