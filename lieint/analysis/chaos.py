@@ -17,7 +17,7 @@ Both carry tangent vectors along a run with the exact derivative of the method's
 The tangent vectors are renormalised before their growth could reach the complex step's
 limit (a vector grown by 10²⁰ would make ``ε²|v|²`` felt in the real part). The steps run on the
 compiled engine where the method's tangent steps are compiled (the 3D top's RKMK methods,
-splittings and Moser–Veselov maps, the RKMK methods of the 3D heavy top and Chaplygin ball,
+splittings and Moser–Veselov maps, the RKMK methods of the n-D top, the 3D heavy top and ball,
 :mod:`lieint.tangent.compiled`),
 the whole run in one call of the loop: the re-orthonormalisations (modified Gram–Schmidt in the
 chart's norm) and MEGNO's sums are taken in the steps there. Elsewhere they run on the generic

@@ -46,6 +46,9 @@ __all__ = [
     "Top4LanesLayout",
     "TopNEnergyLayout",
     "TopNLayout",
+    "TopNLyapunovLayout",
+    "TopNMegnoLayout",
+    "TopNTangentLayout",
     "algebra_element",
     "increment_blocks",
     "orbit_dimension",
@@ -447,6 +450,73 @@ class Chaplygin3LyapunovLayout(_LyapunovRows, Chaplygin3TangentLayout):
     ``par[14]``)."""
 
     label = "3D Chaplygin ball with its tangent vectors and their growth sums"
+
+
+class TopNTangentLayout(_TangentRows):
+    """The n-dimensional top (n ≥ 4) with k tangent vectors (:mod:`lieint.fast.topn_tangent`): a
+    body's block is ``(Ã, R̃) = (PᵀAP, RP)`` in the principal frame (R̃ = I without attitude), a
+    tangent vector's ``(δÃ, δR̃)`` (δR̃ = 0 without attitude): 2n² numbers each. Parameters: n,
+    whether the top carries R, ``M_ij = −1/(b_i + b_j)``."""
+
+    module = "lieint.fast.topn_tangent"
+    exact_radius = False
+
+    def __init__(self, form: TopNForm, k: int):
+        from . import _proper_frame
+        from .topn import inertia_factors_of
+
+        self.n = n = form.n
+        P, self.identity_frame = _proper_frame(form.P)
+        self.P = np.array(P)
+        self.orientation = bool(form.orientation)
+        M = inertia_factors_of(np.asarray(form.b, dtype=float).tobytes())
+        self.params = np.concatenate([[n, float(self.orientation)], M.ravel()])
+        self.block = 2 * n * n
+        self.count = n * n * (2 if self.orientation else 1)
+        self.group = f"so({n})"
+        self.label = f"{n}D top with its tangent vectors (principal frame)"
+        super().__init__(k)
+
+    def increments_size(self, method) -> int:
+        return self.n * self.n
+
+    def _block(self, y: dict, N: int, tangent: bool) -> np.ndarray:
+        from .principal import to_principal
+
+        n = self.n
+        A = y["A"].reshape(N, n, n)
+        if self.orientation:
+            R = y["R"].reshape(N, n, n)
+        else:  # a writable stack: the conversion's compiled code takes no read-only arrays
+            R = np.zeros((N, n, n)) if tangent else np.tile(np.eye(n), (N, 1, 1))
+        if self.identity_frame:
+            A = 0.5 * (A - np.swapaxes(A, -1, -2))
+        else:
+            A, R = to_principal(A, R, self.P)
+        Y = np.empty((N, self.block))
+        Y[:, : n * n], Y[:, n * n :] = A.reshape(N, n * n), R.reshape(N, n * n)
+        return Y
+
+    def _fields(self, Y: np.ndarray, batch: tuple) -> dict:
+        from .principal import to_user
+
+        n, lead = self.n, Y.shape[:-2]
+        A = np.ascontiguousarray(Y[..., : n * n]).reshape(-1, n, n)
+        R = np.ascontiguousarray(Y[..., n * n : 2 * n * n]).reshape(-1, n, n)
+        if not self.identity_frame:
+            A, R = to_user(A, R, self.P)
+        states = {"A": np.ascontiguousarray(A).reshape(lead + batch + (n, n))}
+        if self.orientation:
+            states["R"] = np.ascontiguousarray(R).reshape(lead + batch + (n, n))
+        return states
+
+
+class TopNMegnoLayout(_MegnoRows, TopNTangentLayout):
+    """The n-dimensional top with one tangent vector and MEGNO's sums after it."""
+
+
+class TopNLyapunovLayout(_LyapunovRows, TopNTangentLayout):
+    """The n-dimensional top with k tangent vectors and Benettin's sums (every, total after M)."""
 
 
 class Top3EnergyLayout(Top3Layout):

@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-__all__ = ["MEGNO_SLOTS", "chart_coordinates", "lyapunov_update", "megno_update"]
+__all__ = ["MEGNO_SLOTS", "chart_coordinates", "lyapunov_update", "megno_advance", "megno_update"]
 
 #: the MEGNO sums after a body's state and its tangent vector: the time since the start,
 #: ``log|δ|`` (renormalisations added back), ``∫ s d log|δ|``, ``∫ Y dt``, ``Y``
@@ -67,8 +67,15 @@ def megno_update(y1, h, block, flat, orient):
             m21 += a2 * b1
         d0, d1, d2 = 0.5 * (m21 - m12), 0.5 * (m02 - m20), 0.5 * (m10 - m01)
         n2 += d0 * d0 + d1 * d1 + d2 * d2
-    norm = np.sqrt(n2)
-    s = 2 * block
+    megno_advance(y1, 2 * block, h, np.sqrt(n2), block, 2 * block)
+
+
+@njit(cache=True, inline="always")
+def megno_advance(y1, s, h, norm, lo, hi):
+    """MEGNO's sums at ``y1[s : s + 5]`` after a step of size h that left the tangent vector at
+    ``y1[lo : hi]`` with the chart norm ``norm`` (:func:`lieint.megno`: ``Y(t) = (2/t) ∫ s d log|δ|``,
+    ⟨Y⟩ by the trapezoidal rule), then the vector renormalised to 1. Where the norm is not finite
+    and positive the sums become NaN (and stay so: the caller refuses the run, naming it)."""
     if not (norm > 0.0 and np.isfinite(norm)):
         for i in range(s + 1, s + MEGNO_SLOTS):
             y1[i] = np.nan
@@ -83,7 +90,7 @@ def megno_update(y1, h, block, flat, orient):
     Y = 2.0 * y1[s + 2] / t
     y1[s + 3] += 0.5 * (y1[s + 4] + Y) * h
     y1[s + 4] = Y
-    for i in range(block, 2 * block):
+    for i in range(lo, hi):
         y1[i] /= norm
 
 

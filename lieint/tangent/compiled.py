@@ -10,8 +10,9 @@ costs about one step per tangent vector instead of a complex run each. Compiled 
 * the 3D Euler top (:mod:`lieint.fast.top3_tangent`): its RKMK methods in exponential coordinates
   (``lie_euler``, ``rkmk2/3/4/6``: dexp⁻¹ truncated), its splittings into exact rotations
   (``splitting2/4/6``) and its Moser–Veselov maps (``moser_veselov``, ``moser_veselov_composed4/6``);
-* the 3D heavy top (:mod:`lieint.fast.heavy3_tangent`) and the 3D Chaplygin ball
-  (:mod:`lieint.fast.chaplygin3_tangent`): their RKMK methods in exponential coordinates.
+* the n-dimensional top, n ≥ 4 (:mod:`lieint.fast.topn_tangent`), the 3D heavy top
+  (:mod:`lieint.fast.heavy3_tangent`) and the 3D Chaplygin ball (:mod:`lieint.fast.chaplygin3_tangent`):
+  their RKMK methods in exponential coordinates.
 
 Everything else — other systems and methods, steps that are not one grid of equal steps with a
 shorter last one — runs on the generic path, and says so (:func:`compiled_reason`).
@@ -31,7 +32,7 @@ __all__ = ["COMPILED_REASON", "CompiledLyapunov", "CompiledMegno", "CompiledTang
 #: what a result says when its tangent map ran on the compiled engine
 COMPILED_REASON = (
     "compiled engine: the method's tangent steps in forward mode "
-    "(lieint.fast.top3_tangent, heavy3_tangent, chaplygin3_tangent)"
+    "(lieint.fast.top3_tangent, topn_tangent, heavy3_tangent, chaplygin3_tangent)"
 )
 
 #: the map families with compiled tangent steps on the 3D top (and RKMK: its forms are RKMKForm)
@@ -54,9 +55,12 @@ def compiled_reason(system, method) -> str:
     from ..fast.forms import MapForm, RKMKForm, Top3Form
 
     form = system.compiled()
-    body = _BODIES.get(type(getattr(form, "lanes", None)).__name__)
+    body = _BODIES.get(type(getattr(form, "lanes", form)).__name__)
     if not isinstance(form, Top3Form) and body is None:
-        return "compiled tangent steps exist for the 3D Euler top, the 3D heavy top and the 3D Chaplygin ball only"
+        return (
+            "compiled tangent steps exist for the Euler top in every dimension, the 3D heavy top and the 3D "
+            "Chaplygin ball only"
+        )
     meth = method.compiled()
     if body is not None:
         what = f"{method.name!r} has no compiled tangent steps on the {body} (compiled: RKMK in exponential "
@@ -76,19 +80,22 @@ def compiled_reason(system, method) -> str:
     return ""
 
 
-#: the bodies with compiled tangent steps of RKMK besides the 3D top, by their lanes form's class
-_BODIES = {"HeavyTop3Form": "3D heavy top", "Chaplygin3Form": "3D Chaplygin ball"}
+#: the bodies with compiled tangent steps of RKMK besides the 3D top, by the class of their form
+#: (the n-D top's) or of its lanes form (the heavy top's and the ball's)
+_BODIES = {"HeavyTop3Form": "3D heavy top", "Chaplygin3Form": "3D Chaplygin ball", "TopNForm": "n-dimensional top"}
 
 
 def _layouts(system):
     """The layouts of ``system``'s compiled tangent form: (tangent, MEGNO, Lyapunov) classes and the
     form they are built from."""
     from ..fast import layouts
-    from ..fast.forms import HeavyTop3Form, Top3Form
+    from ..fast.forms import HeavyTop3Form, Top3Form, TopNForm
 
     form = system.compiled()
     if isinstance(form, Top3Form):
         return form, (layouts.Top3TangentLayout, layouts.Top3MegnoLayout, layouts.Top3LyapunovLayout)
+    if isinstance(form, TopNForm):
+        return form, (layouts.TopNTangentLayout, layouts.TopNMegnoLayout, layouts.TopNLyapunovLayout)
     if isinstance(form.lanes, HeavyTop3Form):
         return form.lanes, (
             layouts.HeavyTop3TangentLayout,

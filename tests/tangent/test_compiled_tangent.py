@@ -1,13 +1,13 @@
 """The compiled tangent steps (:mod:`lieint.tangent.compiled`, :mod:`lieint.fast.top3_tangent`,
-:mod:`lieint.fast.heavy3_tangent`, :mod:`lieint.fast.chaplygin3_tangent`): the 3D top's RKMK
-methods, splittings and Moser–Veselov maps, the 3D heavy top's and the 3D Chaplygin ball's RKMK
-methods.
+:mod:`lieint.fast.topn_tangent`, :mod:`lieint.fast.heavy3_tangent`,
+:mod:`lieint.fast.chaplygin3_tangent`): the 3D top's RKMK methods, splittings and Moser–Veselov
+maps, the RKMK methods of the n-D top, the 3D heavy top and the 3D Chaplygin ball.
 
 Truths: the generic path's complex step (``backend="numpy"``), which shares no step code with the
 compiled forward mode; the plain compiled run of :func:`lieint.integrate` (the state, bit for bit);
 central finite differences of whole runs (``tangent_cases``); the symplectic form of the free top's
-phase space for the symplectic maps. The heavy top's and the ball's compiled state is stepped in
-vectors, their plain run's in matrices: they agree to round-off, not to the bit."""
+phase space for the symplectic maps. The other bodies' compiled states are stepped by code of
+their own, their plain runs' by the plain kernels: they agree to round-off, not to the bit."""
 
 from __future__ import annotations
 
@@ -73,7 +73,7 @@ def test_the_registry_s_rkmk_methods_splittings_and_moser_veselov_maps_have_comp
         assert "no compiled tangent steps on the 3D heavy top" in compiled_reason(heavy, refused)
     ball = lieint.RollingBall(np.diag([0.1, 0.15, 0.2]), 1.0, 1.0, [0.0, 0.1, -0.2])
     assert "the 3D Chaplygin ball only" in compiled_reason(ball, get_method("rkmk4"))
-    assert "only" in compiled_reason(lieint.EulerTop(np.diag([1.0, 2.0, 3.0, 4.0])), get_method("rkmk4"))
+    assert not compiled_reason(lieint.EulerTop(np.diag([1.0, 2.0, 3.0, 4.0])), get_method("rkmk4"))
 
 
 @pytest.mark.parametrize(("label", "method"), _cases())
@@ -175,18 +175,23 @@ def test_a_parameter_sensitivity_runs_on_the_generic_path():
     assert np.all(np.isfinite(sens.jacobian)) and sens.backend_reason == BACKEND_REASON
 
 
-# -- the 3D heavy top and the 3D Chaplygin ball ----------------------------------------------------
+# -- the n-dimensional top, the 3D heavy top and the 3D Chaplygin ball -----------------------------
 
 
 def _bodies():
-    """The 3D bodies with compiled tangent steps of RKMK besides the free top, in frames the steps
+    """The bodies with compiled tangent steps of RKMK besides the free 3D top, in frames the steps
     turn through (a tilted principal frame, a tilted contact tensor) and with fields left out."""
     rng = np.random.default_rng(5)
     Q, _ = np.linalg.qr(rng.normal(size=(3, 3)))
     B = Q @ np.diag([1.0, 1.5, 2.0]) @ Q.T
     centre, g = [0.1, 0.05, 0.08], [0.0, 0.0, -9.81]
     B_C = Q @ np.diag([0.08, 0.12, 0.16]) @ Q.T
+    Q4, _ = np.linalg.qr(rng.normal(size=(4, 4)))
+    Q5, _ = np.linalg.qr(rng.normal(size=(5, 5)))
     return {
+        "4D top, tilted": lieint.EulerTop(Q4 @ np.diag([0.6, 0.8, 1.0, 1.3]) @ Q4.T),
+        "4D top, no R": lieint.EulerTop(np.diag([0.6, 0.8, 1.0, 1.3]), orientation=False),
+        "5D top, tilted": lieint.EulerTop(Q5 @ np.diag([0.6, 0.7, 0.9, 1.1, 1.4]) @ Q5.T),
         "heavy top, tilted frame": lieint.HeavyTop(B, 1.0, centre, g),
         "heavy top, no R": lieint.HeavyTop(np.diag([1.0, 1.5, 2.0]), 1.0, centre, g, orientation=False),
         "Chaplygin ball, tilted": lieint.ChaplyginBall(B_C, 1.0, 1.0),
@@ -195,10 +200,14 @@ def _bodies():
     }
 
 
-def _start(body):
-    return body.initial_state(
-        angular_velocity=[1.0, 2.0, 1.5] if isinstance(body, lieint.HeavyTop) else [0.3, 1.0, 0.4]
-    )
+def _start(body, second=False):
+    if isinstance(body, lieint.EulerTop):  # n ≥ 4
+        X = np.arange(body.n * body.n, dtype=float).reshape(body.n, body.n) / body.n**2 + np.eye(body.n, k=1)
+        return body.initial_state(Omega=(0.3 if second else 0.6) * (X - X.T))
+    if second:
+        return body.initial_state(angular_velocity=[1.0, 0.3, 0.2])
+    spin = [1.0, 2.0, 1.5] if isinstance(body, lieint.HeavyTop) else [0.3, 1.0, 0.4]
+    return body.initial_state(angular_velocity=spin)
 
 
 def _body_methods(body) -> list[str]:
@@ -224,7 +233,7 @@ def _body_cases() -> list[tuple[str, str]]:
 
 
 @pytest.mark.parametrize("label", sorted(_bodies()))
-def test_the_rkmk_methods_of_the_heavy_top_and_the_chaplygin_ball_have_compiled_tangent_steps(label):
+def test_the_rkmk_methods_of_the_n_d_top_the_heavy_top_and_the_chaplygin_ball_have_compiled_tangent_steps(label):
     names = _body_methods(_bodies()[label])
     for expected in ("lie_euler", "rkmk2", "rkmk3", "rkmk4", "rkmk6"):
         assert expected in names
@@ -250,7 +259,7 @@ def test_body_compiled_tangent_map_is_the_complex_step_s_and_its_state_the_plain
     np.testing.assert_allclose(compiled.vectors, generic.vectors, rtol=1e-10, atol=1e-13 * scale, err_msg=method)
 
 
-@pytest.mark.parametrize("label", ["heavy top, tilted frame", "Chaplygin ball, tilted"])
+@pytest.mark.parametrize("label", ["heavy top, tilted frame", "Chaplygin ball, tilted", "4D top, tilted"])
 def test_body_compiled_tangent_map_is_the_derivative_of_the_run_by_central_differences(label):
     import tangent_cases  # finite differences written apart from lieint.tangent
 
@@ -272,7 +281,7 @@ def test_body_compiled_tangent_map_is_the_derivative_of_the_run_by_central_diffe
 def test_body_lyapunov_and_megno_run_whole_in_the_engine_as_the_generic_path_runs_them(label, method):
     body = _bodies()[label]
     one = _start(body)
-    two = _start(body) if isinstance(body, lieint.HeavyTop) else body.initial_state(angular_velocity=[1.0, 0.3, 0.2])
+    two = _start(body) if isinstance(body, lieint.HeavyTop) else _start(body, second=True)
     y0 = {k: np.stack([one[k], two[k]]) for k in one}
     fast = lieint.lyapunov(body, y0, (0.0, 8.0), h=0.05, method=method, every=7)
     slow = lieint.lyapunov(body, y0, (0.0, 8.0), h=0.05, method=method, every=7, backend="numpy")
