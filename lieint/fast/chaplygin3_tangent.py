@@ -29,8 +29,18 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .se3_tangent import coefficients, dexpinv_series, dexpinv_series_tangent, right_jacobian, rotate_back, translation
-from .tangent_sums import MEGNO_SLOTS, lyapunov_update, megno_update
+from .se3_tangent import (
+    attitude_turned_into,
+    coefficients,
+    combine_stage,
+    dexpinv_series,
+    dexpinv_series_tangent,
+    right_jacobian,
+    rotate_back,
+    tangent_attitude_turned,
+    translation,
+)
+from .tangent_sums import MEGNO_SLOTS, keep_row, lyapunov_update, megno_update, prepare_nothing
 from .top3 import _cross, _rodrigues
 
 __all__ = ["BLOCK", "FLAT", "MEGNO_SLOTS", "NAMESPACES"]
@@ -115,12 +125,6 @@ def _generator_tangent(par, track, adj, det, w0, w1, w2, g0, g1, g2, dp0, dp1, d
 
 
 @njit(cache=True)
-def form_prepare(ctx):
-    """Nothing to prepare: the stage code is in this module."""
-    return ctx
-
-
-@njit(cache=True)
 def form_scratch(fx, meth, par, d):
     """The stage slopes ``K`` (s, 6) and the tangent vectors' ``δK`` (k, s, 6), the stage's ``u``
     (6) and ``δu`` (k, 6), Q and the state's new R (3, 3)."""
@@ -135,14 +139,6 @@ def form_radius2(fx, y, par, scr):
     larger eigenvalue)."""
     w0, w1, w2, _, _, _, _, _ = _generator(par, False, y[0], y[1], y[2], y[3], y[4], y[5])
     return w0 * w0 + w1 * w1 + w2 * w2
-
-
-@njit(cache=True)
-def form_project(fx, y, par, out, scr):
-    """The row as it is: a run of tangent vectors does not project (the projection's derivative
-    is not carried, :class:`lieint.tangent.compiled.CompiledTangent` runs with ``project=False``)."""
-    for i in range(y.shape[0]):
-        out[i] = y[i]
 
 
 @njit(cache=True)
@@ -161,20 +157,7 @@ def form_rkmk_tangent_step(fx, y, par, meth, h, y1, inc, aux, scr):
     s = b.shape[0]
     p, g = y1[0:3], y1[3:6]
     for i in range(s + 1):  # the stages, then (i = s) the step's end
-        for c in range(6):
-            u[c] = 0.0
-        for m in range(k):
-            for c in range(6):
-                du[m, c] = 0.0
-        for j in range(i if i < s else s):
-            weight = A[i, j] if i < s else b[j]
-            if weight != 0.0:
-                hw = h * weight
-                for c in range(6):
-                    u[c] += hw * K[j, c]
-                for m in range(k):
-                    for c in range(6):
-                        du[m, c] += hw * dK[m, j, c]
+        combine_stage(i, A, b, h, K, dK, u, du, k)
         if i == 0:  # u = 0 and δu = 0: K₀ = ξ(y), δK₀ = δξ(y)
             w0, w1, w2, v0, v1, v2, adj, det = _generator(par, track, p[0], p[1], p[2], g[0], g[1], g[2])
             K[0, 0], K[0, 1], K[0, 2], K[0, 3], K[0, 4], K[0, 5] = w0, w1, w2, v0, v1, v2
@@ -193,9 +176,7 @@ def form_rkmk_tangent_step(fx, y, par, meth, h, y1, inc, aux, scr):
         pi0, pi1, pi2 = rotate_back(Q, p[0], p[1], p[2])
         gi0, gi1, gi2 = rotate_back(Q, g[0], g[1], g[2])
         if i == s:  # the step's end: the tangent vectors first, they read the state before it moves
-            for r in range(3):
-                for c in range(3):
-                    newR[r, c] = y1[9 + 3 * r] * Q[0, c] + y1[10 + 3 * r] * Q[1, c] + y1[11 + 3 * r] * Q[2, c]
+            attitude_turned_into(y1, 9, Q, newR)
             for m in range(k):
                 o = BLOCK * (m + 1)
                 w0, w1, w2 = right_jacobian(u, du[m], beta, gamma)
@@ -211,14 +192,8 @@ def form_rkmk_tangent_step(fx, y, par, meth, h, y1, inc, aux, scr):
                         y1[o + 6 + r] += (S0 * t0 + S1 * t1 + S2 * t2_) + (R0 * dt0 + R1 * dt1 + R2 * dt2)
                 y1[o], y1[o + 1], y1[o + 2] = a0 - e0, a1 - e1, a2 - e2
                 y1[o + 3], y1[o + 4], y1[o + 5] = b0 - f0, b1 - f1, b2 - f2
-                if orient:  # δR₁ = δR Q + R₁ ŵ, ŵ = [[0, −w2, w1], [w2, 0, −w0], [−w1, w0, 0]]
-                    for r in range(3):
-                        e = o + 9 + 3 * r
-                        s0, s1, s2 = y1[e], y1[e + 1], y1[e + 2]
-                        n0, n1, n2 = newR[r, 0], newR[r, 1], newR[r, 2]
-                        y1[e] = (s0 * Q[0, 0] + s1 * Q[1, 0] + s2 * Q[2, 0]) + (n1 * w2 - n2 * w1)
-                        y1[e + 1] = (s0 * Q[0, 1] + s1 * Q[1, 1] + s2 * Q[2, 1]) + (n2 * w0 - n0 * w2)
-                        y1[e + 2] = (s0 * Q[0, 2] + s1 * Q[1, 2] + s2 * Q[2, 2]) + (n0 * w1 - n1 * w0)
+                if orient:  # δR₁ = δR Q + R₁ ŵ
+                    tangent_attitude_turned(y1, o + 9, Q, newR, w0, w1, w2)
             if track:  # c₁ = c + R t
                 t0, t1, t2_, _, _, _ = translation(u, du[0], beta, gamma, dbeta, dgamma)
                 for r in range(3):
@@ -277,7 +252,7 @@ def form_rkmk_lyapunov_step(fx, y, par, meth, h, y1, inc, aux, scr):
     return spent
 
 
-_COMMON = {"prepare": form_prepare, "scratch": form_scratch, "project": form_project, "radius2": form_radius2}
+_COMMON = {"prepare": prepare_nothing, "scratch": form_scratch, "project": keep_row, "radius2": form_radius2}
 
 #: the names of :mod:`lieint.fast.loop` this form binds (fixed steps only, no projection: the
 #: projection's derivative is not carried; the adaptive loop's names are left unbound)

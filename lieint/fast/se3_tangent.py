@@ -15,12 +15,15 @@ from .top3 import _cross
 
 __all__ = [
     "ad_minus",
+    "attitude_turned_into",
     "coefficients",
+    "combine_stage",
     "dexpinv_series",
     "dexpinv_series_tangent",
     "phi1",
     "right_jacobian",
     "rotate_back",
+    "tangent_attitude_turned",
     "translation",
 ]
 
@@ -139,3 +142,45 @@ def dexpinv_series_tangent(u, du, coeffs, x0, x1, x2, x3, x4, x5, d0, d1, d2, d3
             k4 += cd * d4
             k5 += cd * d5
     return k0, k1, k2, k3, k4, k5
+
+
+@njit(cache=True, inline="always")
+def combine_stage(i, A, b, h, K, dK, u, du, k):
+    """``u = h Σ_j a_ij K_j`` and ``δu_m = h Σ_j a_ij δK_mj`` for stage i of the tableau (A, b), or
+    with the weights b for the step's end (``i = s``): K (s, 6), δK (k, s, 6)."""
+    s = b.shape[0]
+    for c in range(6):
+        u[c] = 0.0
+    for m in range(k):
+        for c in range(6):
+            du[m, c] = 0.0
+    for j in range(i if i < s else s):
+        weight = A[i, j] if i < s else b[j]
+        if weight != 0.0:
+            hw = h * weight
+            for c in range(6):
+                u[c] += hw * K[j, c]
+            for m in range(k):
+                for c in range(6):
+                    du[m, c] += hw * dK[m, j, c]
+
+
+@njit(cache=True, inline="always")
+def attitude_turned_into(y1, at, Q, out):
+    """``out = R Q`` for the attitude R stored row-major at ``y1[at : at + 9]``."""
+    for r in range(3):
+        for c in range(3):
+            out[r, c] = y1[at + 3 * r] * Q[0, c] + y1[at + 1 + 3 * r] * Q[1, c] + y1[at + 2 + 3 * r] * Q[2, c]
+
+
+@njit(cache=True, inline="always")
+def tangent_attitude_turned(y1, at, Q, turned, w0, w1, w2):
+    """``δR₁ = δR Q + R₁ ŵ`` in place for the δR stored at ``y1[at : at + 9]``, with ``R₁ = turned``
+    (:func:`attitude_turned_into`) and ``ŵ = [[0, −w2, w1], [w2, 0, −w0], [−w1, w0, 0]]``."""
+    for r in range(3):
+        e = at + 3 * r
+        s0, s1, s2 = y1[e], y1[e + 1], y1[e + 2]
+        n0, n1, n2 = turned[r, 0], turned[r, 1], turned[r, 2]
+        y1[e] = (s0 * Q[0, 0] + s1 * Q[1, 0] + s2 * Q[2, 0]) + (n1 * w2 - n2 * w1)
+        y1[e + 1] = (s0 * Q[0, 1] + s1 * Q[1, 1] + s2 * Q[2, 1]) + (n2 * w0 - n0 * w2)
+        y1[e + 2] = (s0 * Q[0, 2] + s1 * Q[1, 2] + s2 * Q[2, 2]) + (n0 * w1 - n1 * w0)

@@ -14,7 +14,15 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-__all__ = ["MEGNO_SLOTS", "chart_coordinates", "lyapunov_update", "megno_advance", "megno_update"]
+__all__ = [
+    "MEGNO_SLOTS",
+    "chart_coordinates",
+    "keep_row",
+    "lyapunov_update",
+    "megno_advance",
+    "megno_update",
+    "prepare_nothing",
+]
 
 #: the MEGNO sums after a body's state and its tangent vector: the time since the start,
 #: ``log|δ|`` (renormalisations added back), ``∫ s d log|δ|``, ``∫ Y dt``, ``Y``
@@ -127,3 +135,18 @@ def lyapunov_update(y1, k, block, flat, orient, every, total):
         y1[c + j] += np.log(norm)  # −inf or NaN when the vectors degenerate: the caller refuses
         for a in range(block):
             y1[oj + a] /= norm
+
+
+@njit(cache=True)
+def prepare_nothing(ctx):
+    """A tangent form's ``prepare``: nothing to prepare, the stage code is its module's."""
+    return ctx
+
+
+@njit(cache=True)
+def keep_row(fx, y, par, out, scr):
+    """A tangent form's ``project``: the row as it is. A run of tangent vectors does not project
+    (the projection's derivative is not carried: :class:`lieint.tangent.compiled.CompiledTangent`
+    runs with ``project=False``)."""
+    for i in range(y.shape[0]):
+        out[i] = y[i]

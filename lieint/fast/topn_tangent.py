@@ -28,7 +28,7 @@ from numba import njit
 
 from .se_algebra import out_of_range
 from .small_skew import bracket_skew_into, congruence_skew_into
-from .tangent_sums import MEGNO_SLOTS, megno_advance
+from .tangent_sums import MEGNO_SLOTS, keep_row, megno_advance, prepare_nothing
 from .topn_step import _exp_into
 
 __all__ = ["MEGNO_SLOTS", "NAMESPACES"]
@@ -153,12 +153,6 @@ def _series_tangent_into(U, dU, X, dX, coeffs, T, dT, tmp, tmp2, out):
 
 
 @njit(cache=True)
-def form_prepare(ctx):
-    """Nothing to prepare: the stage code is in this module."""
-    return ctx
-
-
-@njit(cache=True)
 def form_scratch(fx, meth, par, d):
     """The stage slopes ``K`` (s, n, n) and the tangent vectors' ``δK`` (k, s, n, n), ``U`` and
     ``δU`` (k, n, n), eight n × n temporaries (the stage's Ã, Ŵ, series terms, products), the
@@ -181,14 +175,6 @@ def form_radius2(fx, y, par, scr):
             w = par[_M + i * n + j] * y[i * n + j]
             total += w * w
     return total
-
-
-@njit(cache=True)
-def form_project(fx, y, par, out, scr):
-    """The row as it is: a run of tangent vectors does not project (the projection's derivative
-    is not carried, :class:`lieint.tangent.compiled.CompiledTangent` runs with ``project=False``)."""
-    for i in range(y.shape[0]):
-        out[i] = y[i]
 
 
 @njit(cache=True)
@@ -395,7 +381,7 @@ def form_rkmk_lyapunov_step(fx, y, par, meth, h, y1, inc, aux, scr):
     return spent
 
 
-_COMMON = {"prepare": form_prepare, "scratch": form_scratch, "project": form_project, "radius2": form_radius2}
+_COMMON = {"prepare": prepare_nothing, "scratch": form_scratch, "project": keep_row, "radius2": form_radius2}
 
 #: the names of :mod:`lieint.fast.loop` this form binds (fixed steps only, no projection: the
 #: projection's derivative is not carried; the adaptive loop's names are left unbound)
