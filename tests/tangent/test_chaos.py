@@ -40,8 +40,8 @@ def generic_heavy_top():
     energy and the Casimirs. A scan of MEGNO over |w| along two directions (T = 200, h = 0.05 and
     0.025) finds chaos below energy ≈ 7 and regular motion above ≈ 10 (the fast top is close to
     the free one). This state (|w| = 2 along (1, 2, 1.5), energy 3.96) is chaotic away from the
-    border: λ₁ = 0.132 at T = 2000 and 0.131 at T = 4000 (benchmarks/chaos_indicators.py); at
-    energy 6.5 the largest exponent still moved by 30 % between T = 2000 and 4000 (stickiness)."""
+    border: λ₁ = 0.129 at T = 2000 and 0.134 at T = 4000 (benchmarks/chaos_indicators.py); at
+    energy 6.5 the largest exponent moves by 20 % between h and h/2 (stickiness)."""
     B = lieint.EulerTop.from_principal_moments([1.0, 1.5, 2.0]).B
     top = lieint.HeavyTop(B, 1.0, [0.1, 0.05, 0.08], [0.0, 0.0, -9.81], orientation=False)
     w = np.array([1.0, 2.0, 1.5])
