@@ -244,6 +244,7 @@ def test_the_connect_deadline_defaults_to_twenty_seconds_everywhere():
     default 20 s in the command line, the Python call and the cluster alike."""
     import inspect
 
+    import lieint.cli  # not imported by `import lieint`: alone, this test must import it itself
     from lieint.sweeps.cluster import CONNECT_SECONDS
 
     parser = lieint.cli._build_parser()
