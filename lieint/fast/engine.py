@@ -38,7 +38,9 @@ from .forms import (
 )
 from .layouts import (
     Chaplygin3LanesLayout,
+    Chaplygin3Layout,
     HeavyTop3LanesLayout,
+    HeavyTop3Layout,
     Layout,
     PiecesEnergyLayout,
     PiecesLayout,
@@ -651,8 +653,14 @@ def _select(system, method, y0, form, adaptive: bool, project: bool, h) -> tuple
             HeavyTop3Form: HeavyTop3LanesLayout, Chaplygin3Form: Chaplygin3LanesLayout,
             RollingBall3Form: RollingBall3LanesLayout,
         }.get(type(form.lanes))  # fmt: skip
-        if lanes and not adaptive and meth.family == "rkmk" and meth.coordinates == "exp" and N >= lanes.FROM:
+        vector = {HeavyTop3Form: HeavyTop3Layout, Chaplygin3Form: Chaplygin3Layout}.get(type(form.lanes))
+        rkmk_exp = not adaptive and meth.family == "rkmk" and meth.coordinates == "exp"
+        if lanes and rkmk_exp and N >= lanes.FROM:
             layout = lanes(form.lanes, N)
+        elif vector and rkmk_exp and N == 1 and not project:
+            # one body in vectors: its step with no tangent vectors (no projection: a projecting
+            # run goes through the pieces, which project R and Γ)
+            layout = vector(form.lanes)
         else:
             # the vector field compiles only for the runs that call it: classical RK, the midpoint,
             # an adaptive run's first trial step

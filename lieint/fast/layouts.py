@@ -350,30 +350,28 @@ class HeavyTop3TangentLayout(_TangentRows):
         super().__init__(k)
 
     def _block(self, y: dict, N: int, tangent: bool) -> np.ndarray:
-        from .top3 import minus_vee
+        from .heavy3_tangent import user_to_rows
 
-        A, G = y["A"].reshape(N, 3, 3), y["Gamma"].reshape(N, 3)
-        if self.orientation:
-            R = y["R"].reshape(N, 3, 3)
-        else:
-            R = np.broadcast_to(np.zeros((3, 3)) if tangent else np.eye(3), (N, 3, 3))
-        if not self.identity_frame:
-            A, G, R = self.P.T @ A @ self.P, G @ self.P, R @ self.P
+        def rows(name, shape):
+            return np.ascontiguousarray(y[name], dtype=float).reshape((N, *shape))
+
+        R = rows("R", (3, 3)) if self.orientation else np.empty((0, 3, 3))
         Y = np.empty((N, self.block))
-        Y[:, :3], Y[:, 3:6], Y[:, 6:] = minus_vee(A), G, R.reshape(N, 9)
+        A, G = rows("A", (3, 3)), rows("Gamma", (3,))
+        user_to_rows(A, G, R, self.P, self.identity_frame, self.orientation, tangent, Y)
         return Y
 
     def _fields(self, Y: np.ndarray, batch: tuple) -> dict:
-        from .top3 import minus_hat
+        from .heavy3_tangent import rows_to_user
 
-        lead = Y.shape[:-2]
-        A, G = minus_hat(Y[..., :3]), Y[..., 3:6]
-        R = Y[..., 6:15].reshape(Y.shape[:-1] + (3, 3))
-        if not self.identity_frame:
-            A, G, R = self.P @ A @ self.P.T, G @ self.P.T, R @ self.P.T
-        states = {"A": A.reshape(lead + batch + (3, 3)), "Gamma": np.ascontiguousarray(G).reshape(lead + batch + (3,))}
+        lead = Y.shape[:-2] + batch
+        M = math.prod(Y.shape[:-1])
+        A, G = np.empty((M, 3, 3)), np.empty((M, 3))
+        R = np.empty((M if self.orientation else 0, 3, 3))
+        rows_to_user(Y.reshape(M, Y.shape[-1]), self.P, self.identity_frame, self.orientation, A, G, R)
+        states = {"A": A.reshape(lead + (3, 3)), "Gamma": G.reshape(lead + (3,))}
         if self.orientation:
-            states["R"] = np.ascontiguousarray(R).reshape(lead + batch + (3, 3))
+            states["R"] = R.reshape(lead + (3, 3))
         return states
 
 
@@ -450,6 +448,57 @@ class Chaplygin3LyapunovLayout(_LyapunovRows, Chaplygin3TangentLayout):
     ``par[14]``)."""
 
     label = "3D Chaplygin ball with its tangent vectors and their growth sums"
+
+
+class HeavyTop3Layout(HeavyTop3TangentLayout):
+    """One 3D heavy top in vectors: the block ``(Π, Γ̃, R̃)`` of :class:`HeavyTop3TangentLayout`
+    with no tangent vectors, stepped by :mod:`lieint.fast.heavy3_tangent`'s RKMK step with k = 0
+    (exponential coordinates, fixed steps). The engine picks it for one body whose run does not
+    project (its rows are the state alone; a projecting run goes through the compiled pieces)."""
+
+    label = "3D heavy top in vectors (principal frame)"
+
+    def __init__(self, form: HeavyTop3Form):
+        super().__init__(form, 0)
+
+    def start(self, y: dict, N: int) -> np.ndarray:
+        return self._block(y, N, False)
+
+    def increments(self, U: np.ndarray, batch: tuple):
+        """The steps' increments in the user's se(3), ``[[(P u_w)^, P u_v], [0, 0]]``."""
+        from ..groups.bivectors import hat
+        from ..groups.se import se_join
+
+        w, v = U[..., :3], U[..., 3:6]
+        if not self.identity_frame:
+            w, v = w @ self.P.T, v @ self.P.T
+        return se_join(hat(w), v, algebra=True).reshape(U.shape[:-2] + batch + (4, 4))
+
+
+class Chaplygin3Layout(Chaplygin3TangentLayout):
+    """One 3D Chaplygin ball in vectors: the block ``(Π, Γ, c, R)`` of
+    :class:`Chaplygin3TangentLayout` with no tangent vectors, stepped by
+    :mod:`lieint.fast.chaplygin3_tangent`'s RKMK step with k = 0 (exponential coordinates, fixed
+    steps); picked as :class:`HeavyTop3Layout` is."""
+
+    label = "3D Chaplygin ball in vectors"
+
+    def __init__(self, form: Chaplygin3Form):
+        super().__init__(form, 0)
+
+    def start(self, y: dict, N: int) -> np.ndarray:
+        return self._block(y, N, False)
+
+    def increments(self, U: np.ndarray, batch: tuple):
+        """The steps' increments in the ball's algebra: ``[[û_w, u_v], [0, 0]]`` on se(3), ``û_w``
+        on so(3) (without the centre)."""
+        from ..groups.bivectors import hat
+        from ..groups.se import se_join
+
+        lead = U.shape[:-2] + batch
+        if not self.center:
+            return hat(U[..., :3]).reshape(lead + (3, 3))
+        return se_join(hat(U[..., :3]), U[..., 3:6], algebra=True).reshape(lead + (4, 4))
 
 
 class TopNTangentLayout(_TangentRows):
