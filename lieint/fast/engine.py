@@ -430,14 +430,21 @@ class Engine:
         # a non-finite state makes it infinite (the check then looks at the rows themselves)
         # the evaluations the steps report (a map's Newton or fixed-point iterations): the most any
         # body spent, as the numpy path's batch counts an evaluation that moves every member
-        self.evaluations = int(evals.max(initial=0))
-        largest = float(np.maximum.reduce(norm2, initial=0.0))
+        if N == 1:  # one unit: its numbers as they are (numpy's reductions cost microseconds a call)
+            self.evaluations = max(int(evals[0]), 0)
+            largest = float(norm2[0])
+            largest = 0.0 if largest < 0.0 else largest  # NaN stays NaN, as in the reduction
+            first_bad = int(status[0])
+        else:
+            self.evaluations = int(evals.max(initial=0))
+            largest = float(np.maximum.reduce(norm2, initial=0.0))
+            bad = status[status >= 0]
+            first_bad = int(bad.min()) if bad.size else -1
         self._radius2 = max(self._radius2, largest) if math.isfinite(largest) else math.inf
-        bad = status[status >= 0]
-        if bad.size:
+        if first_bad >= 0:
             if isinstance(self.method, MapForm):
-                raise _unsolved(int(bad.min()), plan, self.method.family)
-            raise range_error(int(bad.min()), plan, self.layout.group)
+                raise _unsolved(first_bad, plan, self.method.family)
+            raise range_error(first_bad, plan, self.layout.group)
         result = {"Y": fin}, self.user_rows(out)
         if keep:
             return (*result, (kept_Y, kept_U))

@@ -3,13 +3,14 @@
 from __future__ import annotations
 
 import copy
+import math
 from collections.abc import Mapping
 from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike
 
-from .._validation import check_finite_positive, check_rotation, check_vector, describe
+from .._validation import check_finite_positive, check_rotation, check_skew, check_vector, describe
 from ..fast.forms import BUILTIN_PIECES, HeavyTop3Form, PiecesForm
 from ..groups.bivectors import skew_part, vee, wedge
 from ..groups.se import SE, se_join, se_split
@@ -233,7 +234,8 @@ class HeavyTop(LieGroupSystem):
             return None
         inertia, n = self.inertia, self.n
         head = [n, self.field_offsets().get("R", -1), float(inertia.diagonal)]
-        g = float(np.linalg.norm(self.gravity))
+        gravity = self.gravity
+        g = math.sqrt(float(gravity @ gravity))  # np.linalg.norm's numbers, without its wrapper
         params = np.concatenate([head, inertia.kernel_params, self._MXG, [g]])
 
         def build(params):
@@ -344,8 +346,8 @@ class HeavyTop(LieGroupSystem):
         return out
 
     def validate_state(self, y: Mapping[str, np.ndarray], name: str = "y0") -> State:
-        out = super().validate_state(y, name)
-        out["A"] = self.top.validate_state({"A": out["A"]}, name)["A"]
+        out = super().validate_state(y, name)  # every field a finite float array of its shape
+        out["A"] = check_skew(out["A"], f"{name}['A']")  # the top's check of its momentum
         if self.orientation:
             check_rotation(out["R"], f"{name}['R']", atol=1e-9)
         return out
