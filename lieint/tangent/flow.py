@@ -534,4 +534,6 @@ def step_schedule(
         raise ValueError(f"`h` must be a finite positive number; got {h!r}.")
     plan = Plan.make(t0, t1, float(h))
     k = np.arange(plan.nsteps)
-    return t0, t1, t0 + k * plan.h, np.array([plan.step_size(i) for i in k])
+    sizes = np.full(plan.nsteps, plan.h)  # Plan.step_size of every step: h, the last one its own
+    sizes[-1] = plan.step_size(plan.nsteps - 1)
+    return t0, t1, t0 + k * plan.h, sizes
