@@ -11,9 +11,9 @@ body each, CPU time of whole calls (the least of several, alternating between th
 * ``lieint.lyapunov`` (every exponent, a QR every 10 steps) and ``lieint.megno`` likewise.
 
 The cases: the free 3D top with ``moser_veselov``, ``splitting2`` and ``rkmk4``, the heavy top
-with and without attitude, the Chaplygin ball and the 4D top with ``rkmk4`` (compiled tangent
-steps), and the ball with an offset centre of mass with ``rkmk4`` (generic path: its tangent steps
-are not compiled). ``--hog`` keeps one busy-looping
+with and without attitude, the Chaplygin ball, the 4D top and the rolling ball with an offset
+centre of mass (gravity along the normal, and on an incline) with ``rkmk4``, all with compiled
+tangent steps; the last column says where each ran. ``--hog`` keeps one busy-looping
 process running meanwhile (the machine busy); the load average is printed.
 """
 
@@ -78,7 +78,9 @@ def run(steps: int, hogging: bool) -> None:
     ball = lieint.ChaplyginBall(np.diag([0.08, 0.12, 0.16]), 1.0, 1.0)
     top4 = lieint.EulerTop(np.diag([0.6, 0.8, 1.0, 1.3]))
     W = np.arange(16.0).reshape(4, 4) / 15.0
-    rolling = lieint.RollingBall(np.diag([0.1, 0.15, 0.2]), 1.0, 1.0, [0.0, 0.1, -0.2])
+    rolling = lieint.RollingBall(np.diag([0.1, 0.15, 0.2]), 1.0, 1.0, [0.0, 0.1, -0.2], [0.0, 0.0, -9.81])
+    tilted = 9.81 * np.array([np.sin(0.3), 0.0, -np.cos(0.3)])
+    incline = lieint.RollingBall(np.diag([0.1, 0.15, 0.2]), 1.0, 1.0, [0.0, 0.1, -0.2], tilted)
     free = lieint.EulerTop.from_principal_moments([1.0, 2.0, 3.0])
     cases = [
         ("free top", free, free.initial_state(angular_velocity=[1.0, 0.3, 0.2]), "moser_veselov"),
@@ -89,6 +91,7 @@ def run(steps: int, hogging: bool) -> None:
         ("Chaplygin ball", ball, ball.initial_state(angular_velocity=[0.3, 1.0, 0.4]), "rkmk4"),
         ("4D top", top4, top4.initial_state(Omega=0.3 * (W - W.T)), "rkmk4"),
         ("offset ball", rolling, rolling.initial_state(angular_velocity=[0.3, 1.0, 0.4]), "rkmk4"),
+        ("offset ball on an incline", incline, incline.initial_state(angular_velocity=[0.3, 1.0, 0.4]), "rkmk4"),
     ]
     time.sleep(0.5)
     beside = "with a busy-looping process" if hogging else "no busy-looping process"

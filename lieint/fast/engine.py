@@ -45,6 +45,7 @@ from .layouts import (
     PiecesEnergyLayout,
     PiecesLayout,
     RollingBall3LanesLayout,
+    RollingBall3Layout,
     Top3EnergyLayout,
     Top3LanesLayout,
     Top3Layout,
@@ -660,7 +661,9 @@ def _select(system, method, y0, form, adaptive: bool, project: bool, h) -> tuple
             HeavyTop3Form: HeavyTop3LanesLayout, Chaplygin3Form: Chaplygin3LanesLayout,
             RollingBall3Form: RollingBall3LanesLayout,
         }.get(type(form.lanes))  # fmt: skip
-        vector = {HeavyTop3Form: HeavyTop3Layout, Chaplygin3Form: Chaplygin3Layout}.get(type(form.lanes))
+        vector = {
+            HeavyTop3Form: HeavyTop3Layout, Chaplygin3Form: Chaplygin3Layout, RollingBall3Form: RollingBall3Layout,
+        }.get(type(form.lanes))  # fmt: skip
         rkmk_exp = not adaptive and meth.family == "rkmk" and meth.coordinates == "exp"
         if lanes and rkmk_exp and N >= lanes.FROM:
             layout = lanes(form.lanes, N)

@@ -450,6 +450,84 @@ class Chaplygin3LyapunovLayout(_LyapunovRows, Chaplygin3TangentLayout):
     label = "3D Chaplygin ball with its tangent vectors and their growth sums"
 
 
+class RollingBall3TangentLayout(_TangentRows):
+    """The 3D rolling ball with k tangent vectors (:mod:`lieint.fast.rolling3_tangent`): a body's
+    block is ``(ω, Γ, c, G, R)`` in the user's frame (``Ω = ω̂``; zero where the ball carries no
+    centre or G, R = I without attitude), a tangent vector's ``(δω, δΓ, δc, δG, δR)`` (zero where
+    the ball carries no such field). Parameters: :mod:`lieint.fast.rolling_lanes`' (J, M, r, ν,
+    whether the centre is tracked, the gravity mode, ⟨g, ν⟩, |g|, X_G), then whether the ball
+    carries R."""
+
+    module = "lieint.fast.rolling3_tangent"
+    label = "3D rolling ball with its tangent vectors"
+    block = 21
+    exact_radius = True
+
+    def __init__(self, form: RollingBall3Form, k: int):
+        B = np.asarray(form.B_C, dtype=float)
+        J = np.trace(B) * np.eye(3) - B
+        self.orientation, self.center, self.tilted = bool(form.orientation), bool(form.center), form.mode == 2
+        self.params = np.concatenate(
+            [J.ravel(), [form.mass, form.radius], np.asarray(form.normal, dtype=float), [float(self.center)],
+             [float(form.mode), form.g_normal, form.g_norm], np.asarray(form.center_of_mass, dtype=float),
+             [float(self.orientation)]]
+        )  # fmt: skip
+        self.group = "se(3)" if self.center else "so(3)"
+        # the ball's fields in its state's order (lieint.RollingBall): Ω, Γ, G on an incline, R, the centre
+        self.fields = ["Omega", "Gamma"] + ["G"] * self.tilted + ["R"] * self.orientation + ["center"] * self.center
+        self.count = 12 + (3 if self.tilted else 0) + (9 if self.orientation else 0) + (3 if self.center else 0)
+        super().__init__(k)
+
+    def increments_size(self, method) -> int:
+        return 9  # the pose's (u_w, u_v), then the so(3) factor's δ
+
+    def _block(self, y: dict, N: int, tangent: bool) -> np.ndarray:
+        Y = np.zeros((N, self.block))
+        W = y["Omega"].reshape(N, 3, 3)
+        Y[:, 0] = 0.5 * (W[:, 2, 1] - W[:, 1, 2])  # vee: Ω = ω̂
+        Y[:, 1] = 0.5 * (W[:, 0, 2] - W[:, 2, 0])
+        Y[:, 2] = 0.5 * (W[:, 1, 0] - W[:, 0, 1])
+        Y[:, 3:6] = y["Gamma"].reshape(N, 3)
+        if self.center:
+            Y[:, 6:9] = y["center"].reshape(N, 3)
+        if self.tilted:
+            Y[:, 9:12] = y["G"].reshape(N, 3)
+        if self.orientation:
+            Y[:, 12:] = y["R"].reshape(N, 9)
+        elif not tangent:
+            Y[:, 12:] = np.eye(3).ravel()
+        return Y
+
+    def _fields(self, Y: np.ndarray, batch: tuple) -> dict:
+        from ..groups.bivectors import hat
+
+        lead = Y.shape[:-2] + batch
+        states = {
+            "Omega": hat(np.ascontiguousarray(Y[..., :3])).reshape(lead + (3, 3)),
+            "Gamma": np.ascontiguousarray(Y[..., 3:6]).reshape(lead + (3,)),
+        }
+        if self.tilted:
+            states["G"] = np.ascontiguousarray(Y[..., 9:12]).reshape(lead + (3,))
+        if self.orientation:
+            states["R"] = np.ascontiguousarray(Y[..., 12:21]).reshape(lead + (3, 3))
+        if self.center:
+            states["center"] = np.ascontiguousarray(Y[..., 6:9]).reshape(lead + (3,))
+        return {name: states[name] for name in self.fields}
+
+
+class RollingBall3MegnoLayout(_MegnoRows, RollingBall3TangentLayout):
+    """The 3D rolling ball with one tangent vector and MEGNO's sums after it."""
+
+    label = "3D rolling ball with its tangent vector and MEGNO's sums"
+
+
+class RollingBall3LyapunovLayout(_LyapunovRows, RollingBall3TangentLayout):
+    """The 3D rolling ball with k tangent vectors and Benettin's sums (every, total: ``par[22]``,
+    ``par[23]``)."""
+
+    label = "3D rolling ball with its tangent vectors and their growth sums"
+
+
 class HeavyTop3Layout(HeavyTop3TangentLayout):
     """One 3D heavy top in vectors: the block ``(Π, Γ̃, R̃)`` of :class:`HeavyTop3TangentLayout`
     with no tangent vectors, stepped by :mod:`lieint.fast.heavy3_tangent`'s RKMK step with k = 0
@@ -499,6 +577,32 @@ class Chaplygin3Layout(Chaplygin3TangentLayout):
         if not self.center:
             return hat(U[..., :3]).reshape(lead + (3, 3))
         return se_join(hat(U[..., :3]), U[..., 3:6], algebra=True).reshape(lead + (4, 4))
+
+
+class RollingBall3Layout(RollingBall3TangentLayout):
+    """One 3D rolling ball in vectors: the block ``(ω, Γ, c, G, R)`` of
+    :class:`RollingBall3TangentLayout` with no tangent vectors, stepped by
+    :mod:`lieint.fast.rolling3_tangent`'s RKMK step with k = 0 (exponential coordinates, fixed
+    steps); picked as :class:`HeavyTop3Layout` is."""
+
+    label = "3D rolling ball in vectors"
+
+    def __init__(self, form: RollingBall3Form):
+        super().__init__(form, 0)
+
+    def start(self, y: dict, N: int) -> np.ndarray:
+        return self._block(y, N, False)
+
+    def increments(self, U: np.ndarray, batch: tuple):
+        """The steps' increments in the ball's algebra ``se(3) × so(3)`` (``so(3) × so(3)`` without
+        the centre): ``([[û_w, u_v], [0, 0]], δ̂)``."""
+        from ..groups.bivectors import hat
+        from ..groups.se import se_join
+
+        lead = U.shape[:-2] + batch
+        W, D = hat(U[..., :3]).reshape(lead + (3, 3)), hat(U[..., 6:9]).reshape(lead + (3, 3))
+        pose = se_join(W, U[..., 3:6].reshape(lead + (3,)), algebra=True) if self.center else W
+        return pose, D
 
 
 class TopNTangentLayout(_TangentRows):

@@ -11,8 +11,9 @@ costs about one step per tangent vector instead of a complex run each. Compiled 
   (``lie_euler``, ``rkmk2/3/4/6``: dexp⁻¹ truncated), its splittings into exact rotations
   (``splitting2/4/6``) and its Moser–Veselov maps (``moser_veselov``, ``moser_veselov_composed4/6``);
 * the n-dimensional top, n ≥ 4 (:mod:`lieint.fast.topn_tangent`), the 3D heavy top
-  (:mod:`lieint.fast.heavy3_tangent`) and the 3D Chaplygin ball (:mod:`lieint.fast.chaplygin3_tangent`):
-  their RKMK methods in exponential coordinates.
+  (:mod:`lieint.fast.heavy3_tangent`), the 3D Chaplygin ball (:mod:`lieint.fast.chaplygin3_tangent`)
+  and the 3D rolling ball with an offset centre of mass, gravity or an incline
+  (:mod:`lieint.fast.rolling3_tangent`): their RKMK methods in exponential coordinates.
 
 Everything else — other systems and methods, steps that are not one grid of equal steps with a
 shorter last one — runs on the generic path, and says so (:func:`compiled_reason`).
@@ -32,7 +33,7 @@ __all__ = ["COMPILED_REASON", "CompiledLyapunov", "CompiledMegno", "CompiledTang
 #: what a result says when its tangent map ran on the compiled engine
 COMPILED_REASON = (
     "compiled engine: the method's tangent steps in forward mode "
-    "(lieint.fast.top3_tangent, topn_tangent, heavy3_tangent, chaplygin3_tangent)"
+    "(lieint.fast.top3_tangent, topn_tangent, heavy3_tangent, chaplygin3_tangent, rolling3_tangent)"
 )
 
 #: the map families with compiled tangent steps on the 3D top (and RKMK: its forms are RKMKForm)
@@ -58,8 +59,8 @@ def compiled_reason(system, method) -> str:
     body = _BODIES.get(type(getattr(form, "lanes", form)).__name__)
     if not isinstance(form, Top3Form) and body is None:
         return (
-            "compiled tangent steps exist for the Euler top in every dimension, the 3D heavy top and the 3D "
-            "Chaplygin ball only"
+            "compiled tangent steps exist for the Euler top in every dimension, the 3D heavy top, the 3D "
+            "Chaplygin ball and the 3D rolling ball only"
         )
     meth = method.compiled()
     if body is not None:
@@ -82,14 +83,19 @@ def compiled_reason(system, method) -> str:
 
 #: the bodies with compiled tangent steps of RKMK besides the 3D top, by the class of their form
 #: (the n-D top's) or of its lanes form (the heavy top's and the ball's)
-_BODIES = {"HeavyTop3Form": "3D heavy top", "Chaplygin3Form": "3D Chaplygin ball", "TopNForm": "n-dimensional top"}
+_BODIES = {
+    "HeavyTop3Form": "3D heavy top",
+    "Chaplygin3Form": "3D Chaplygin ball",
+    "RollingBall3Form": "3D rolling ball",
+    "TopNForm": "n-dimensional top",
+}
 
 
 def _layouts(system):
     """The layouts of ``system``'s compiled tangent form: (tangent, MEGNO, Lyapunov) classes and the
     form they are built from."""
     from ..fast import layouts
-    from ..fast.forms import HeavyTop3Form, Top3Form, TopNForm
+    from ..fast.forms import HeavyTop3Form, RollingBall3Form, Top3Form, TopNForm
 
     form = system.compiled()
     if isinstance(form, Top3Form):
@@ -101,6 +107,12 @@ def _layouts(system):
             layouts.HeavyTop3TangentLayout,
             layouts.HeavyTop3MegnoLayout,
             layouts.HeavyTop3LyapunovLayout,
+        )
+    if isinstance(form.lanes, RollingBall3Form):
+        return form.lanes, (
+            layouts.RollingBall3TangentLayout,
+            layouts.RollingBall3MegnoLayout,
+            layouts.RollingBall3LyapunovLayout,
         )
     return form.lanes, (
         layouts.Chaplygin3TangentLayout,

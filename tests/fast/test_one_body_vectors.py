@@ -1,5 +1,5 @@
-"""One 3D heavy top or 3D Chaplygin ball in vectors (lieint.fast.layouts.HeavyTop3Layout,
-Chaplygin3Layout): a single body's fixed-step RKMK in exponential coordinates runs on the plain
+"""One 3D heavy top, Chaplygin ball or rolling ball in vectors (lieint.fast.layouts.HeavyTop3Layout,
+Chaplygin3Layout, RollingBall3Layout): a single body's fixed-step RKMK in exponential coordinates runs on the plain
 step of its tangent module (no tangent vectors), not on the compiled pieces' matrices. Checked
 against the generic numpy path for every such method of the registry, with dense output, events
 and ``t_eval``, and for what the right action keeps; a projecting run, Cayley coordinates and an
@@ -16,9 +16,11 @@ import lieint
 
 #: the methods the one-body vector steps serve: fixed-step RKMK in exponential coordinates
 VECTOR_METHODS = [m for m in compiled_methods() if lieint.get_method(m).compiled().family == "rkmk"]
-KINDS = ("heavy top", "Chaplygin ball")
-LABELS = {"heavy top": "3D heavy top in vectors", "Chaplygin ball": "3D Chaplygin ball in vectors"}
-KEPT = {"heavy top": ["casimirs", "gamma_norm"], "Chaplygin ball": ["casimirs", "gamma_norm", "gamma_A2_gamma"]}
+KINDS = ("heavy top", "Chaplygin ball", "rolling ball", "ball on an incline")
+LABELS = {"heavy top": "3D heavy top in vectors", "Chaplygin ball": "3D Chaplygin ball in vectors",
+          "rolling ball": "3D rolling ball in vectors", "ball on an incline": "3D rolling ball in vectors"}  # fmt: skip
+KEPT = {"heavy top": ["casimirs", "gamma_norm"], "Chaplygin ball": ["casimirs", "gamma_norm", "gamma_A2_gamma"],
+        "rolling ball": ["gamma_norm"], "ball on an incline": ["gamma_norm"]}  # fmt: skip
 
 
 def _body(kind, rng, full=True, diagonal=False):
@@ -27,7 +29,12 @@ def _body(kind, rng, full=True, diagonal=False):
         B = np.diag(rng.uniform(0.5, 1.5, 3)) if diagonal else spd(rng, 3, 0.5, 1.5)
         return lieint.HeavyTop(B, 1.3, 0.3 * rng.normal(size=3), [0.0, 0.0, -9.81], orientation=full)
     B = np.diag(rng.uniform(0.05, 0.2, 3)) if diagonal else spd(rng, 3, 0.05, 0.2)
-    return lieint.ChaplyginBall(B, 1.0, 0.8, orientation=full, track_center=full)
+    if kind == "Chaplygin ball":
+        return lieint.ChaplyginBall(B, 1.0, 0.8, orientation=full, track_center=full)
+    offset = rng.normal(size=3)
+    offset *= 0.1 / np.linalg.norm(offset)  # B_C − M X_G X_Gᵀ stays positive definite
+    gravity = [0.0, 0.0, -9.81] if kind == "rolling ball" else 9.81 * np.array([np.sin(0.4), 0.0, -np.cos(0.4)])
+    return lieint.RollingBall(B, 1.2, 0.8, offset, gravity, orientation=full, track_center=full)
 
 
 def _state(system, rng, spin=1.0):
@@ -36,6 +43,11 @@ def _state(system, rng, spin=1.0):
     if "center" in y0:
         y0["center"][:2] = rng.normal(size=2)
     return y0
+
+
+def _spin(y0):
+    """The name of the state's momentum field (the rolling ball's is Ω)."""
+    return "Omega" if "Omega" in y0 else "A"
 
 
 def _close(fast, ref, tol, where=""):
@@ -62,7 +74,7 @@ def test_one_body_in_vectors_matches_the_generic_path(rng, kind, method):
         fast = lieint.integrate(system, y0, backend="numba", **kw)
         ref = lieint.integrate(system, y0, backend="numpy", **kw)
         assert LABELS[kind] in fast.stats.backend_reason
-        assert fast.states["A"].shape == (4, 3, 3)
+        assert fast.states[_spin(y0)].shape == (4, 3, 3)
         _close(fast.states, ref.states, 1e-13, (full, diagonal, spin))
 
 
@@ -74,11 +86,12 @@ def test_dense_output_events_and_t_eval_in_vectors_are_the_generic_ones(rng, kin
     for full in (True, False):
         system = _body(kind, rng, full)
         y0 = _state(system, rng)
-        seen = lieint.integrate(system, y0, (0.0, 2.0), h=0.02, method="rkmk4", backend="numpy").states["A"][:, 0, 1]
+        spin = _spin(y0)
+        seen = lieint.integrate(system, y0, (0.0, 2.0), h=0.02, method="rkmk4", backend="numpy").states[spin][:, 0, 1]
         level = 0.5 * float(seen.min() + seen.max())  # crossed on the way
 
-        def crossing(t, y, level=level):
-            return y["A"][0, 1] - level
+        def crossing(t, y, level=level, spin=spin):
+            return y[spin][0, 1] - level
 
         kw = dict(t_span=(0.0, 2.0), h=0.02, method="rkmk4", dense_output=True, t_eval=np.linspace(0.1, 1.9, 7),
                   events=crossing)  # fmt: skip
@@ -94,15 +107,20 @@ def test_dense_output_events_and_t_eval_in_vectors_are_the_generic_ones(rng, kin
 
 @pytest.mark.parametrize("kind", KINDS)
 def test_the_vector_steps_keep_what_the_action_keeps(rng, kind):
-    """2,000 unprojected RKMK4 steps: the Casimirs and |Γ| (the ball's ΓᵀA²Γ) drift by round-off
-    only and R stays a rotation; the energy, which RKMK4 does not keep, moves."""
+    """2,000 unprojected RKMK4 steps: the Casimirs and |Γ| (the Chaplygin ball's ΓᵀA²Γ, the
+    incline's |G|) drift by round-off only and R stays a rotation; the energy, which RKMK4 does not
+    keep, moves (on the incline the ball rolls down and spins up: its error is not small)."""
     system = _body(kind, rng)
     sol = lieint.integrate(system, _state(system, rng), (0.0, 20.0), h=0.01, method="rkmk4", save_every=500)
     assert LABELS[kind] in sol.stats.backend_reason
     for name in KEPT[kind]:
         assert np.max(sol.drift(name)) < 1e-12, name
+    if "G" in sol.states:
+        assert np.max(np.abs(np.linalg.norm(sol.states["G"], axis=-1) - 9.81)) < 1e-12
     assert np.max(sol.invariants["orthogonality"]) < 1e-13
-    assert 0 < np.max(sol.drift("energy")) < 1e-5
+    assert 0 < np.max(sol.drift("energy"))
+    if kind != "ball on an incline":
+        assert np.max(sol.drift("energy")) < 1e-5
 
 
 @pytest.mark.parametrize("kind", KINDS)
@@ -129,6 +147,6 @@ def test_a_step_beyond_the_dexpinv_radius_is_refused_in_vectors_as_on_the_generi
     system = _body(kind, rng)
     y0 = _state(system, rng, 400.0)  # |ω| h ≥ 2π at a stage
     for backend in ("numba", "numpy"):
-        match = "se\\(3\\)" if kind == "heavy top" else "\\(3\\)"
+        match = "se\\(3\\)" if kind in ("heavy top", "rolling ball", "ball on an incline") else "\\(3\\)"
         with pytest.raises(lieint.DexpinvRangeError, match=match):
             lieint.integrate(system, y0, (0.0, 1.0), h=0.1, method="rkmk4", backend=backend)

@@ -85,9 +85,9 @@ def test_compiled_and_generic_agree_for_every_method(n, name):
             kw = dict(t_span=(0.0, 0.4), h=0.02, method=method, coordinates=coordinates, project=project)
             fast = lieint.integrate(system, y0, backend="numba", **kw)
             ref = lieint.integrate(system, y0, backend="numpy", **kw)
-            # one 3D heavy top or Chaplygin ball runs RKMK in exp coordinates unprojected in
+            # one 3D heavy top, Chaplygin or rolling ball runs RKMK in exp coordinates unprojected in
             # vectors (tests/fast/test_one_body_vectors.py), everything else on its pieces
-            vectors = n == 3 and name.split("/")[0] in ("heavy_top", "chaplygin_ball")
+            vectors = n == 3 and name.split("/")[0] in ("heavy_top", "chaplygin_ball", "rolling_ball")
             vectors = vectors and coordinates != "cayley" and not project and method in VECTOR_METHODS
             path = "in vectors" if vectors else "compiled pieces"
             assert fast.stats.backend == "numba" and path in fast.stats.backend_reason, (method, coordinates, project)
