@@ -9,7 +9,8 @@ method's degree (docs/theory.md §3): ``ξ = Ω̃ = M ∘ Ã`` (``M_ij = −1/(b
 tangent vector moves by the derivative of that step:
 
 * ``exp(U)`` moves by ``Qᵀ δQ = Ŵ = Σ_{j ≥ 0} (−1)^j/(j + 1)! ad_U^j δU`` (dexp of the right
-  trivialisation), summed until a term no longer changes the sum;
+  trivialisation), summed until a term no longer changes the sum — at n = 4 in closed form, the
+  right Jacobian of so(3) on each half of so(4) = so(3) ⊕ so(3);
 * ``δ(QᵀÃQ) = QᵀδÃQ + [QᵀÃQ, Ŵ]``, ``δR̃₁ = δR̃ Q + R̃₁ Ŵ``; ``δξ = M ∘ δÃ_i`` (ξ is linear);
 * ``δT_d = [−δU, T_{d−1}] + [−U, δT_{d−1}]``.
 
@@ -26,9 +27,11 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from .se3_tangent import coefficients
 from .se_algebra import out_of_range
 from .small_skew import bracket_skew_into, congruence_skew_into
 from .tangent_sums import MEGNO_SLOTS, keep_row, megno_advance, prepare_nothing
+from .top3 import _cross
 from .topn_step import _exp_into
 
 __all__ = ["MEGNO_SLOTS", "NAMESPACES"]
@@ -85,11 +88,44 @@ def _conjugate_into(Q, X, M, tmp, out):
             out[j, i] = -acc
 
 
+@njit(cache=True, inline="always")
+def _jacobian3(u0, u1, u2, v0, v1, v2):
+    """``v − β u × v + γ u × (u × v)``: the right Jacobian of so(3) at u applied to v."""
+    beta, gamma, _, _ = coefficients(u0 * u0 + u1 * u1 + u2 * u2)
+    c0, c1, c2 = _cross(u0, u1, u2, v0, v1, v2)
+    e0, e1, e2 = _cross(u0, u1, u2, c0, c1, c2)
+    return v0 - beta * c0 + gamma * e0, v1 - beta * c1 + gamma * e1, v2 - beta * c2 + gamma * e2
+
+
+@njit(cache=True)
+def _dexp4_into(U, V, out):
+    """:func:`_dexp_into` on so(4) in closed form: so(4) = so(3) ⊕ so(3), ``X = Σ a_i E⁺_i + Σ b_i E⁻_i``
+    (``E⁺ = e₁₂ + e₃₄, e₁₃ − e₂₄, e₁₄ + e₂₃``, ``E⁻ = e₁₂ − e₃₄, e₁₃ + e₂₄, e₁₄ − e₂₃``), where
+    ``[X, Y]`` has the parts ``−2 a × a′`` and ``2 b × b′``: ad_U is the cross product by ``−2a`` on the
+    first part and by ``2b`` on the second, and the series sums to the right Jacobian of so(3) on
+    each (β and γ of its angle)."""
+    a0, a1, a2 = 0.5 * (U[0, 1] + U[2, 3]), 0.5 * (U[0, 2] - U[1, 3]), 0.5 * (U[0, 3] + U[1, 2])
+    b0, b1, b2 = 0.5 * (U[0, 1] - U[2, 3]), 0.5 * (U[0, 2] + U[1, 3]), 0.5 * (U[0, 3] - U[1, 2])
+    p0, p1, p2 = 0.5 * (V[0, 1] + V[2, 3]), 0.5 * (V[0, 2] - V[1, 3]), 0.5 * (V[0, 3] + V[1, 2])
+    q0, q1, q2 = 0.5 * (V[0, 1] - V[2, 3]), 0.5 * (V[0, 2] + V[1, 3]), 0.5 * (V[0, 3] - V[1, 2])
+    p0, p1, p2 = _jacobian3(-2.0 * a0, -2.0 * a1, -2.0 * a2, p0, p1, p2)
+    q0, q1, q2 = _jacobian3(2.0 * b0, 2.0 * b1, 2.0 * b2, q0, q1, q2)
+    w01, w23, w02, w13, w03, w12 = p0 + q0, p0 - q0, p1 + q1, q1 - p1, p2 + q2, p2 - q2
+    out[0, 0], out[0, 1], out[0, 2], out[0, 3] = 0.0, w01, w02, w03
+    out[1, 0], out[1, 1], out[1, 2], out[1, 3] = -w01, 0.0, w12, w13
+    out[2, 0], out[2, 1], out[2, 2], out[2, 3] = -w02, -w12, 0.0, w23
+    out[3, 0], out[3, 1], out[3, 2], out[3, 3] = -w03, -w13, -w23, 0.0
+
+
 @njit(cache=True)
 def _dexp_into(U, V, term, nxt, out):
-    """``out = Σ_{j ≥ 0} (−1)^j/(j + 1)! ad_U^j V``, summed until a term adds nothing to the sum
-    (at most 60 terms; the series converges for every U, fast for a step's ``‖U‖``)."""
+    """``out = Σ_{j ≥ 0} (−1)^j/(j + 1)! ad_U^j V``: in closed form at n = 4 (:func:`_dexp4_into`),
+    else summed until a term adds nothing to the sum (at most 60 terms; the series converges for
+    every U, fast for a step's ``‖U‖``)."""
     n = U.shape[0]
+    if n == 4:
+        _dexp4_into(U, V, out)
+        return
     for i in range(n):
         for j in range(n):
             term[i, j] = V[i, j]
