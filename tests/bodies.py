@@ -100,3 +100,33 @@ def applies(method, system) -> bool:
     except (TypeError, ValueError):
         return False
     return True
+
+
+def body3(kind, rng, full=True, diagonal=False):
+    """A 3D heavy top, Chaplygin ball or rolling ball with an offset centre of mass (gravity along
+    the plane's normal, ``kind`` "rolling ball", or tilted, "ball on an incline": the incline's G a
+    field of the state); ``full``: with R (and the ball's centre); ``diagonal``: a diagonal mass
+    tensor (the principal frame the user's)."""
+    if kind == "heavy top":
+        B = np.diag(rng.uniform(0.5, 1.5, 3)) if diagonal else spd(rng, 3, 0.5, 1.5)
+        return lieint.HeavyTop(B, 1.3, 0.3 * rng.normal(size=3), [0.0, 0.0, -9.81], orientation=full)
+    B = np.diag(rng.uniform(0.05, 0.2, 3)) if diagonal else spd(rng, 3, 0.05, 0.2)
+    if kind == "Chaplygin ball":
+        return lieint.ChaplyginBall(B, 1.0, 0.8, orientation=full, track_center=full)
+    offset = rng.normal(size=3)
+    offset *= 0.1 / np.linalg.norm(offset)  # B_C − M X_G X_Gᵀ stays positive definite
+    gravity = [0.0, 0.0, -9.81] if kind == "rolling ball" else 9.81 * np.array([np.sin(0.4), 0.0, -np.cos(0.4)])
+    return lieint.RollingBall(B, 1.2, 0.8, offset, gravity, orientation=full, track_center=full)
+
+
+def spin_field(y0) -> str:
+    """The name of a state's momentum field (A; the rolling ball's Ω)."""
+    return "Omega" if "Omega" in y0 else "A"
+
+
+def assert_states_close(fast, ref, tol, where=""):
+    """The same fields in the same order, each within ``tol`` of ``ref`` relative to its size."""
+    assert list(fast) == list(ref), where
+    for name, values in ref.items():
+        scale = max(1.0, np.abs(values).max())
+        np.testing.assert_allclose(fast[name], values, rtol=0, atol=tol * scale, err_msg=f"{where} {name}")

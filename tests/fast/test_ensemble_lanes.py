@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from bodies import spd
+from bodies import assert_states_close, body3, spd, spin_field
 from conftest import compiled_methods, random_rotation
 
 import lieint
@@ -28,27 +28,11 @@ KEPT = {
 
 
 def _body(kind, rng, full=True, diagonal=False):
-    """A 3D heavy top, Chaplygin ball or rolling ball with an offset centre of mass (gravity along
-    the plane's normal, or tilted: the incline's G a field of the state); ``full``: with R (and
-    the ball's centre)."""
-    if kind == "heavy top":
-        B = np.diag(rng.uniform(0.5, 1.5, 3)) if diagonal else spd(rng, 3, 0.5, 1.5)
-        return lieint.HeavyTop(B, 1.3, 0.3 * rng.normal(size=3), [0.0, 0.0, -9.81], orientation=full)
+    """A 4D top (``kind`` "4D top"), else :func:`bodies.body3`'s 3D body."""
     if kind == "4D top":
         B = np.diag(rng.uniform(0.5, 2.5, 4)) if diagonal else spd(rng, 4, 0.5, 2.5)
         return lieint.EulerTop(B, orientation=full)
-    B = np.diag(rng.uniform(0.05, 0.2, 3)) if diagonal else spd(rng, 3, 0.05, 0.2)
-    if kind == "Chaplygin ball":
-        return lieint.ChaplyginBall(B, 1.0, 0.8, orientation=full, track_center=full)
-    offset = rng.normal(size=3)
-    offset *= 0.1 / np.linalg.norm(offset)  # B_C − M X_G X_Gᵀ stays positive definite
-    gravity = [0.0, 0.0, -9.81] if kind == "rolling ball" else 9.81 * np.array([np.sin(0.4), 0.0, -np.cos(0.4)])
-    return lieint.RollingBall(B, 1.2, 0.8, offset, gravity, orientation=full, track_center=full)
-
-
-def _spin(y0):
-    """The name of the state's momentum field (the balls': A for Chaplygin's, Omega for rolling)."""
-    return "Omega" if "Omega" in y0 else "A"
+    return body3(kind, rng, full, diagonal)
 
 
 def _ensemble(system, rng, n):
@@ -60,13 +44,6 @@ def _ensemble(system, rng, n):
     if "center" in y0:  # anywhere on the plane
         y0["center"][:, :2] = rng.normal(size=(n, 2))
     return y0
-
-
-def _close(fast, ref, tol, where=""):
-    assert list(fast) == list(ref), where
-    for name, values in ref.items():
-        scale = max(1.0, np.abs(values).max())
-        np.testing.assert_allclose(fast[name], values, rtol=0, atol=tol * scale, err_msg=f"{where} {name}")
 
 
 def test_the_lanes_serve_every_fixed_step_rkmk_method_in_exponential_coordinates():
@@ -88,17 +65,17 @@ def test_lanes_match_the_generic_path(rng, kind, method):
         system = _body(kind, rng, full)
         y0 = _ensemble(system, rng, 13)
         if kind in ("heavy top", "Chaplygin ball"):
-            y0[_spin(y0)][5] *= 30.0
+            y0[spin_field(y0)][5] *= 30.0
         else:
             body = {k: v[5] for k, v in y0.items()}
             Om = body["Omega"] if "Omega" in body else system.generator(0.0, body)
-            y0[_spin(y0)][5] *= 0.25 / (0.02 * np.sqrt(0.5 * np.sum(Om**2)))
+            y0[spin_field(y0)][5] *= 0.25 / (0.02 * np.sqrt(0.5 * np.sum(Om**2)))
         kw = dict(t_span=(0.0, 0.6), h=0.02, method=method, project=project, save_every=10)
         fast = lieint.integrate(system, y0, backend="numba", **kw)
         ref = lieint.integrate(system, y0, backend="numpy", **kw)
         assert f"{LABELS[kind]} in SIMD lanes" in fast.stats.backend_reason
-        assert fast.states[_spin(y0)].shape == (4, 13, system.n, system.n)
-        _close(fast.states, ref.states, 1e-13, (full, project))
+        assert fast.states[spin_field(y0)].shape == (4, 13, system.n, system.n)
+        assert_states_close(fast.states, ref.states, 1e-13, (full, project))
 
 
 @pytest.mark.parametrize("kind", KINDS)
@@ -109,7 +86,7 @@ def test_an_ensemble_cut_in_chunks_gives_one_calls_bits(rng, kind):
     system = _body(kind, rng)
     n = 140
     y0 = _ensemble(system, rng, n)
-    y0[_spin(y0)][40] *= 40.0
+    y0[spin_field(y0)][40] *= 40.0
     kw = dict(t_span=(0.0, 0.3), h=0.01, method="rkmk4", save_every=10)
     whole = lieint.integrate(system, y0, **kw)
     assert "SIMD lanes" in whole.stats.backend_reason
@@ -130,7 +107,7 @@ def test_one_body_of_the_ensemble_is_the_body_run_alone(rng, kind):
     alone = lieint.integrate(system, {k: v[6] for k, v in y0.items()}, **kw)
     assert "SIMD lanes" in ensemble.stats.backend_reason
     assert "compiled engine" in alone.stats.backend_reason and "SIMD lanes" not in alone.stats.backend_reason
-    _close({k: v[:, 6] for k, v in ensemble.states.items()}, alone.states, 3e-14)
+    assert_states_close({k: v[:, 6] for k, v in ensemble.states.items()}, alone.states, 3e-14)
 
 
 @pytest.mark.parametrize("kind", KINDS)
@@ -165,16 +142,16 @@ def test_dense_output_and_t_eval_of_the_lanes_are_the_generic_ones(rng, kind):
         fast = lieint.integrate(system, y0, backend="numba", **kw)
         ref = lieint.integrate(system, y0, backend="numpy", **kw)
         assert "SIMD lanes" in fast.stats.backend_reason
-        _close(fast.states, ref.states, 3e-14, full)
+        assert_states_close(fast.states, ref.states, 3e-14, full)
         midway = np.linspace(0.011, 0.987, 9)
-        _close(fast.sol(midway), ref.sol(midway), 3e-14, full)
+        assert_states_close(fast.sol(midway), ref.sol(midway), 3e-14, full)
 
 
 @pytest.mark.parametrize("kind", KINDS)
 def test_a_step_beyond_the_dexpinv_radius_is_refused_as_on_the_generic_path(rng, kind):
     system = _body(kind, rng)
     y0 = _ensemble(system, rng, 4)
-    y0[_spin(y0)][2] *= 400.0  # |ω| h ≥ 2π at a stage
+    y0[spin_field(y0)][2] *= 400.0  # |ω| h ≥ 2π at a stage
     for backend in ("numba", "numpy"):
         with pytest.raises(lieint.DexpinvRangeError, match="so\\(4\\)" if kind == "4D top" else "se\\(3\\)"):
             lieint.integrate(system, y0, (0.0, 1.0), h=0.1, method="rkmk4", backend=backend)

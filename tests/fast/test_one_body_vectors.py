@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from bodies import spd
+from bodies import assert_states_close, body3, spin_field
 from conftest import compiled_methods, random_rotation
 
 import lieint
@@ -23,38 +23,12 @@ KEPT = {"heavy top": ["casimirs", "gamma_norm"], "Chaplygin ball": ["casimirs", 
         "rolling ball": ["gamma_norm"], "ball on an incline": ["gamma_norm"]}  # fmt: skip
 
 
-def _body(kind, rng, full=True, diagonal=False):
-    """A 3D heavy top or Chaplygin ball; ``full``: with R (and the ball's centre)."""
-    if kind == "heavy top":
-        B = np.diag(rng.uniform(0.5, 1.5, 3)) if diagonal else spd(rng, 3, 0.5, 1.5)
-        return lieint.HeavyTop(B, 1.3, 0.3 * rng.normal(size=3), [0.0, 0.0, -9.81], orientation=full)
-    B = np.diag(rng.uniform(0.05, 0.2, 3)) if diagonal else spd(rng, 3, 0.05, 0.2)
-    if kind == "Chaplygin ball":
-        return lieint.ChaplyginBall(B, 1.0, 0.8, orientation=full, track_center=full)
-    offset = rng.normal(size=3)
-    offset *= 0.1 / np.linalg.norm(offset)  # B_C − M X_G X_Gᵀ stays positive definite
-    gravity = [0.0, 0.0, -9.81] if kind == "rolling ball" else 9.81 * np.array([np.sin(0.4), 0.0, -np.cos(0.4)])
-    return lieint.RollingBall(B, 1.2, 0.8, offset, gravity, orientation=full, track_center=full)
-
-
 def _state(system, rng, spin=1.0):
     kw = {"R": random_rotation(rng, 3)} if "R" in system.fields else {}
     y0 = system.initial_state(angular_velocity=spin * rng.normal(size=3), **kw)
     if "center" in y0:
         y0["center"][:2] = rng.normal(size=2)
     return y0
-
-
-def _spin(y0):
-    """The name of the state's momentum field (the rolling ball's is Ω)."""
-    return "Omega" if "Omega" in y0 else "A"
-
-
-def _close(fast, ref, tol, where=""):
-    assert list(fast) == list(ref), where
-    for name, values in ref.items():
-        scale = max(1.0, np.abs(values).max())
-        np.testing.assert_allclose(fast[name], values, rtol=0, atol=tol * scale, err_msg=f"{where} {name}")
 
 
 def test_the_vector_steps_serve_every_fixed_step_rkmk_method():
@@ -68,14 +42,14 @@ def test_one_body_in_vectors_matches_the_generic_path(rng, kind, method):
     """Every method, a principal frame that is not the user's (and one that is), with and
     without R and the centre, slow and fast (θ = |ω| h ≥ 0.1: the trigonometric coefficients)."""
     for full, diagonal, spin in ((True, False, 1.0), (False, False, 30.0), (True, True, 30.0), (False, True, 1.0)):
-        system = _body(kind, rng, full, diagonal)
+        system = body3(kind, rng, full, diagonal)
         y0 = _state(system, rng, spin)
         kw = dict(t_span=(0.0, 0.6), h=0.02, method=method, save_every=10)
         fast = lieint.integrate(system, y0, backend="numba", **kw)
         ref = lieint.integrate(system, y0, backend="numpy", **kw)
         assert LABELS[kind] in fast.stats.backend_reason
-        assert fast.states[_spin(y0)].shape == (4, 3, 3)
-        _close(fast.states, ref.states, 1e-13, (full, diagonal, spin))
+        assert fast.states[spin_field(y0)].shape == (4, 3, 3)
+        assert_states_close(fast.states, ref.states, 1e-13, (full, diagonal, spin))
 
 
 @pytest.mark.parametrize("kind", KINDS)
@@ -84,9 +58,9 @@ def test_dense_output_events_and_t_eval_in_vectors_are_the_generic_ones(rng, kin
     the interpolant between steps, the rows at ``t_eval`` and the located events are the numpy
     path's."""
     for full in (True, False):
-        system = _body(kind, rng, full)
+        system = body3(kind, rng, full)
         y0 = _state(system, rng)
-        spin = _spin(y0)
+        spin = spin_field(y0)
         seen = lieint.integrate(system, y0, (0.0, 2.0), h=0.02, method="rkmk4", backend="numpy").states[spin][:, 0, 1]
         level = 0.5 * float(seen.min() + seen.max())  # crossed on the way
 
@@ -98,9 +72,9 @@ def test_dense_output_events_and_t_eval_in_vectors_are_the_generic_ones(rng, kin
         fast = lieint.integrate(system, y0, backend="numba", **kw)
         ref = lieint.integrate(system, y0, backend="numpy", **kw)
         assert LABELS[kind] in fast.stats.backend_reason
-        _close(fast.states, ref.states, 3e-14, full)
+        assert_states_close(fast.states, ref.states, 3e-14, full)
         midway = np.linspace(0.011, 1.987, 9)
-        _close(fast.sol(midway), ref.sol(midway), 3e-14, full)
+        assert_states_close(fast.sol(midway), ref.sol(midway), 3e-14, full)
         assert len(ref.t_events[0]) >= 1
         np.testing.assert_allclose(fast.t_events[0], ref.t_events[0], rtol=0, atol=1e-12)
 
@@ -110,7 +84,7 @@ def test_the_vector_steps_keep_what_the_action_keeps(rng, kind):
     """2,000 unprojected RKMK4 steps: the Casimirs and |Γ| (the Chaplygin ball's ΓᵀA²Γ, the
     incline's |G|) drift by round-off only and R stays a rotation; the energy, which RKMK4 does not
     keep, moves (on the incline the ball rolls down and spins up: its error is not small)."""
-    system = _body(kind, rng)
+    system = body3(kind, rng)
     sol = lieint.integrate(system, _state(system, rng), (0.0, 20.0), h=0.01, method="rkmk4", save_every=500)
     assert LABELS[kind] in sol.stats.backend_reason
     for name in KEPT[kind]:
@@ -127,7 +101,7 @@ def test_the_vector_steps_keep_what_the_action_keeps(rng, kind):
 def test_projection_cayley_and_ensembles_keep_their_own_compiled_paths(rng, kind):
     """A projecting run goes through the compiled pieces (which project R and Γ), Cayley
     coordinates too, an ensemble through the SIMD lanes; each says so and matches the numpy path."""
-    system = _body(kind, rng)
+    system = body3(kind, rng)
     y0 = _state(system, rng)
     two = {k: np.stack([v, v]) for k, v in y0.items()}
     for state, options, words in (
@@ -139,12 +113,12 @@ def test_projection_cayley_and_ensembles_keep_their_own_compiled_paths(rng, kind
         fast = lieint.integrate(system, state, backend="numba", **kw)
         ref = lieint.integrate(system, state, backend="numpy", **kw)
         assert words in fast.stats.backend_reason and "in vectors" not in fast.stats.backend_reason, options
-        _close(fast.states, ref.states, 1e-13, options)
+        assert_states_close(fast.states, ref.states, 1e-13, options)
 
 
 @pytest.mark.parametrize("kind", KINDS)
 def test_a_step_beyond_the_dexpinv_radius_is_refused_in_vectors_as_on_the_generic_path(rng, kind):
-    system = _body(kind, rng)
+    system = body3(kind, rng)
     y0 = _state(system, rng, 400.0)  # |ω| h ≥ 2π at a stage
     for backend in ("numba", "numpy"):
         match = "se\\(3\\)" if kind in ("heavy top", "rolling ball", "ball on an incline") else "\\(3\\)"
