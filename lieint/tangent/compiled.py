@@ -161,12 +161,12 @@ class _CompiledRun:
 
 
 class CompiledTangent(_CompiledRun):
-    """The compiled tangent steps of one method on one 3D top, heavy top or Chaplygin ball, for k vectors and a batch.
+    """The compiled tangent steps of one method on one top, 3D heavy top or 3D ball, for k vectors and a batch.
 
     Parameters
     ----------
-    system : lieint.EulerTop, lieint.HeavyTop or lieint.ChaplyginBall
-        A 3D top, heavy top or Chaplygin ball (:func:`compiled_reason` is "").
+    system : lieint.EulerTop, lieint.HeavyTop, lieint.ChaplyginBall or lieint.RollingBall
+        An Euler top, a 3D heavy top, Chaplygin ball or rolling ball (:func:`compiled_reason` is "").
     method : Method
         One whose :func:`compiled_reason` is "" (RKMK in exponential coordinates, the
         splittings, the Moser–Veselov maps).
@@ -198,8 +198,8 @@ class CompiledMegno(_CompiledRun):
 
     Parameters
     ----------
-    system : lieint.EulerTop, lieint.HeavyTop or lieint.ChaplyginBall
-        A 3D top, heavy top or Chaplygin ball (:func:`compiled_reason` is "").
+    system : lieint.EulerTop, lieint.HeavyTop, lieint.ChaplyginBall or lieint.RollingBall
+        An Euler top, a 3D heavy top, Chaplygin ball or rolling ball (:func:`compiled_reason` is "").
     method : Method
         One whose :func:`compiled_reason` is "" (RKMK in exponential coordinates, the
         splittings, the Moser–Veselov maps).
@@ -226,8 +226,8 @@ class CompiledLyapunov(_CompiledRun):
 
     Parameters
     ----------
-    system : lieint.EulerTop, lieint.HeavyTop or lieint.ChaplyginBall
-        A 3D top, heavy top or Chaplygin ball (:func:`compiled_reason` is "").
+    system : lieint.EulerTop, lieint.HeavyTop, lieint.ChaplyginBall or lieint.RollingBall
+        An Euler top, a 3D heavy top, Chaplygin ball or rolling ball (:func:`compiled_reason` is "").
     method : Method
         One whose :func:`compiled_reason` is "" (RKMK in exponential coordinates, the
         splittings, the Moser–Veselov maps).

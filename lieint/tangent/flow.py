@@ -22,7 +22,8 @@ was chosen over forward mode by hand.
 The complex copies run on the generic numpy path (the compiled kernels are real), except where
 the compiled engine has the method's tangent steps written out in forward mode — the 3D top's
 RKMK methods, splittings into exact rotations and Moser–Veselov maps, the RKMK methods of the
-n-dimensional top, the 3D heavy top and the 3D Chaplygin ball (:mod:`lieint.tangent.compiled`):
+n-dimensional top, the 3D heavy top, the 3D Chaplygin ball and the 3D rolling ball
+(:mod:`lieint.tangent.compiled`):
 :meth:`TangentStepper.advance` reads the copies as a real state and its derivatives and steps
 them there. Every result's ``backend_reason`` says which path ran (:data:`BACKEND_REASON`,
 :data:`lieint.tangent.compiled.COMPILED_REASON`).
@@ -272,8 +273,9 @@ class TangentStepper:
 
         On the compiled engine where the method's tangent steps are compiled
         (:mod:`lieint.tangent.compiled`: the 3D top's RKMK methods, splittings and Moser–Veselov
-        maps, the RKMK methods of the n-D top, the 3D heavy top and Chaplygin ball; steps of one size with a
-        last of its own), else step by step on the generic path (:meth:`step`);
+        maps, the RKMK methods of the n-D top, the 3D heavy top, Chaplygin ball and rolling ball;
+        steps of one size with a last of its own), else step by step on the generic path
+        (:meth:`step`);
         :attr:`backend_reason` says which.
 
         Parameters
