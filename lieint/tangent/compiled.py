@@ -55,13 +55,13 @@ def compiled_reason(system, method) -> str:
     """Why the tangent map of ``method`` on ``system`` does not run compiled ("" when it does)."""
     from ..fast.forms import MapForm, RKMKForm, Top3Form
 
-    form = system.compiled()
-    body = _BODIES.get(type(getattr(form, "lanes", form)).__name__)
-    if not isinstance(form, Top3Form) and body is None:
+    form, entry = _declared(system)
+    if entry is None:
         return (
             "compiled tangent steps exist for the Euler top in every dimension, the 3D heavy top, the 3D "
             "Chaplygin ball and the 3D rolling ball only"
         )
+    body = None if isinstance(form, Top3Form) else entry[0]
     meth = method.compiled()
     if body is not None:
         what = f"{method.name!r} has no compiled tangent steps on the {body} (compiled: RKMK in exponential "
@@ -81,44 +81,35 @@ def compiled_reason(system, method) -> str:
     return ""
 
 
-#: the bodies with compiled tangent steps of RKMK besides the 3D top, by the class of their form
-#: (the n-D top's) or of its lanes form (the heavy top's and the ball's)
-_BODIES = {
-    "HeavyTop3Form": "3D heavy top",
-    "Chaplygin3Form": "3D Chaplygin ball",
-    "RollingBall3Form": "3D rolling ball",
-    "TopNForm": "n-dimensional top",
+#: the forms with compiled tangent steps, by class name (the 3D top's and the n-D top's own, the
+#: heavy top's and the balls' lanes form, :attr:`lieint.fast.forms.PiecesForm.lanes`): what a
+#: message calls the body, and the prefix of its layouts' names in :mod:`lieint.fast.layouts`
+#: (``<prefix>TangentLayout``, ``<prefix>MegnoLayout``, ``<prefix>LyapunovLayout``)
+_FORMS = {
+    "Top3Form": ("3D top", "Top3"),
+    "TopNForm": ("n-dimensional top", "TopN"),
+    "HeavyTop3Form": ("3D heavy top", "HeavyTop3"),
+    "Chaplygin3Form": ("3D Chaplygin ball", "Chaplygin3"),
+    "RollingBall3Form": ("3D rolling ball", "RollingBall3"),
 }
+
+
+def _declared(system):
+    """``system``'s form with compiled tangent steps (its lanes form for compiled pieces) and its
+    :data:`_FORMS` entry, or None for the entry when it has none."""
+    form = system.compiled()
+    form = getattr(form, "lanes", form)
+    return form, _FORMS.get(type(form).__name__)
 
 
 def _layouts(system):
     """The layouts of ``system``'s compiled tangent form: (tangent, MEGNO, Lyapunov) classes and the
     form they are built from."""
     from ..fast import layouts
-    from ..fast.forms import HeavyTop3Form, RollingBall3Form, Top3Form, TopNForm
 
-    form = system.compiled()
-    if isinstance(form, Top3Form):
-        return form, (layouts.Top3TangentLayout, layouts.Top3MegnoLayout, layouts.Top3LyapunovLayout)
-    if isinstance(form, TopNForm):
-        return form, (layouts.TopNTangentLayout, layouts.TopNMegnoLayout, layouts.TopNLyapunovLayout)
-    if isinstance(form.lanes, HeavyTop3Form):
-        return form.lanes, (
-            layouts.HeavyTop3TangentLayout,
-            layouts.HeavyTop3MegnoLayout,
-            layouts.HeavyTop3LyapunovLayout,
-        )
-    if isinstance(form.lanes, RollingBall3Form):
-        return form.lanes, (
-            layouts.RollingBall3TangentLayout,
-            layouts.RollingBall3MegnoLayout,
-            layouts.RollingBall3LyapunovLayout,
-        )
-    return form.lanes, (
-        layouts.Chaplygin3TangentLayout,
-        layouts.Chaplygin3MegnoLayout,
-        layouts.Chaplygin3LyapunovLayout,
-    )
+    form, (_, prefix) = _declared(system)
+    kinds = ("Tangent", "Megno", "Lyapunov")
+    return form, tuple(getattr(layouts, f"{prefix}{kind}Layout") for kind in kinds)
 
 
 def _grid(sizes: np.ndarray) -> _Steps | None:
