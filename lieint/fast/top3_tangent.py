@@ -33,6 +33,7 @@ from .tangent_sums import MEGNO_SLOTS, lyapunov_update, megno_update
 from .top3 import (
     _RADIUS2,
     _cross,
+    _exponent,
     _rodrigues,
     form_embedded,
     form_error_sum,
@@ -466,6 +467,127 @@ def form_rkmk_lyapunov_step(fx, y, par, meth, h, y1, inc, aux, scr):
     return spent
 
 
+@njit(cache=True)
+def form_products_tangent_scratch(fx, meth, par, d):
+    """A product of exponentials' scratch (:func:`lieint.fast.top3.form_products_scratch`), then the
+    tangent vectors' stage slopes ``δK`` (k, s, 3), their exponents' ``δu`` (k, 3) and stage
+    momenta ``δΠ_i`` (k, 3)."""
+    s = meth.c.shape[0]
+    k = max(d // 12 - 1, 1)
+    return (np.zeros((s, 3)), np.zeros(3), np.zeros((3, 3)), np.zeros(3), np.zeros((3, 3)), np.zeros((k, s, 3)),
+            np.zeros((k, 3)), np.zeros((k, 3)))  # fmt: skip
+
+
+@njit(cache=True, inline="always")
+def _exponent_tangent(du, dK, weights, row, upto, h, k):
+    """``δu_m = Σ_{j < upto} (h w_j) δK_m[j]`` for every tangent vector m, over the nonzero weights
+    of ``weights[row]`` in the order of j (:func:`lieint.fast.top3._exponent`'s combination)."""
+    for m in range(k):
+        du[m, 0] = 0.0
+        du[m, 1] = 0.0
+        du[m, 2] = 0.0
+    for j in range(upto):
+        if weights[row, j] != 0.0:
+            w = h * weights[row, j]
+            for m in range(k):
+                du[m, 0] += w * dK[m, j, 0]
+                du[m, 1] += w * dK[m, j, 1]
+                du[m, 2] += w * dK[m, j, 2]
+
+
+@njit(cache=True)
+def form_products_tangent_step(fx, y, par, meth, h, y1, inc, aux, scr):
+    """One step of a product of exponentials (the commutator-free and Crouch–Grossman methods) of a
+    body's state — :func:`lieint.fast.top3._products_step`'s operations in its order, so its bits —
+    and of its tangent vectors in forward mode: each exponential ``Q = exp(u)``, ``u = h Σ_j W_j K_j``,
+    moves by ``Qᵀ δQ = ŵ``, ``w = J_r(u) δu``, ``δu = h Σ_j W_j δK_j``, so ``Π ← QᵀΠ`` moves by
+    ``δΠ ← QᵀδΠ − w × QᵀΠ`` and ``R̃ ← R̃Q`` by ``δR̃ ← δR̃ Q + R̃Q ŵ``; ``δK_i = I⁻¹ δΠ_i``. Never
+    out of range (no dexp⁻¹); ``aux[0] = |w|²`` of the first stage."""
+    K, u, Q, tR, dK, du, dp = scr[0], scr[1], scr[2], scr[4], scr[5], scr[6], scr[7]
+    d = y.shape[0]
+    k = d // 12 - 1
+    for i in range(d):
+        y1[i] = y[i]
+    Iinv = par[0:3]
+    weights, bounds = meth.weights, meth.bounds
+    s = bounds.shape[0] - 2
+    pi = y1[0:3]
+    for i in range(s):
+        p0, p1, p2 = pi[0], pi[1], pi[2]
+        for m in range(k):
+            o = 12 * (m + 1)
+            dp[m, 0], dp[m, 1], dp[m, 2] = y1[o], y1[o + 1], y1[o + 2]
+        for e in range(bounds[i], bounds[i + 1]):
+            if not _exponent(u, K, weights, e, i, h):
+                continue
+            _exponent_tangent(du, dK, weights, e, i, h, k)
+            _rodrigues(u, Q)
+            q0 = Q[0, 0] * p0 + Q[1, 0] * p1 + Q[2, 0] * p2
+            q1 = Q[0, 1] * p0 + Q[1, 1] * p1 + Q[2, 1] * p2
+            q2 = Q[0, 2] * p0 + Q[1, 2] * p1 + Q[2, 2] * p2
+            p0, p1, p2 = q0, q1, q2
+            for m in range(k):
+                w0, w1, w2 = _right_jacobian(u[0], u[1], u[2], du[m, 0], du[m, 1], du[m, 2])
+                e0, e1, e2 = _cross(w0, w1, w2, p0, p1, p2)
+                a0, a1, a2 = dp[m, 0], dp[m, 1], dp[m, 2]
+                dp[m, 0] = Q[0, 0] * a0 + Q[1, 0] * a1 + Q[2, 0] * a2 - e0
+                dp[m, 1] = Q[0, 1] * a0 + Q[1, 1] * a1 + Q[2, 1] * a2 - e1
+                dp[m, 2] = Q[0, 2] * a0 + Q[1, 2] * a1 + Q[2, 2] * a2 - e2
+        K[i, 0], K[i, 1], K[i, 2] = Iinv[0] * p0, Iinv[1] * p1, Iinv[2] * p2
+        for m in range(k):
+            dK[m, i, 0], dK[m, i, 1], dK[m, i, 2] = Iinv[0] * dp[m, 0], Iinv[1] * dp[m, 1], Iinv[2] * dp[m, 2]
+    first = bounds[s]
+    for e in range(first, bounds[s + 1]):
+        o3 = 3 * (e - first)
+        if not _exponent(u, K, weights, e, s, h):
+            inc[o3], inc[o3 + 1], inc[o3 + 2] = 0.0, 0.0, 0.0
+            continue
+        _exponent_tangent(du, dK, weights, e, s, h, k)
+        inc[o3], inc[o3 + 1], inc[o3 + 2] = u[0], u[1], u[2]
+        _rodrigues(u, Q)
+        p0, p1, p2 = pi[0], pi[1], pi[2]
+        for r in range(3):
+            pi[r] = Q[0, r] * p0 + Q[1, r] * p1 + Q[2, r] * p2
+        for r in range(3):
+            for c2 in range(3):
+                tR[r, c2] = y1[3 + 3 * r] * Q[0, c2] + y1[4 + 3 * r] * Q[1, c2] + y1[5 + 3 * r] * Q[2, c2]
+        for m in range(k):
+            o = 12 * (m + 1)
+            w0, w1, w2 = _right_jacobian(u[0], u[1], u[2], du[m, 0], du[m, 1], du[m, 2])
+            e0, e1, e2 = _cross(w0, w1, w2, pi[0], pi[1], pi[2])
+            a0, a1, a2 = y1[o], y1[o + 1], y1[o + 2]
+            y1[o] = Q[0, 0] * a0 + Q[1, 0] * a1 + Q[2, 0] * a2 - e0
+            y1[o + 1] = Q[0, 1] * a0 + Q[1, 1] * a1 + Q[2, 1] * a2 - e1
+            y1[o + 2] = Q[0, 2] * a0 + Q[1, 2] * a1 + Q[2, 2] * a2 - e2
+            for r in range(3):  # δR₁ = δR Q + R₁ ŵ
+                s0, s1, s2 = y1[o + 3 + 3 * r], y1[o + 4 + 3 * r], y1[o + 5 + 3 * r]
+                r0, r1, r2 = tR[r, 0], tR[r, 1], tR[r, 2]
+                y1[o + 3 + 3 * r] = (s0 * Q[0, 0] + s1 * Q[1, 0] + s2 * Q[2, 0]) + (r1 * w2 - r2 * w1)
+                y1[o + 4 + 3 * r] = (s0 * Q[0, 1] + s1 * Q[1, 1] + s2 * Q[2, 1]) + (r2 * w0 - r0 * w2)
+                y1[o + 5 + 3 * r] = (s0 * Q[0, 2] + s1 * Q[1, 2] + s2 * Q[2, 2]) + (r0 * w1 - r1 * w0)
+        for r in range(3):
+            for c2 in range(3):
+                y1[3 + 3 * r + c2] = tR[r, c2]
+    aux[0] = K[0, 0] * K[0, 0] + K[0, 1] * K[0, 1] + K[0, 2] * K[0, 2]
+    return meth.c.shape[0]
+
+
+@njit(cache=True)
+def form_products_megno_step(fx, y, par, meth, h, y1, inc, aux, scr):
+    """:func:`form_products_tangent_step` of the state and one tangent vector, then MEGNO's sums."""
+    spent = form_products_tangent_step(fx, y, par, meth, h, y1, inc, aux, scr)
+    _megno_update(y1, par, h)
+    return spent
+
+
+@njit(cache=True)
+def form_products_lyapunov_step(fx, y, par, meth, h, y1, inc, aux, scr):
+    """:func:`form_products_tangent_step`, then the re-orthonormalisation when it is due."""
+    spent = form_products_tangent_step(fx, y, par, meth, h, y1, inc, aux, scr)
+    _lyapunov_update(y1, par, y.shape[0] // 12 - 1)
+    return spent
+
+
 _COMMON = {
     "prepare": form_prepare,
     "scratch": form_scratch,
@@ -479,6 +601,9 @@ _COMMON = {
 #: the RKMK steps' scratch is the 3D top's (and its projection reads it so)
 _RKMK = {**_COMMON, "scratch": form_rkmk_tangent_scratch, "project": form_top3_project}
 
+#: the products of exponentials' steps: their own scratch (the plain step's projection reads its Q)
+_PRODUCTS = {**_COMMON, "scratch": form_products_tangent_scratch, "project": form_top3_project}
+
 #: the names of :mod:`lieint.fast.loop` this form binds (fixed steps only, no projection: the
 #: projection's derivative is not carried)
 NAMESPACES = {
@@ -491,4 +616,7 @@ NAMESPACES = {
     "rkmk": {**_RKMK, "step": form_rkmk_tangent_step},
     "rkmk_megno": {**_RKMK, "step": form_rkmk_megno_step},
     "rkmk_lyapunov": {**_RKMK, "step": form_rkmk_lyapunov_step},
+    "cf": {**_PRODUCTS, "step": form_products_tangent_step},
+    "cf_megno": {**_PRODUCTS, "step": form_products_megno_step},
+    "cf_lyapunov": {**_PRODUCTS, "step": form_products_lyapunov_step},
 }

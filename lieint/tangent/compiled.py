@@ -8,7 +8,8 @@ copies. Both paths compute the derivative of the same discrete map, to round-off
 costs about one step per tangent vector instead of a complex run each. Compiled tangent steps:
 
 * the 3D Euler top (:mod:`lieint.fast.top3_tangent`): its RKMK methods in exponential coordinates
-  (``lie_euler``, ``rkmk2/3/4/6``: dexp⁻¹ truncated), its splittings into exact rotations
+  (``lie_euler``, ``rkmk2/3/4/6``: dexp⁻¹ truncated), its commutator-free and Crouch–Grossman
+  methods (``cf3``, ``cf4``, ``cg3``, ``cg4a``), its splittings into exact rotations
   (``splitting2/4/6``) and its Moser–Veselov maps (``moser_veselov``, ``moser_veselov_composed4/6``);
 * the n-dimensional top, n ≥ 4 (:mod:`lieint.fast.topn_tangent`), the 3D heavy top
   (:mod:`lieint.fast.heavy3_tangent`), the 3D Chaplygin ball (:mod:`lieint.fast.chaplygin3_tangent`)
@@ -53,7 +54,7 @@ class _Steps(Plan):
 
 def compiled_reason(system, method) -> str:
     """Why the tangent map of ``method`` on ``system`` does not run compiled ("" when it does)."""
-    from ..fast.forms import MapForm, RKMKForm, Top3Form
+    from ..fast.forms import ExpProductForm, MapForm, RKMKForm, Top3Form
 
     form, entry = _declared(system)
     if entry is None:
@@ -69,11 +70,14 @@ def compiled_reason(system, method) -> str:
     else:
         what = (
             f"{method.name!r} has no compiled tangent steps (compiled: RKMK in exponential coordinates with "
-            "truncated dexp⁻¹, the splittings into exact rotations and the Moser–Veselov maps of the 3D top)"
+            "truncated dexp⁻¹, the commutator-free and Crouch–Grossman methods, the splittings into exact "
+            "rotations and the Moser–Veselov maps of the 3D top)"
         )
     if isinstance(meth, RKMKForm):
         plain = meth.coordinates == "exp" and meth.degree is not None and not meth.pair and not meth.keeps_energy
         return "" if plain else what
+    if isinstance(meth, ExpProductForm):  # the commutator-free and Crouch–Grossman methods
+        return "" if body is None else what
     if body is not None or not isinstance(meth, MapForm) or meth.family not in _FAMILIES or not meth.covers(form):
         return what
     if meth.degree:
