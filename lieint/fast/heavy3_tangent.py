@@ -183,6 +183,134 @@ def form_rkmk_tangent_step(fx, y, par, meth, h, y1, inc, aux, scr):
 
 
 @njit(cache=True)
+def form_products_scratch(fx, meth, par, d):
+    """:func:`form_scratch`'s arrays for s = the method's stages, then a stage's point ``(Π, Γ̃)``
+    and its k tangent vectors, six numbers each."""
+    s = meth.c.shape[0]
+    k = max(d // BLOCK - 1, 1)
+    return (np.zeros((s, 6)), np.zeros((k, s, 6)), np.zeros(6), np.zeros((k, 6)), np.zeros((3, 3)), np.zeros((3, 3)),
+            np.zeros(6 * (k + 1)))  # fmt: skip
+
+
+@njit(cache=True, inline="always")
+def _exponent(u, du, K, dK, weights, row, upto, h, k):
+    """``u = h Σ_{j < upto} w_j K_j`` and ``δu_m = h Σ_j w_j δK_mj``, ``w = weights[row]``, over the
+    nonzero weights in the order of j; returns whether any weight was nonzero."""
+    for c in range(6):
+        u[c] = 0.0
+    for m in range(k):
+        for c in range(6):
+            du[m, c] = 0.0
+    any_weight = False
+    for j in range(upto):
+        if weights[row, j] != 0.0:
+            any_weight = True
+            hw = h * weights[row, j]
+            for c in range(6):
+                u[c] += hw * K[j, c]
+            for m in range(k):
+                for c in range(6):
+                    du[m, c] += hw * dK[m, j, c]
+    return any_weight
+
+
+@njit(cache=True, inline="always")
+def _turn(arr, stride, k, u, du, Q, attitude, newR):
+    """The point ``(Π, Γ̃) = arr[0:6]`` and its k tangent vectors (``arr[stride (m + 1):]``) under the
+    right action of ``exp(u)`` moved by ``δu`` (module docstring), in place; with ``attitude`` the
+    block's R̃ (at 6) and the tangent vectors' δR̃ too (``R̃ ← R̃Q``, ``δR̃ ← δR̃ Q + R̃₁ ŵ``)."""
+    t2 = u[0] * u[0] + u[1] * u[1] + u[2] * u[2]
+    _rodrigues(u, Q)
+    beta, gamma, dbeta, dgamma = coefficients(t2)
+    p, g = arr[0:3], arr[3:6]
+    t0, t1, t2_ = phi1(u[0], u[1], u[2], u[3], u[4], u[5], beta, gamma)
+    x0, x1, x2 = _cross(t0, t1, t2_, g[0], g[1], g[2])
+    pi0, pi1, pi2 = rotate_back(Q, p[0] + x0, p[1] + x1, p[2] + x2)
+    g0, g1, g2 = rotate_back(Q, g[0], g[1], g[2])
+    if attitude:
+        attitude_turned_into(arr, 6, Q, newR)
+    for m in range(k):  # the tangent vectors first: they read the point before it moves
+        o = stride * (m + 1)
+        w0, w1, w2, _, _, _, dx0, dx1, dx2 = _moved(u, du[m], beta, gamma, dbeta, dgamma, p, g, arr[o : o + 3],
+                                                    arr[o + 3 : o + 6])  # fmt: skip
+        q0, q1, q2 = rotate_back(Q, dx0, dx1, dx2)
+        e0, e1, e2 = _cross(w0, w1, w2, pi0, pi1, pi2)
+        r0, r1, r2 = rotate_back(Q, arr[o + 3], arr[o + 4], arr[o + 5])
+        f0, f1, f2 = _cross(w0, w1, w2, g0, g1, g2)
+        arr[o], arr[o + 1], arr[o + 2] = q0 - e0, q1 - e1, q2 - e2
+        arr[o + 3], arr[o + 4], arr[o + 5] = r0 - f0, r1 - f1, r2 - f2
+        if attitude:
+            tangent_attitude_turned(arr, o + 6, Q, newR, w0, w1, w2)
+    arr[0], arr[1], arr[2] = pi0, pi1, pi2
+    arr[3], arr[4], arr[5] = g0, g1, g2
+    if attitude:
+        for r in range(3):
+            for c in range(3):
+                arr[6 + 3 * r + c] = newR[r, c]
+
+
+@njit(cache=True)
+def form_products_tangent_step(fx, y, par, meth, h, y1, inc, aux, scr):
+    """One step of a product of exponentials (the commutator-free and Crouch–Grossman methods) of a
+    top's state and its tangent vectors in forward mode: stage i turns ``(Π, Γ̃)`` and their
+    tangent vectors by its exponentials ``exp(h Σ_j W_j K_j)`` one after the other (:func:`_turn`),
+    ``K_i = (I⁻¹Π_i, M X̃_G)``, ``δK_i = (I⁻¹δΠ_i, 0)``; the step turns the whole block, R̃ included, by
+    its own. No dexp⁻¹, so never out of range; ``aux[0] = |ξ_w(y)|²``."""
+    K, dK, u, du, Q, newR, st = scr[0], scr[1], scr[2], scr[3], scr[4], scr[5], scr[6]
+    d = y.shape[0]
+    k = d // BLOCK - 1
+    for i in range(d):
+        y1[i] = y[i]
+    Iinv, v = par[0:3], par[3:6]
+    orient = par[6] != 0.0
+    weights, bounds = meth.weights, meth.bounds
+    s = bounds.shape[0] - 2
+    for i in range(s):
+        for m in range(k + 1):  # the stage's point (Π, Γ̃) and its tangent vectors, from y
+            for c in range(6):
+                st[6 * m + c] = y1[BLOCK * m + c]
+        for e in range(bounds[i], bounds[i + 1]):
+            if _exponent(u, du, K, dK, weights, e, i, h, k):
+                _turn(st, 6, k, u, du, Q, False, newR)
+        for c in range(3):
+            K[i, c] = Iinv[c] * st[c]
+            K[i, 3 + c] = v[c]
+            for m in range(k):
+                dK[m, i, c] = Iinv[c] * st[6 * (m + 1) + c]
+                dK[m, i, 3 + c] = 0.0
+    first = bounds[s]
+    for e in range(first, bounds[s + 1]):
+        o = 6 * (e - first)
+        if not _exponent(u, du, K, dK, weights, e, s, h, k):
+            for c in range(6):
+                if o + c < inc.shape[0]:
+                    inc[o + c] = 0.0
+            continue
+        for c in range(6):
+            if o + c < inc.shape[0]:
+                inc[o + c] = u[c]
+        _turn(y1, BLOCK, k, u, du, Q, orient, newR)
+    aux[0] = K[0, 0] * K[0, 0] + K[0, 1] * K[0, 1] + K[0, 2] * K[0, 2]
+    return meth.c.shape[0]
+
+
+@njit(cache=True)
+def form_products_megno_step(fx, y, par, meth, h, y1, inc, aux, scr):
+    """:func:`form_products_tangent_step` of the state and one tangent vector, then MEGNO's sums."""
+    spent = form_products_tangent_step(fx, y, par, meth, h, y1, inc, aux, scr)
+    megno_update(y1, h, BLOCK, FLAT, par[6] != 0.0)
+    return spent
+
+
+@njit(cache=True)
+def form_products_lyapunov_step(fx, y, par, meth, h, y1, inc, aux, scr):
+    """:func:`form_products_tangent_step`, then the re-orthonormalisation when it is due."""
+    spent = form_products_tangent_step(fx, y, par, meth, h, y1, inc, aux, scr)
+    lyapunov_update(y1, y.shape[0] // BLOCK - 1, BLOCK, FLAT, par[6] != 0.0, par[7], par[8])
+    return spent
+
+
+@njit(cache=True)
 def form_rkmk_megno_step(fx, y, par, meth, h, y1, inc, aux, scr):
     """:func:`form_rkmk_tangent_step` of the state and one tangent vector, then MEGNO's sums
     (:func:`lieint.fast.tangent_sums.megno_update`); −1 when a stage reached the dexp⁻¹ radius."""
@@ -211,6 +339,9 @@ NAMESPACES = {
     "rkmk": {**_COMMON, "step": form_rkmk_tangent_step},
     "rkmk_megno": {**_COMMON, "step": form_rkmk_megno_step},
     "rkmk_lyapunov": {**_COMMON, "step": form_rkmk_lyapunov_step},
+    "cf": {**_COMMON, "scratch": form_products_scratch, "step": form_products_tangent_step},
+    "cf_megno": {**_COMMON, "scratch": form_products_scratch, "step": form_products_megno_step},
+    "cf_lyapunov": {**_COMMON, "scratch": form_products_scratch, "step": form_products_lyapunov_step},
 }
 
 

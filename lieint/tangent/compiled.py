@@ -66,7 +66,8 @@ def compiled_reason(system, method) -> str:
     meth = method.compiled()
     if body is not None:
         what = f"{method.name!r} has no compiled tangent steps on the {body} (compiled: RKMK in exponential "
-        what += "coordinates with truncated dexp⁻¹)"
+        what += "coordinates with truncated dexp⁻¹"
+        what += ", the commutator-free and Crouch–Grossman methods)" if body in _PRODUCTS else ")"
     else:
         what = (
             f"{method.name!r} has no compiled tangent steps (compiled: RKMK in exponential coordinates with "
@@ -77,7 +78,7 @@ def compiled_reason(system, method) -> str:
         plain = meth.coordinates == "exp" and meth.degree is not None and not meth.pair and not meth.keeps_energy
         return "" if plain else what
     if isinstance(meth, ExpProductForm):  # the commutator-free and Crouch–Grossman methods
-        return "" if body is None else what
+        return "" if body is None or body in _PRODUCTS else what
     if body is not None or not isinstance(meth, MapForm) or meth.family not in _FAMILIES or not meth.covers(form):
         return what
     if meth.degree:
@@ -96,6 +97,8 @@ _FORMS = {
     "Chaplygin3Form": ("3D Chaplygin ball", "Chaplygin3"),
     "RollingBall3Form": ("3D rolling ball", "RollingBall3"),
 }
+#: the bodies besides the 3D top whose products of exponentials have compiled tangent steps too
+_PRODUCTS = ("3D heavy top",)
 
 
 def _declared(system):

@@ -72,7 +72,8 @@ def test_the_registry_s_rkmk_methods_splittings_and_moser_veselov_maps_have_comp
     assert "no compiled tangent steps" in compiled_reason(TOP, get_method("rkmk4", coordinates="cayley"))
     heavy = lieint.HeavyTop(np.diag([1.0, 2.0, 3.0]), 1.0, [0.1, 0.0, 0.2], [0.0, 0.0, -9.81])
     assert not compiled_reason(heavy, get_method("rkmk4"))
-    for refused in (get_method("rkmk4", coordinates="cayley"), get_method("cf4"), get_method("rkmk45")):
+    assert not compiled_reason(heavy, get_method("cf4")) and not compiled_reason(heavy, get_method("cg4a"))
+    for refused in (get_method("rkmk4", coordinates="cayley"), get_method("lie_midpoint"), get_method("rkmk45")):
         assert "no compiled tangent steps on the 3D heavy top" in compiled_reason(heavy, refused)
     ball = lieint.RollingBall(np.diag([0.1, 0.15, 0.2]), 1.0, 1.0, [0.0, 0.1, -0.2])
     assert not compiled_reason(ball, get_method("rkmk4"))
@@ -249,7 +250,9 @@ def test_the_rkmk_methods_of_the_n_d_top_the_heavy_top_and_the_balls_have_compil
     names = _body_methods(_bodies()[label])
     for expected in ("lie_euler", "rkmk2", "rkmk3", "rkmk4", "rkmk6"):
         assert expected in names
-    assert "rkmk45" not in names and "cf4" not in names
+    # the heavy top's products of exponentials too (commutator-free, Crouch–Grossman)
+    assert ("cf4" in names) == ("cg4a" in names) == label.startswith("heavy top")
+    assert "rkmk45" not in names and "lie_midpoint" not in names
 
 
 @pytest.mark.parametrize(("label", "method"), _body_cases())
@@ -291,8 +294,12 @@ def test_body_compiled_tangent_map_is_the_derivative_of_the_run_by_central_diffe
         np.testing.assert_allclose(run.vectors[j], fd, rtol=1e-6, atol=1e-7 * np.abs(fd).max())
 
 
-@pytest.mark.parametrize("label", sorted(_bodies()))
-@pytest.mark.parametrize("method", ["lie_euler", "rkmk4"])
+_INDICATOR_CASES = [(label, method) for label in sorted(_bodies()) for method in ("lie_euler", "rkmk4")] + [
+    (label, method) for label in ("heavy top, tilted frame", "heavy top, no R") for method in ("cf4", "cg4a")
+]
+
+
+@pytest.mark.parametrize(("label", "method"), _INDICATOR_CASES)
 def test_body_lyapunov_and_megno_run_whole_in_the_engine_as_the_generic_path_runs_them(label, method):
     body = _bodies()[label]
     one = _start(body)
