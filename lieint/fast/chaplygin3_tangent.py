@@ -39,6 +39,8 @@ from .se3_tangent import (
     combine_stage,
     dexpinv_series,
     dexpinv_series_tangent,
+    phi1,
+    product_exponent,
     right_jacobian,
     rotate_back,
     tangent_attitude_turned,
@@ -235,6 +237,117 @@ def form_rkmk_tangent_step(fx, y, par, meth, h, y1, inc, aux, scr):
 
 
 @njit(cache=True)
+def form_products_scratch(fx, meth, par, d):
+    """:func:`form_scratch`'s arrays for s = the method's stages, then a stage's block and its k
+    tangent vectors."""
+    s = meth.c.shape[0]
+    k = max(d // BLOCK - 1, 1)
+    return (np.zeros((s, 6)), np.zeros((k, s, 6)), np.zeros(6), np.zeros((k, 6)), np.zeros((3, 3)), np.zeros((3, 3)),
+            np.zeros(BLOCK * (k + 1)))  # fmt: skip
+
+
+@njit(cache=True, inline="always")
+def _turn(arr, k, u, du, Q, attitude, track, newR):
+    """The block ``arr[0:18]`` and its k tangent vectors (blocks after it) under the right action of
+    ``exp(u)`` moved by ``δu`` (module docstring), in place: ``Π ← QᵀΠ``, ``Γ ← QᵀΓ`` and their
+    tangents always; with ``track`` the centre ``c ← c + R t`` (``δc ← δc + δR t + R δt``), with
+    ``attitude`` ``R ← RQ`` (``δR ← δR Q + R₁ ŵ``)."""
+    t2 = u[0] * u[0] + u[1] * u[1] + u[2] * u[2]
+    _rodrigues(u, Q)
+    beta, gamma, dbeta, dgamma = coefficients(t2)
+    pi0, pi1, pi2 = rotate_back(Q, arr[0], arr[1], arr[2])
+    gi0, gi1, gi2 = rotate_back(Q, arr[3], arr[4], arr[5])
+    if attitude:
+        attitude_turned_into(arr, 9, Q, newR)
+    for m in range(k):  # the tangent vectors first: they read the block before it moves
+        o = BLOCK * (m + 1)
+        w0, w1, w2 = right_jacobian(u, du[m], beta, gamma)
+        a0, a1, a2 = rotate_back(Q, arr[o], arr[o + 1], arr[o + 2])
+        e0, e1, e2 = _cross(w0, w1, w2, pi0, pi1, pi2)
+        b0, b1, b2 = rotate_back(Q, arr[o + 3], arr[o + 4], arr[o + 5])
+        f0, f1, f2 = _cross(w0, w1, w2, gi0, gi1, gi2)
+        if track:
+            t0, t1, t2_, dt0, dt1, dt2 = translation(u, du[m], beta, gamma, dbeta, dgamma)
+            for r in range(3):
+                R0, R1, R2 = arr[9 + 3 * r], arr[10 + 3 * r], arr[11 + 3 * r]
+                S0, S1, S2 = arr[o + 9 + 3 * r], arr[o + 10 + 3 * r], arr[o + 11 + 3 * r]
+                arr[o + 6 + r] += (S0 * t0 + S1 * t1 + S2 * t2_) + (R0 * dt0 + R1 * dt1 + R2 * dt2)
+        arr[o], arr[o + 1], arr[o + 2] = a0 - e0, a1 - e1, a2 - e2
+        arr[o + 3], arr[o + 4], arr[o + 5] = b0 - f0, b1 - f1, b2 - f2
+        if attitude:
+            tangent_attitude_turned(arr, o + 9, Q, newR, w0, w1, w2)
+    if track:
+        t0, t1, t2_ = phi1(u[0], u[1], u[2], u[3], u[4], u[5], beta, gamma)
+        for r in range(3):
+            arr[6 + r] += arr[9 + 3 * r] * t0 + arr[10 + 3 * r] * t1 + arr[11 + 3 * r] * t2_
+    arr[0], arr[1], arr[2] = pi0, pi1, pi2
+    arr[3], arr[4], arr[5] = gi0, gi1, gi2
+    if attitude:
+        for r in range(3):
+            for c in range(3):
+                arr[9 + 3 * r + c] = newR[r, c]
+
+
+@njit(cache=True)
+def form_products_tangent_step(fx, y, par, meth, h, y1, inc, aux, scr):
+    """One step of a product of exponentials (the commutator-free and Crouch–Grossman methods) of a
+    ball's state and its tangent vectors in forward mode: stage i turns ``(Π, Γ)`` and their tangent
+    vectors by its exponentials one after the other (:func:`_turn`), ``K_i = ξ(Π_i, Γ_i)``,
+    ``δK_i = δξ``; the step turns the whole block (the centre and R included) by its own. No
+    dexp⁻¹, so never out of range; ``aux[0] = |ω(y)|²``."""
+    K, dK, u, du, Q, newR, st = scr[0], scr[1], scr[2], scr[3], scr[4], scr[5], scr[6]
+    d = y.shape[0]
+    k = d // BLOCK - 1
+    for i in range(d):
+        y1[i] = y[i]
+    orient, track = par[_ORIENT] != 0.0, par[_TRACK] != 0.0
+    weights, bounds = meth.weights, meth.bounds
+    s = bounds.shape[0] - 2
+    for i in range(s):
+        for m in range(k + 1):  # the stage's point (Π, Γ) and its tangent vectors, from y
+            for c in range(6):
+                st[BLOCK * m + c] = y1[BLOCK * m + c]
+        for e in range(bounds[i], bounds[i + 1]):
+            if product_exponent(u, du, K, dK, weights, e, i, h, k):
+                _turn(st, k, u, du, Q, False, False, newR)
+        w0, w1, w2, v0, v1, v2, adj, det = _generator(par, track, st[0], st[1], st[2], st[3], st[4], st[5])
+        K[i, 0], K[i, 1], K[i, 2], K[i, 3], K[i, 4], K[i, 5] = w0, w1, w2, v0, v1, v2
+        for m in range(k):
+            o = BLOCK * (m + 1)
+            x = _generator_tangent(par, track, adj, det, w0, w1, w2, st[3], st[4], st[5],
+                                   st[o], st[o + 1], st[o + 2], st[o + 3], st[o + 4], st[o + 5])  # fmt: skip
+            for c in range(6):
+                dK[m, i, c] = x[c]
+    first = bounds[s]
+    for e in range(first, bounds[s + 1]):
+        o = 6 * (e - first)
+        moved = product_exponent(u, du, K, dK, weights, e, s, h, k)
+        for c in range(6):
+            if o + c < inc.shape[0]:
+                inc[o + c] = u[c] if moved else 0.0
+        if moved:
+            _turn(y1, k, u, du, Q, orient, track, newR)
+    aux[0] = K[0, 0] * K[0, 0] + K[0, 1] * K[0, 1] + K[0, 2] * K[0, 2]
+    return meth.c.shape[0]
+
+
+@njit(cache=True)
+def form_products_megno_step(fx, y, par, meth, h, y1, inc, aux, scr):
+    """:func:`form_products_tangent_step` of the state and one tangent vector, then MEGNO's sums."""
+    spent = form_products_tangent_step(fx, y, par, meth, h, y1, inc, aux, scr)
+    megno_update(y1, h, BLOCK, FLAT, par[_ORIENT] != 0.0)
+    return spent
+
+
+@njit(cache=True)
+def form_products_lyapunov_step(fx, y, par, meth, h, y1, inc, aux, scr):
+    """:func:`form_products_tangent_step`, then the re-orthonormalisation when it is due."""
+    spent = form_products_tangent_step(fx, y, par, meth, h, y1, inc, aux, scr)
+    lyapunov_update(y1, y.shape[0] // BLOCK - 1, BLOCK, FLAT, par[_ORIENT] != 0.0, par[_EVERY], par[_TOTAL])
+    return spent
+
+
+@njit(cache=True)
 def form_rkmk_megno_step(fx, y, par, meth, h, y1, inc, aux, scr):
     """:func:`form_rkmk_tangent_step` of the state and one tangent vector, then MEGNO's sums
     (:func:`lieint.fast.tangent_sums.megno_update`); −1 when a stage reached the dexp⁻¹ radius."""
@@ -264,4 +377,7 @@ NAMESPACES = {
     "rkmk": {**_COMMON, "step": form_rkmk_tangent_step},
     "rkmk_megno": {**_COMMON, "step": form_rkmk_megno_step},
     "rkmk_lyapunov": {**_COMMON, "step": form_rkmk_lyapunov_step},
+    "cf": {**_COMMON, "scratch": form_products_scratch, "step": form_products_tangent_step},
+    "cf_megno": {**_COMMON, "scratch": form_products_scratch, "step": form_products_megno_step},
+    "cf_lyapunov": {**_COMMON, "scratch": form_products_scratch, "step": form_products_lyapunov_step},
 }

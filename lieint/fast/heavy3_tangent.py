@@ -46,6 +46,7 @@ from .se3_tangent import (
     dexpinv_series,
     dexpinv_series_tangent,
     phi1,
+    product_exponent,
     right_jacobian,
     rotate_back,
     tangent_attitude_turned,
@@ -193,28 +194,6 @@ def form_products_scratch(fx, meth, par, d):
 
 
 @njit(cache=True, inline="always")
-def _exponent(u, du, K, dK, weights, row, upto, h, k):
-    """``u = h Σ_{j < upto} w_j K_j`` and ``δu_m = h Σ_j w_j δK_mj``, ``w = weights[row]``, over the
-    nonzero weights in the order of j; returns whether any weight was nonzero."""
-    for c in range(6):
-        u[c] = 0.0
-    for m in range(k):
-        for c in range(6):
-            du[m, c] = 0.0
-    any_weight = False
-    for j in range(upto):
-        if weights[row, j] != 0.0:
-            any_weight = True
-            hw = h * weights[row, j]
-            for c in range(6):
-                u[c] += hw * K[j, c]
-            for m in range(k):
-                for c in range(6):
-                    du[m, c] += hw * dK[m, j, c]
-    return any_weight
-
-
-@njit(cache=True, inline="always")
 def _turn(arr, stride, k, u, du, Q, attitude, newR):
     """The point ``(Π, Γ̃) = arr[0:6]`` and its k tangent vectors (``arr[stride (m + 1):]``) under the
     right action of ``exp(u)`` moved by ``δu`` (module docstring), in place; with ``attitude`` the
@@ -270,7 +249,7 @@ def form_products_tangent_step(fx, y, par, meth, h, y1, inc, aux, scr):
             for c in range(6):
                 st[6 * m + c] = y1[BLOCK * m + c]
         for e in range(bounds[i], bounds[i + 1]):
-            if _exponent(u, du, K, dK, weights, e, i, h, k):
+            if product_exponent(u, du, K, dK, weights, e, i, h, k):
                 _turn(st, 6, k, u, du, Q, False, newR)
         for c in range(3):
             K[i, c] = Iinv[c] * st[c]
@@ -281,7 +260,7 @@ def form_products_tangent_step(fx, y, par, meth, h, y1, inc, aux, scr):
     first = bounds[s]
     for e in range(first, bounds[s + 1]):
         o = 6 * (e - first)
-        if not _exponent(u, du, K, dK, weights, e, s, h, k):
+        if not product_exponent(u, du, K, dK, weights, e, s, h, k):
             for c in range(6):
                 if o + c < inc.shape[0]:
                     inc[o + c] = 0.0

@@ -49,6 +49,8 @@ from .se3_tangent import (
     combine_stage,
     dexpinv_series,
     dexpinv_series_tangent,
+    phi1,
+    product_exponent,
     right_jacobian,
     rotate_back,
     tangent_attitude_turned,
@@ -313,6 +315,132 @@ def form_rkmk_tangent_step(fx, y, par, meth, h, y1, inc, aux, scr):
 
 
 @njit(cache=True)
+def form_products_scratch(fx, meth, par, d):
+    """:func:`form_scratch`'s arrays for s = the method's stages, then a stage's block and its k
+    tangent vectors."""
+    s = meth.c.shape[0]
+    k = max(d // BLOCK - 1, 1)
+    return (np.zeros((s, WIDTH)), np.zeros((k, s, WIDTH)), np.zeros(WIDTH), np.zeros((k, WIDTH)), np.zeros((3, 3)),
+            np.zeros((3, 3)), np.zeros(BLOCK * (k + 1)))  # fmt: skip
+
+
+@njit(cache=True, inline="always")
+def _turn(arr, k, u, du, Q, tilted, attitude, track, newR):
+    """The block ``arr[0:21]`` and its k tangent vectors (blocks after it) under the right action of
+    ``((exp û_w, t), δ)`` moved by ``δu`` (module docstring), in place: ``ω ← ω + δ``,
+    ``Γ ← QᵀΓ`` (on an incline ``G ← QᵀG``) and their tangents always; with ``track`` the centre
+    ``c ← c + R t``, with ``attitude`` ``R ← RQ``, and their tangents."""
+    t2 = u[0] * u[0] + u[1] * u[1] + u[2] * u[2]
+    _rodrigues(u, Q)
+    beta, gamma, dbeta, dgamma = coefficients(t2)
+    gi0, gi1, gi2 = rotate_back(Q, arr[3], arr[4], arr[5])
+    Gi0, Gi1, Gi2 = 0.0, 0.0, 0.0
+    if tilted:
+        Gi0, Gi1, Gi2 = rotate_back(Q, arr[_G], arr[_G + 1], arr[_G + 2])
+    if attitude:
+        attitude_turned_into(arr, _R, Q, newR)
+    for m in range(k):  # the tangent vectors first: they read the block before it moves
+        o = BLOCK * (m + 1)
+        w0, w1, w2 = right_jacobian(u, du[m], beta, gamma)
+        a0, a1, a2 = rotate_back(Q, arr[o + 3], arr[o + 4], arr[o + 5])
+        e0, e1, e2 = _cross(w0, w1, w2, gi0, gi1, gi2)
+        if tilted:
+            b0, b1, b2 = rotate_back(Q, arr[o + _G], arr[o + _G + 1], arr[o + _G + 2])
+            f0, f1, f2 = _cross(w0, w1, w2, Gi0, Gi1, Gi2)
+            arr[o + _G], arr[o + _G + 1], arr[o + _G + 2] = b0 - f0, b1 - f1, b2 - f2
+        if track:
+            t0, t1, t2_, dt0, dt1, dt2 = translation(u, du[m], beta, gamma, dbeta, dgamma)
+            for r in range(3):
+                R0, R1, R2 = arr[_R + 3 * r], arr[_R + 1 + 3 * r], arr[_R + 2 + 3 * r]
+                S0, S1, S2 = arr[o + _R + 3 * r], arr[o + _R + 1 + 3 * r], arr[o + _R + 2 + 3 * r]
+                arr[o + _C + r] += (S0 * t0 + S1 * t1 + S2 * t2_) + (R0 * dt0 + R1 * dt1 + R2 * dt2)
+        arr[o], arr[o + 1], arr[o + 2] = arr[o] + du[m, 6], arr[o + 1] + du[m, 7], arr[o + 2] + du[m, 8]
+        arr[o + 3], arr[o + 4], arr[o + 5] = a0 - e0, a1 - e1, a2 - e2
+        if attitude:
+            tangent_attitude_turned(arr, o + _R, Q, newR, w0, w1, w2)
+    if track:
+        t0, t1, t2_ = phi1(u[0], u[1], u[2], u[3], u[4], u[5], beta, gamma)
+        for r in range(3):
+            arr[_C + r] += arr[_R + 3 * r] * t0 + arr[_R + 1 + 3 * r] * t1 + arr[_R + 2 + 3 * r] * t2_
+    arr[0], arr[1], arr[2] = arr[0] + u[6], arr[1] + u[7], arr[2] + u[8]
+    arr[3], arr[4], arr[5] = gi0, gi1, gi2
+    if tilted:
+        arr[_G], arr[_G + 1], arr[_G + 2] = Gi0, Gi1, Gi2
+    if attitude:
+        for r in range(3):
+            for c in range(3):
+                arr[_R + 3 * r + c] = newR[r, c]
+
+
+@njit(cache=True)
+def form_products_tangent_step(fx, y, par, meth, h, y1, inc, aux, scr):
+    """One step of a product of exponentials (the commutator-free and Crouch–Grossman methods) of a
+    ball's state and its tangent vectors in forward mode: stage i moves ``(ω, Γ, G)`` and their
+    tangent vectors by its exponentials one after the other (:func:`_turn`), ``K_i = ξ`` there and
+    ``δK_i = δξ``; the step moves the whole block (the centre and R included) by its own. No
+    dexp⁻¹, so never out of range; ``aux[0] = |ω(y)|²``."""
+    K, dK, u, du, Q, newR, st = scr[0], scr[1], scr[2], scr[3], scr[4], scr[5], scr[6]
+    d = y.shape[0]
+    k = d // BLOCK - 1
+    for i in range(d):
+        y1[i] = y[i]
+    orient, track, tilted = par[_ORIENT] != 0.0, par[_TRACK] != 0.0, par[_MODE] == 2.0
+    rt = par[_RADIUS] if track else 0.0
+    weights, bounds = meth.weights, meth.bounds
+    s = bounds.shape[0] - 2
+    for i in range(s):
+        for m in range(k + 1):  # the stage's point (ω, Γ, G) and its tangent vectors, from y
+            for c in range(12):
+                st[BLOCK * m + c] = y1[BLOCK * m + c]
+        for e in range(bounds[i], bounds[i + 1]):
+            if product_exponent(u, du, K, dK, weights, e, i, h, k):
+                _turn(st, k, u, du, Q, tilted, False, False, newR)
+        w0, w1, w2, g0, g1, g2 = st[0], st[1], st[2], st[3], st[4], st[5]
+        G0, G1, G2 = st[_G], st[_G + 1], st[_G + 2]
+        wd, kap, mk, adj, inv, a, n, f, v = _state_slope(par, rt, w0, w1, w2, g0, g1, g2, G0, G1, G2)
+        K[i, 0], K[i, 1], K[i, 2], K[i, 3], K[i, 4], K[i, 5] = w0, w1, w2, v[0], v[1], v[2]
+        K[i, 6], K[i, 7], K[i, 8] = wd[0], wd[1], wd[2]
+        for m in range(k):
+            o = BLOCK * (m + 1)
+            dw0, dw1, dw2, dg0, dg1, dg2 = st[o], st[o + 1], st[o + 2], st[o + 3], st[o + 4], st[o + 5]
+            df0, df1, df2 = _gravity(par, dg0, dg1, dg2, st[o + _G], st[o + _G + 1], st[o + _G + 2])
+            x0, x1, x2 = _acceleration_tangent(par, w0, w1, w2, wd, kap, mk, adj, inv, a, n, f[0], f[1], f[2],
+                                               dw0, dw1, dw2, dg0, dg1, dg2, df0, df1, df2)  # fmt: skip
+            p0, p1, p2 = _cross(dw0, dw1, dw2, g0, g1, g2)
+            q0, q1, q2 = _cross(w0, w1, w2, dg0, dg1, dg2)
+            dK[m, i, 0], dK[m, i, 1], dK[m, i, 2] = dw0, dw1, dw2
+            dK[m, i, 3], dK[m, i, 4], dK[m, i, 5] = rt * (p0 + q0), rt * (p1 + q1), rt * (p2 + q2)
+            dK[m, i, 6], dK[m, i, 7], dK[m, i, 8] = x0, x1, x2
+    first = bounds[s]
+    for e in range(first, bounds[s + 1]):
+        o = WIDTH * (e - first)
+        moved = product_exponent(u, du, K, dK, weights, e, s, h, k)
+        for c in range(WIDTH):
+            if o + c < inc.shape[0]:
+                inc[o + c] = u[c] if moved else 0.0
+        if moved:
+            _turn(y1, k, u, du, Q, tilted, orient, track, newR)
+    aux[0] = K[0, 0] * K[0, 0] + K[0, 1] * K[0, 1] + K[0, 2] * K[0, 2]
+    return meth.c.shape[0]
+
+
+@njit(cache=True)
+def form_products_megno_step(fx, y, par, meth, h, y1, inc, aux, scr):
+    """:func:`form_products_tangent_step` of the state and one tangent vector, then MEGNO's sums."""
+    spent = form_products_tangent_step(fx, y, par, meth, h, y1, inc, aux, scr)
+    megno_update(y1, h, BLOCK, FLAT, par[_ORIENT] != 0.0)
+    return spent
+
+
+@njit(cache=True)
+def form_products_lyapunov_step(fx, y, par, meth, h, y1, inc, aux, scr):
+    """:func:`form_products_tangent_step`, then the re-orthonormalisation when it is due."""
+    spent = form_products_tangent_step(fx, y, par, meth, h, y1, inc, aux, scr)
+    lyapunov_update(y1, y.shape[0] // BLOCK - 1, BLOCK, FLAT, par[_ORIENT] != 0.0, par[_EVERY], par[_TOTAL])
+    return spent
+
+
+@njit(cache=True)
 def form_rkmk_megno_step(fx, y, par, meth, h, y1, inc, aux, scr):
     """:func:`form_rkmk_tangent_step` of the state and one tangent vector, then MEGNO's sums
     (:func:`lieint.fast.tangent_sums.megno_update`); −1 when a stage reached the dexp⁻¹ radius."""
@@ -342,4 +470,7 @@ NAMESPACES = {
     "rkmk": {**_COMMON, "step": form_rkmk_tangent_step},
     "rkmk_megno": {**_COMMON, "step": form_rkmk_megno_step},
     "rkmk_lyapunov": {**_COMMON, "step": form_rkmk_lyapunov_step},
+    "cf": {**_COMMON, "scratch": form_products_scratch, "step": form_products_tangent_step},
+    "cf_megno": {**_COMMON, "scratch": form_products_scratch, "step": form_products_megno_step},
+    "cf_lyapunov": {**_COMMON, "scratch": form_products_scratch, "step": form_products_lyapunov_step},
 }

@@ -21,6 +21,7 @@ __all__ = [
     "dexpinv_series",
     "dexpinv_series_tangent",
     "phi1",
+    "product_exponent",
     "right_jacobian",
     "rotate_back",
     "tangent_attitude_turned",
@@ -186,3 +187,28 @@ def tangent_attitude_turned(y1, at, Q, turned, w0, w1, w2):
         y1[e] = (s0 * Q[0, 0] + s1 * Q[1, 0] + s2 * Q[2, 0]) + (n1 * w2 - n2 * w1)
         y1[e + 1] = (s0 * Q[0, 1] + s1 * Q[1, 1] + s2 * Q[2, 1]) + (n2 * w0 - n0 * w2)
         y1[e + 2] = (s0 * Q[0, 2] + s1 * Q[1, 2] + s2 * Q[2, 2]) + (n0 * w1 - n1 * w0)
+
+
+@njit(cache=True, inline="always")
+def product_exponent(u, du, K, dK, weights, row, upto, h, k):
+    """An exponent of a product of exponentials and its tangent vectors' moves:
+    ``u = h Σ_{j < upto} w_j K_j`` and ``δu_m = h Σ_j w_j δK_mj``, ``w = weights[row]``, over the
+    nonzero weights in the order of j (K (s, w), δK (k, s, w)); returns whether any weight was
+    nonzero."""
+    width = K.shape[1]
+    for c in range(width):
+        u[c] = 0.0
+    for m in range(k):
+        for c in range(width):
+            du[m, c] = 0.0
+    any_weight = False
+    for j in range(upto):
+        if weights[row, j] != 0.0:
+            any_weight = True
+            hw = h * weights[row, j]
+            for c in range(width):
+                u[c] += hw * K[j, c]
+            for m in range(k):
+                for c in range(width):
+                    du[m, c] += hw * dK[m, j, c]
+    return any_weight

@@ -98,7 +98,7 @@ _FORMS = {
     "RollingBall3Form": ("3D rolling ball", "RollingBall3"),
 }
 #: the bodies besides the 3D top whose products of exponentials have compiled tangent steps too
-_PRODUCTS = ("3D heavy top",)
+_PRODUCTS = ("3D heavy top", "3D Chaplygin ball", "3D rolling ball")
 
 
 def _declared(system):
