@@ -39,6 +39,7 @@ from .se3_tangent import (
     combine_stage,
     dexpinv_series,
     dexpinv_series_tangent,
+    exponential,
     phi1,
     product_exponent,
     right_jacobian,
@@ -181,35 +182,8 @@ def form_rkmk_tangent_step(fx, y, par, meth, h, y1, inc, aux, scr):
         beta, gamma, dbeta, dgamma = coefficients(t2)
         pi0, pi1, pi2 = rotate_back(Q, p[0], p[1], p[2])
         gi0, gi1, gi2 = rotate_back(Q, g[0], g[1], g[2])
-        if i == s:  # the step's end: the tangent vectors first, they read the state before it moves
-            attitude_turned_into(y1, 9, Q, newR)
-            for m in range(k):
-                o = BLOCK * (m + 1)
-                w0, w1, w2 = right_jacobian(u, du[m], beta, gamma)
-                a0, a1, a2 = rotate_back(Q, y1[o], y1[o + 1], y1[o + 2])
-                e0, e1, e2 = _cross(w0, w1, w2, pi0, pi1, pi2)
-                b0, b1, b2 = rotate_back(Q, y1[o + 3], y1[o + 4], y1[o + 5])
-                f0, f1, f2 = _cross(w0, w1, w2, gi0, gi1, gi2)
-                if track:  # δc₁ = δc + δR t + R δt (R, δR before the step)
-                    t0, t1, t2_, dt0, dt1, dt2 = translation(u, du[m], beta, gamma, dbeta, dgamma)
-                    for r in range(3):
-                        R0, R1, R2 = y1[9 + 3 * r], y1[10 + 3 * r], y1[11 + 3 * r]
-                        S0, S1, S2 = y1[o + 9 + 3 * r], y1[o + 10 + 3 * r], y1[o + 11 + 3 * r]
-                        y1[o + 6 + r] += (S0 * t0 + S1 * t1 + S2 * t2_) + (R0 * dt0 + R1 * dt1 + R2 * dt2)
-                y1[o], y1[o + 1], y1[o + 2] = a0 - e0, a1 - e1, a2 - e2
-                y1[o + 3], y1[o + 4], y1[o + 5] = b0 - f0, b1 - f1, b2 - f2
-                if orient:  # δR₁ = δR Q + R₁ ŵ
-                    tangent_attitude_turned(y1, o + 9, Q, newR, w0, w1, w2)
-            if track:  # c₁ = c + R t
-                t0, t1, t2_, _, _, _ = translation(u, du[0], beta, gamma, dbeta, dgamma)
-                for r in range(3):
-                    y1[6 + r] += y1[9 + 3 * r] * t0 + y1[10 + 3 * r] * t1 + y1[11 + 3 * r] * t2_
-            y1[0], y1[1], y1[2] = pi0, pi1, pi2
-            y1[3], y1[4], y1[5] = gi0, gi1, gi2
-            if orient:
-                for r in range(3):
-                    for c in range(3):
-                        y1[9 + 3 * r + c] = newR[r, c]
+        if i == s:  # the step's end: exp(u) turns the block and its tangent vectors
+            _turn(y1, k, u, du, Q, beta, gamma, dbeta, dgamma, orient, track, newR)
             for c in range(6):
                 if c < inc.shape[0]:
                     inc[c] = u[c]
@@ -247,14 +221,11 @@ def form_products_scratch(fx, meth, par, d):
 
 
 @njit(cache=True, inline="always")
-def _turn(arr, k, u, du, Q, attitude, track, newR):
+def _turn(arr, k, u, du, Q, beta, gamma, dbeta, dgamma, attitude, track, newR):
     """The block ``arr[0:18]`` and its k tangent vectors (blocks after it) under the right action of
-    ``exp(u)`` moved by ``δu`` (module docstring), in place: ``Π ← QᵀΠ``, ``Γ ← QᵀΓ`` and their
-    tangents always; with ``track`` the centre ``c ← c + R t`` (``δc ← δc + δR t + R δt``), with
-    ``attitude`` ``R ← RQ`` (``δR ← δR Q + R₁ ŵ``)."""
-    t2 = u[0] * u[0] + u[1] * u[1] + u[2] * u[2]
-    _rodrigues(u, Q)
-    beta, gamma, dbeta, dgamma = coefficients(t2)
+    ``exp(u)`` moved by ``δu`` (module docstring), in place, ``Q = exp(u_w)`` and the coefficients of
+    u given: ``Π ← QᵀΠ``, ``Γ ← QᵀΓ`` and their tangents always; with ``track`` the centre
+    ``c ← c + R t`` (``δc ← δc + δR t + R δt``), with ``attitude`` ``R ← RQ`` (``δR ← δR Q + R₁ ŵ``)."""
     pi0, pi1, pi2 = rotate_back(Q, arr[0], arr[1], arr[2])
     gi0, gi1, gi2 = rotate_back(Q, arr[3], arr[4], arr[5])
     if attitude:
@@ -309,7 +280,8 @@ def form_products_tangent_step(fx, y, par, meth, h, y1, inc, aux, scr):
                 st[BLOCK * m + c] = y1[BLOCK * m + c]
         for e in range(bounds[i], bounds[i + 1]):
             if product_exponent(u, du, K, dK, weights, e, i, h, k):
-                _turn(st, k, u, du, Q, False, False, newR)
+                beta, gamma, dbeta, dgamma = exponential(u, Q)
+                _turn(st, k, u, du, Q, beta, gamma, dbeta, dgamma, False, False, newR)
         w0, w1, w2, v0, v1, v2, adj, det = _generator(par, track, st[0], st[1], st[2], st[3], st[4], st[5])
         K[i, 0], K[i, 1], K[i, 2], K[i, 3], K[i, 4], K[i, 5] = w0, w1, w2, v0, v1, v2
         for m in range(k):
@@ -326,7 +298,8 @@ def form_products_tangent_step(fx, y, par, meth, h, y1, inc, aux, scr):
             if o + c < inc.shape[0]:
                 inc[o + c] = u[c] if moved else 0.0
         if moved:
-            _turn(y1, k, u, du, Q, orient, track, newR)
+            beta, gamma, dbeta, dgamma = exponential(u, Q)
+            _turn(y1, k, u, du, Q, beta, gamma, dbeta, dgamma, orient, track, newR)
     aux[0] = K[0, 0] * K[0, 0] + K[0, 1] * K[0, 1] + K[0, 2] * K[0, 2]
     return meth.c.shape[0]
 

@@ -45,6 +45,7 @@ from .se3_tangent import (
     combine_stage,
     dexpinv_series,
     dexpinv_series_tangent,
+    exponential,
     phi1,
     product_exponent,
     right_jacobian,
@@ -135,28 +136,8 @@ def form_rkmk_tangent_step(fx, y, par, meth, h, y1, inc, aux, scr):
         t0, t1, t2_ = phi1(u[0], u[1], u[2], b0, b1, b2, beta, gamma)
         x0, x1, x2 = _cross(t0, t1, t2_, g[0], g[1], g[2])
         pi0, pi1, pi2 = rotate_back(Q, p[0] + x0, p[1] + x1, p[2] + x2)
-        if i == s:  # the step's end: the tangent vectors first, they read the state before it moves
-            g0, g1, g2 = rotate_back(Q, g[0], g[1], g[2])
-            attitude_turned_into(y1, 6, Q, newR)
-            for m in range(k):
-                o = BLOCK * (m + 1)
-                w0, w1, w2, _, _, _, dx0, dx1, dx2 = _moved(
-                    u, du[m], beta, gamma, dbeta, dgamma, p, g, y1[o : o + 3], y1[o + 3 : o + 6]
-                )
-                q0, q1, q2 = rotate_back(Q, dx0, dx1, dx2)
-                e0, e1, e2 = _cross(w0, w1, w2, pi0, pi1, pi2)
-                r0, r1, r2 = rotate_back(Q, y1[o + 3], y1[o + 4], y1[o + 5])
-                f0, f1, f2 = _cross(w0, w1, w2, g0, g1, g2)
-                y1[o], y1[o + 1], y1[o + 2] = q0 - e0, q1 - e1, q2 - e2
-                y1[o + 3], y1[o + 4], y1[o + 5] = r0 - f0, r1 - f1, r2 - f2
-                if orient:  # δR₁ = δR Q + R₁ ŵ
-                    tangent_attitude_turned(y1, o + 6, Q, newR, w0, w1, w2)
-            y1[0], y1[1], y1[2] = pi0, pi1, pi2
-            y1[3], y1[4], y1[5] = g0, g1, g2
-            if orient:
-                for r in range(3):
-                    for c in range(3):
-                        y1[6 + 3 * r + c] = newR[r, c]
+        if i == s:  # the step's end: exp(u) turns the block and its tangent vectors
+            _turn(y1, BLOCK, k, u, du, Q, beta, gamma, dbeta, dgamma, orient, newR)
             for c in range(6):
                 if c < inc.shape[0]:
                     inc[c] = u[c]
@@ -194,13 +175,11 @@ def form_products_scratch(fx, meth, par, d):
 
 
 @njit(cache=True, inline="always")
-def _turn(arr, stride, k, u, du, Q, attitude, newR):
+def _turn(arr, stride, k, u, du, Q, beta, gamma, dbeta, dgamma, attitude, newR):
     """The point ``(Π, Γ̃) = arr[0:6]`` and its k tangent vectors (``arr[stride (m + 1):]``) under the
-    right action of ``exp(u)`` moved by ``δu`` (module docstring), in place; with ``attitude`` the
-    block's R̃ (at 6) and the tangent vectors' δR̃ too (``R̃ ← R̃Q``, ``δR̃ ← δR̃ Q + R̃₁ ŵ``)."""
-    t2 = u[0] * u[0] + u[1] * u[1] + u[2] * u[2]
-    _rodrigues(u, Q)
-    beta, gamma, dbeta, dgamma = coefficients(t2)
+    right action of ``exp(u)`` moved by ``δu`` (module docstring), in place, ``Q = exp(u_w)`` and the
+    coefficients of u given; with ``attitude`` the block's R̃ (at 6) and the tangent vectors' δR̃ too
+    (``R̃ ← R̃Q``, ``δR̃ ← δR̃ Q + R̃₁ ŵ``)."""
     p, g = arr[0:3], arr[3:6]
     t0, t1, t2_ = phi1(u[0], u[1], u[2], u[3], u[4], u[5], beta, gamma)
     x0, x1, x2 = _cross(t0, t1, t2_, g[0], g[1], g[2])
@@ -250,7 +229,8 @@ def form_products_tangent_step(fx, y, par, meth, h, y1, inc, aux, scr):
                 st[6 * m + c] = y1[BLOCK * m + c]
         for e in range(bounds[i], bounds[i + 1]):
             if product_exponent(u, du, K, dK, weights, e, i, h, k):
-                _turn(st, 6, k, u, du, Q, False, newR)
+                beta, gamma, dbeta, dgamma = exponential(u, Q)
+                _turn(st, 6, k, u, du, Q, beta, gamma, dbeta, dgamma, False, newR)
         for c in range(3):
             K[i, c] = Iinv[c] * st[c]
             K[i, 3 + c] = v[c]
@@ -268,7 +248,8 @@ def form_products_tangent_step(fx, y, par, meth, h, y1, inc, aux, scr):
         for c in range(6):
             if o + c < inc.shape[0]:
                 inc[o + c] = u[c]
-        _turn(y1, BLOCK, k, u, du, Q, orient, newR)
+        beta, gamma, dbeta, dgamma = exponential(u, Q)
+        _turn(y1, BLOCK, k, u, du, Q, beta, gamma, dbeta, dgamma, orient, newR)
     aux[0] = K[0, 0] * K[0, 0] + K[0, 1] * K[0, 1] + K[0, 2] * K[0, 2]
     return meth.c.shape[0]
 

@@ -49,6 +49,7 @@ from .se3_tangent import (
     combine_stage,
     dexpinv_series,
     dexpinv_series_tangent,
+    exponential,
     phi1,
     product_exponent,
     right_jacobian,
@@ -238,39 +239,8 @@ def form_rkmk_tangent_step(fx, y, par, meth, h, y1, inc, aux, scr):
         Gi0, Gi1, Gi2 = 0.0, 0.0, 0.0
         if tilted:
             Gi0, Gi1, Gi2 = rotate_back(Q, y1[_G], y1[_G + 1], y1[_G + 2])
-        if i == s:  # the step's end: the tangent vectors first, they read the state before it moves
-            attitude_turned_into(y1, _R, Q, newR)
-            for m in range(k):
-                o = BLOCK * (m + 1)
-                w0, w1, w2 = right_jacobian(u, du[m], beta, gamma)
-                a0, a1, a2 = rotate_back(Q, y1[o + 3], y1[o + 4], y1[o + 5])
-                e0, e1, e2 = _cross(w0, w1, w2, gi0, gi1, gi2)
-                if tilted:
-                    b0, b1, b2 = rotate_back(Q, y1[o + _G], y1[o + _G + 1], y1[o + _G + 2])
-                    f0, f1, f2 = _cross(w0, w1, w2, Gi0, Gi1, Gi2)
-                    y1[o + _G], y1[o + _G + 1], y1[o + _G + 2] = b0 - f0, b1 - f1, b2 - f2
-                if track:  # δc₁ = δc + δR t + R δt (R, δR before the step)
-                    t0, t1, t2_, dt0, dt1, dt2 = translation(u, du[m], beta, gamma, dbeta, dgamma)
-                    for r in range(3):
-                        R0, R1, R2 = y1[_R + 3 * r], y1[_R + 1 + 3 * r], y1[_R + 2 + 3 * r]
-                        S0, S1, S2 = y1[o + _R + 3 * r], y1[o + _R + 1 + 3 * r], y1[o + _R + 2 + 3 * r]
-                        y1[o + _C + r] += (S0 * t0 + S1 * t1 + S2 * t2_) + (R0 * dt0 + R1 * dt1 + R2 * dt2)
-                y1[o], y1[o + 1], y1[o + 2] = y1[o] + du[m, 6], y1[o + 1] + du[m, 7], y1[o + 2] + du[m, 8]
-                y1[o + 3], y1[o + 4], y1[o + 5] = a0 - e0, a1 - e1, a2 - e2
-                if orient:  # δR₁ = δR Q + R₁ ŵ
-                    tangent_attitude_turned(y1, o + _R, Q, newR, w0, w1, w2)
-            if track:  # c₁ = c + R t
-                t0, t1, t2_, _, _, _ = translation(u, du[0], beta, gamma, dbeta, dgamma)
-                for r in range(3):
-                    y1[_C + r] += y1[_R + 3 * r] * t0 + y1[_R + 1 + 3 * r] * t1 + y1[_R + 2 + 3 * r] * t2_
-            y1[0], y1[1], y1[2] = wi0, wi1, wi2
-            y1[3], y1[4], y1[5] = gi0, gi1, gi2
-            if tilted:
-                y1[_G], y1[_G + 1], y1[_G + 2] = Gi0, Gi1, Gi2
-            if orient:
-                for r in range(3):
-                    for c in range(3):
-                        y1[_R + 3 * r + c] = newR[r, c]
+        if i == s:  # the step's end: ((exp û_w, t), δ) moves the block and its tangent vectors
+            _turn(y1, k, u, du, Q, beta, gamma, dbeta, dgamma, tilted, orient, track, newR)
             for c in range(WIDTH):
                 if c < inc.shape[0]:
                     inc[c] = u[c]
@@ -325,14 +295,12 @@ def form_products_scratch(fx, meth, par, d):
 
 
 @njit(cache=True, inline="always")
-def _turn(arr, k, u, du, Q, tilted, attitude, track, newR):
+def _turn(arr, k, u, du, Q, beta, gamma, dbeta, dgamma, tilted, attitude, track, newR):
     """The block ``arr[0:21]`` and its k tangent vectors (blocks after it) under the right action of
-    ``((exp û_w, t), δ)`` moved by ``δu`` (module docstring), in place: ``ω ← ω + δ``,
-    ``Γ ← QᵀΓ`` (on an incline ``G ← QᵀG``) and their tangents always; with ``track`` the centre
-    ``c ← c + R t``, with ``attitude`` ``R ← RQ``, and their tangents."""
-    t2 = u[0] * u[0] + u[1] * u[1] + u[2] * u[2]
-    _rodrigues(u, Q)
-    beta, gamma, dbeta, dgamma = coefficients(t2)
+    ``((exp û_w, t), δ)`` moved by ``δu`` (module docstring), in place, ``Q = exp(u_w)`` and the
+    coefficients of u given: ``ω ← ω + δ``, ``Γ ← QᵀΓ`` (on an incline ``G ← QᵀG``) and their
+    tangents always; with ``track`` the centre ``c ← c + R t``, with ``attitude`` ``R ← RQ``, and
+    their tangents."""
     gi0, gi1, gi2 = rotate_back(Q, arr[3], arr[4], arr[5])
     Gi0, Gi1, Gi2 = 0.0, 0.0, 0.0
     if tilted:
@@ -394,7 +362,8 @@ def form_products_tangent_step(fx, y, par, meth, h, y1, inc, aux, scr):
                 st[BLOCK * m + c] = y1[BLOCK * m + c]
         for e in range(bounds[i], bounds[i + 1]):
             if product_exponent(u, du, K, dK, weights, e, i, h, k):
-                _turn(st, k, u, du, Q, tilted, False, False, newR)
+                beta, gamma, dbeta, dgamma = exponential(u, Q)
+                _turn(st, k, u, du, Q, beta, gamma, dbeta, dgamma, tilted, False, False, newR)
         w0, w1, w2, g0, g1, g2 = st[0], st[1], st[2], st[3], st[4], st[5]
         G0, G1, G2 = st[_G], st[_G + 1], st[_G + 2]
         wd, kap, mk, adj, inv, a, n, f, v = _state_slope(par, rt, w0, w1, w2, g0, g1, g2, G0, G1, G2)
@@ -419,7 +388,8 @@ def form_products_tangent_step(fx, y, par, meth, h, y1, inc, aux, scr):
             if o + c < inc.shape[0]:
                 inc[o + c] = u[c] if moved else 0.0
         if moved:
-            _turn(y1, k, u, du, Q, tilted, orient, track, newR)
+            beta, gamma, dbeta, dgamma = exponential(u, Q)
+            _turn(y1, k, u, du, Q, beta, gamma, dbeta, dgamma, tilted, orient, track, newR)
     aux[0] = K[0, 0] * K[0, 0] + K[0, 1] * K[0, 1] + K[0, 2] * K[0, 2]
     return meth.c.shape[0]
 

@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .top3 import _cross
+from .top3 import _cross, _rodrigues
 
 __all__ = [
     "ad_minus",
@@ -20,12 +20,14 @@ __all__ = [
     "combine_stage",
     "dexpinv_series",
     "dexpinv_series_tangent",
+    "exponential",
     "phi1",
     "product_exponent",
     "right_jacobian",
     "rotate_back",
     "tangent_attitude_turned",
     "translation",
+    "weighted_sum",
 ]
 
 
@@ -150,22 +152,10 @@ def combine_stage(i, A, b, h, K, dK, u, du, k):
     """``u = h Σ_j a_ij K_j`` and ``δu_m = h Σ_j a_ij δK_mj`` for stage i of the tableau (A, b), or
     with the weights b for the step's end (``i = s``): K (s, w), δK (k, s, w) — w = 6 on se(3),
     9 with the rolling ball's abelian so(3) factor after it."""
-    s = b.shape[0]
-    width = K.shape[1]
-    for c in range(width):
-        u[c] = 0.0
-    for m in range(k):
-        for c in range(width):
-            du[m, c] = 0.0
-    for j in range(i if i < s else s):
-        weight = A[i, j] if i < s else b[j]
-        if weight != 0.0:
-            hw = h * weight
-            for c in range(width):
-                u[c] += hw * K[j, c]
-            for m in range(k):
-                for c in range(width):
-                    du[m, c] += hw * dK[m, j, c]
+    if i < b.shape[0]:
+        weighted_sum(u, du, K, dK, A[i], i, h, k)
+    else:
+        weighted_sum(u, du, K, dK, b, i, h, k)
 
 
 @njit(cache=True, inline="always")
@@ -190,11 +180,9 @@ def tangent_attitude_turned(y1, at, Q, turned, w0, w1, w2):
 
 
 @njit(cache=True, inline="always")
-def product_exponent(u, du, K, dK, weights, row, upto, h, k):
-    """An exponent of a product of exponentials and its tangent vectors' moves:
-    ``u = h Σ_{j < upto} w_j K_j`` and ``δu_m = h Σ_j w_j δK_mj``, ``w = weights[row]``, over the
-    nonzero weights in the order of j (K (s, w), δK (k, s, w)); returns whether any weight was
-    nonzero."""
+def weighted_sum(u, du, K, dK, weights, upto, h, k):
+    """``u = h Σ_{j < upto} w_j K_j`` and ``δu_m = h Σ_j w_j δK_mj`` over the nonzero weights ``w``
+    in the order of j (K (s, w), δK (k, s, w)); returns whether any weight was nonzero."""
     width = K.shape[1]
     for c in range(width):
         u[c] = 0.0
@@ -203,12 +191,27 @@ def product_exponent(u, du, K, dK, weights, row, upto, h, k):
             du[m, c] = 0.0
     any_weight = False
     for j in range(upto):
-        if weights[row, j] != 0.0:
+        if weights[j] != 0.0:
             any_weight = True
-            hw = h * weights[row, j]
+            hw = h * weights[j]
             for c in range(width):
                 u[c] += hw * K[j, c]
             for m in range(k):
                 for c in range(width):
                     du[m, c] += hw * dK[m, j, c]
     return any_weight
+
+
+@njit(cache=True, inline="always")
+def product_exponent(u, du, K, dK, weights, row, upto, h, k):
+    """An exponent of a product of exponentials and its tangent vectors' moves: :func:`weighted_sum`
+    of the weights ``weights[row]``; returns whether any weight was nonzero."""
+    return weighted_sum(u, du, K, dK, weights[row], upto, h, k)
+
+
+@njit(cache=True, inline="always")
+def exponential(u, Q):
+    """``Q = exp(û_w)`` (written into Q, Rodrigues) and the coefficients of u (:func:`coefficients`):
+    what turning a block by ``exp(u)`` needs."""
+    _rodrigues(u, Q)
+    return coefficients(u[0] * u[0] + u[1] * u[1] + u[2] * u[2])
