@@ -24,7 +24,7 @@ vectors here, the generic path's compiled pieces solve a Lyapunov equation in ma
 agree to round-off, not to the bit).
 
 With k = 0 the step is the plain RKMK step of the state alone: one 3D Chaplygin ball's
-fixed-step runs in exponential coordinates go through it (:class:`lieint.fast.layouts.Chaplygin3Layout`),
+fixed-step runs in exponential coordinates go through it (:class:`lieint.fast.tangent_layouts.Chaplygin3Layout`),
 about six times cheaper a step than the compiled pieces.
 """
 

@@ -38,14 +38,11 @@ from .forms import (
 )
 from .layouts import (
     Chaplygin3LanesLayout,
-    Chaplygin3Layout,
     HeavyTop3LanesLayout,
-    HeavyTop3Layout,
     Layout,
     PiecesEnergyLayout,
     PiecesLayout,
     RollingBall3LanesLayout,
-    RollingBall3Layout,
     Top3EnergyLayout,
     Top3LanesLayout,
     Top3Layout,
@@ -53,6 +50,7 @@ from .layouts import (
     TopNEnergyLayout,
     TopNLayout,
 )
+from .tangent_layouts import Chaplygin3Layout, HeavyTop3Layout, RollingBall3Layout
 
 __all__ = [
     "Engine",

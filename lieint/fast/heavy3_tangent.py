@@ -30,7 +30,7 @@ in vector form here, the generic path's compiled pieces in matrices: the two agr
 not to the bit). A top without attitude carries R̃ = I and δR̃ = 0, untouched.
 
 With k = 0 the step is the plain RKMK step of the state alone: one 3D heavy top's fixed-step runs
-in exponential coordinates go through it (:class:`lieint.fast.layouts.HeavyTop3Layout`), about
+in exponential coordinates go through it (:class:`lieint.fast.tangent_layouts.HeavyTop3Layout`), about
 seven times cheaper a step than the compiled pieces' 3 × 3 matrices.
 """
 

@@ -35,7 +35,7 @@ This is the derivative of the map the method computes: the tangent map the compl
 compiled pieces solve the rolling equation's Lyapunov system in matrices: the two agree to
 round-off, not to the bit). With k = 0 the step is the plain step of the state alone: one 3D
 rolling ball's fixed-step runs in exponential coordinates go through it
-(:class:`lieint.fast.layouts.RollingBall3Layout`).
+(:class:`lieint.fast.tangent_layouts.RollingBall3Layout`).
 """
 
 from __future__ import annotations

@@ -88,7 +88,7 @@ def compiled_reason(system, method) -> str:
 
 #: the forms with compiled tangent steps, by class name (the 3D top's and the n-D top's own, the
 #: heavy top's and the balls' lanes form, :attr:`lieint.fast.forms.PiecesForm.lanes`): what a
-#: message calls the body, and the prefix of its layouts' names in :mod:`lieint.fast.layouts`
+#: message calls the body, and the prefix of its layouts' names in :mod:`lieint.fast.tangent_layouts`
 #: (``<prefix>TangentLayout``, ``<prefix>MegnoLayout``, ``<prefix>LyapunovLayout``)
 _FORMS = {
     "Top3Form": ("3D top", "Top3"),
@@ -112,11 +112,11 @@ def _declared(system):
 def _layouts(system):
     """The layouts of ``system``'s compiled tangent form: (tangent, MEGNO, Lyapunov) classes and the
     form they are built from."""
-    from ..fast import layouts
+    from ..fast import tangent_layouts
 
     form, (_, prefix) = _declared(system)
     kinds = ("Tangent", "Megno", "Lyapunov")
-    return form, tuple(getattr(layouts, f"{prefix}{kind}Layout") for kind in kinds)
+    return form, tuple(getattr(tangent_layouts, f"{prefix}{kind}Layout") for kind in kinds)
 
 
 def _grid(sizes: np.ndarray) -> _Steps | None:
@@ -130,7 +130,7 @@ def _grid(sizes: np.ndarray) -> _Steps | None:
 
 
 class _CompiledRun:
-    """A layout of a 3D body with tangent vectors (:mod:`lieint.fast.layouts`) and its engine,
+    """A layout of a 3D body with tangent vectors (:mod:`lieint.fast.tangent_layouts`) and its engine,
     for one method and a batch; :meth:`_steps` runs a grid of steps in one call of the loop."""
 
     def __init__(self, system, method, batch: tuple[int, ...], layout):

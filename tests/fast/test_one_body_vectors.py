@@ -1,4 +1,4 @@
-"""One 3D heavy top, Chaplygin ball or rolling ball in vectors (lieint.fast.layouts.HeavyTop3Layout,
+"""One 3D heavy top, Chaplygin ball or rolling ball in vectors (lieint.fast.tangent_layouts.HeavyTop3Layout,
 Chaplygin3Layout, RollingBall3Layout): a single body's fixed-step RKMK in exponential coordinates runs on the plain
 step of its tangent module (no tangent vectors), not on the compiled pieces' matrices. Checked
 against the generic numpy path for every such method of the registry, with dense output, events
