@@ -45,6 +45,8 @@ __all__ = [
     "orbit_dimension",
     "orbit_numbers",
     "orbit_parts",
+    "rolling_ball_increments",
+    "rolling_ball_numbers",
     "vector_factors",
 ]
 
@@ -368,18 +370,8 @@ class RollingBall3LanesLayout(Layout):
         from .lanes import block_lanes
         from .rolling_lanes import PARAMS, ROWS
 
-        B = np.asarray(form.B_C, dtype=float)
-        J = np.trace(B) * np.eye(3) - B
-        self.orientation, self.center, self.tilted = bool(form.orientation), bool(form.center), form.mode == 2
-        self.params = np.concatenate(
-            [J.ravel(), [form.mass, form.radius], np.asarray(form.normal, dtype=float), [float(self.center)],
-             [float(form.mode), form.g_normal, form.g_norm], np.asarray(form.center_of_mass, dtype=float)]
-        )  # fmt: skip
+        rolling_ball_numbers(self, form)
         assert self.params.size == PARAMS
-        self.group = "se(3)" if self.center else "so(3)"
-        # the ball's fields in its state's order (lieint.RollingBall): Ω, Γ, G on an incline, R, the centre
-        self.fields = ["Omega", "Gamma"] + ["G"] * self.tilted + ["R"] * self.orientation + ["center"] * self.center
-        self.count = 12 + (3 if self.tilted else 0) + (9 if self.orientation else 0) + (3 if self.center else 0)
         self.N, self.L = N, block_lanes(N)
         self.d = ROWS * (self.L + 8)
         self.units = -(-N // self.L)
@@ -422,17 +414,11 @@ class RollingBall3LanesLayout(Layout):
         return STEP_ROWS * (self.L + 8)
 
     def increments(self, U: np.ndarray, batch: tuple):
-        """The steps' increments in the ball's algebra ``se(3) × so(3)`` (``so(3) × so(3)`` without
-        the centre): ``([[û_w, u_v], [0, 0]], δ̂)``."""
-        from ..groups.bivectors import hat
-        from ..groups.se import se_join
+        """The steps' increments in the ball's algebra (:func:`rolling_ball_increments`)."""
         from .rolling_lanes import increments_to_user
 
         w, v, delta = increments_to_user(U, self.N)
-        lead = U.shape[:-2] + batch
-        W, D = hat(w).reshape(lead + (3, 3)), hat(delta).reshape(lead + (3, 3))
-        pose = se_join(W, v.reshape(lead + (3,)), algebra=True) if self.center else W
-        return pose, D
+        return rolling_ball_increments(w, v, delta, U.shape[:-2] + batch, self.center)
 
 
 class TopNLayout(Layout):
@@ -784,3 +770,33 @@ def algebra_element(group, W, v, a):
             start += size
         return tuple(parts)
     raise TypeError(f"no algebra element of {group!r} from a compiled increment")
+
+
+def rolling_ball_numbers(layout, form: RollingBall3Form) -> None:
+    """What a 3D rolling ball's layouts share, set on ``layout``: ``params`` — ``J = tr(B_C) I − B_C``
+    (9), M, r, ν (3), whether the centre is tracked, the gravity mode (0 none, 1 along ν, 2 tilted:
+    G a field), ``⟨g, ν⟩``, ``|g|``, X_G (3): :mod:`lieint.fast.rolling_lanes`' 21 numbers — the flags
+    ``orientation``, ``center``, ``tilted``, the pose's ``group``, the user's ``fields`` in the
+    state's order (Ω, Γ, G on an incline, R, the centre) and their ``count``."""
+    B = np.asarray(form.B_C, dtype=float)
+    J = np.trace(B) * np.eye(3) - B
+    layout.orientation, layout.center, layout.tilted = bool(form.orientation), bool(form.center), form.mode == 2
+    layout.params = np.concatenate(
+        [J.ravel(), [form.mass, form.radius], np.asarray(form.normal, dtype=float), [float(layout.center)],
+         [float(form.mode), form.g_normal, form.g_norm], np.asarray(form.center_of_mass, dtype=float)]
+    )  # fmt: skip
+    layout.group = "se(3)" if layout.center else "so(3)"
+    layout.fields = ["Omega", "Gamma"] + ["G"] * layout.tilted + ["R"] * layout.orientation + ["center"] * layout.center
+    layout.count = 12 + 3 * layout.tilted + 9 * layout.orientation + 3 * layout.center
+
+
+def rolling_ball_increments(w, v, delta, lead: tuple, center: bool):
+    """A 3D rolling ball's step increments in its algebra ``se(3) × so(3)`` (``so(3) × so(3)``
+    without the centre), ``([[ŵ, v], [0, 0]], δ̂)``, from the vectors ``(..., 3)`` of its pose's
+    rotation and translation and of the so(3) factor, over the leading axes ``lead``."""
+    from ..groups.bivectors import hat
+    from ..groups.se import se_join
+
+    W, D = hat(w).reshape(lead + (3, 3)), hat(delta).reshape(lead + (3, 3))
+    pose = se_join(W, np.reshape(v, lead + (3,)), algebra=True) if center else W
+    return pose, D

@@ -17,7 +17,7 @@ import math
 import numpy as np
 
 from .forms import Chaplygin3Form, HeavyTop3Form, RollingBall3Form, Top3Form, TopNForm
-from .layouts import Layout, Top3Layout
+from .layouts import Layout, Top3Layout, rolling_ball_increments, rolling_ball_numbers
 
 __all__ = [
     "Chaplygin3Layout",
@@ -349,18 +349,8 @@ class RollingBall3TangentLayout(_TangentRows):
     exact_radius = True
 
     def __init__(self, form: RollingBall3Form, k: int):
-        B = np.asarray(form.B_C, dtype=float)
-        J = np.trace(B) * np.eye(3) - B
-        self.orientation, self.center, self.tilted = bool(form.orientation), bool(form.center), form.mode == 2
-        self.params = np.concatenate(
-            [J.ravel(), [form.mass, form.radius], np.asarray(form.normal, dtype=float), [float(self.center)],
-             [float(form.mode), form.g_normal, form.g_norm], np.asarray(form.center_of_mass, dtype=float),
-             [float(self.orientation)]]
-        )  # fmt: skip
-        self.group = "se(3)" if self.center else "so(3)"
-        # the ball's fields in its state's order (lieint.RollingBall): Ω, Γ, G on an incline, R, the centre
-        self.fields = ["Omega", "Gamma"] + ["G"] * self.tilted + ["R"] * self.orientation + ["center"] * self.center
-        self.count = 12 + (3 if self.tilted else 0) + (9 if self.orientation else 0) + (3 if self.center else 0)
+        rolling_ball_numbers(self, form)  # the lanes' parameters, then whether the ball carries R
+        self.params = np.concatenate([self.params, [float(self.orientation)]])
         super().__init__(k)
 
     def increments_size(self, method) -> int:
@@ -479,15 +469,9 @@ class RollingBall3Layout(RollingBall3TangentLayout):
         return self._block(y, N, False)
 
     def increments(self, U: np.ndarray, batch: tuple):
-        """The steps' increments in the ball's algebra ``se(3) × so(3)`` (``so(3) × so(3)`` without
-        the centre): ``([[û_w, u_v], [0, 0]], δ̂)``."""
-        from ..groups.bivectors import hat
-        from ..groups.se import se_join
-
-        lead = U.shape[:-2] + batch
-        W, D = hat(U[..., :3]).reshape(lead + (3, 3)), hat(U[..., 6:9]).reshape(lead + (3, 3))
-        pose = se_join(W, U[..., 3:6].reshape(lead + (3,)), algebra=True) if self.center else W
-        return pose, D
+        """The steps' increments ``(u_w, u_v, δ)`` in the ball's algebra
+        (:func:`lieint.fast.layouts.rolling_ball_increments`)."""
+        return rolling_ball_increments(U[..., :3], U[..., 3:6], U[..., 6:9], U.shape[:-2] + batch, self.center)
 
 
 class TopNTangentLayout(_TangentRows):

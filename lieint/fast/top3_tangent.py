@@ -29,6 +29,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from .se3_tangent import rotate_back, tangent_attitude_turned
 from .tangent_sums import MEGNO_SLOTS, lyapunov_update, megno_update
 from .top3 import (
     _RADIUS2,
@@ -376,12 +377,7 @@ def form_rkmk_tangent_step(fx, y, par, meth, h, y1, inc, aux, scr):
         q1 = Q[0, 1] * y1[o] + Q[1, 1] * y1[o + 1] + Q[2, 1] * y1[o + 2] - e1
         q2 = Q[0, 2] * y1[o] + Q[1, 2] * y1[o + 1] + Q[2, 2] * y1[o + 2] - e2
         y1[o], y1[o + 1], y1[o + 2] = q0, q1, q2
-        for r in range(3):  # δR₁ = δR Q + R₁ ŵ, ŵ = [[0, −w2, w1], [w2, 0, −w0], [−w1, w0, 0]]
-            s0, s1, s2 = y1[o + 3 + 3 * r], y1[o + 4 + 3 * r], y1[o + 5 + 3 * r]
-            r0, r1, r2 = tR[r, 0], tR[r, 1], tR[r, 2]
-            y1[o + 3 + 3 * r] = (s0 * Q[0, 0] + s1 * Q[1, 0] + s2 * Q[2, 0]) + (r1 * w2 - r2 * w1)
-            y1[o + 4 + 3 * r] = (s0 * Q[0, 1] + s1 * Q[1, 1] + s2 * Q[2, 1]) + (r2 * w0 - r0 * w2)
-            y1[o + 5 + 3 * r] = (s0 * Q[0, 2] + s1 * Q[1, 2] + s2 * Q[2, 2]) + (r0 * w1 - r1 * w0)
+        tangent_attitude_turned(y1, o + 3, Q, tR, w0, w1, w2)  # δR₁ = δR Q + R₁ ŵ
     for r in range(3):
         pi[r] = tpi[r]
         for c2 in range(3):
@@ -529,10 +525,8 @@ def form_products_tangent_step(fx, y, par, meth, h, y1, inc, aux, scr):
             for m in range(k):
                 w0, w1, w2 = _right_jacobian(u[0], u[1], u[2], du[m, 0], du[m, 1], du[m, 2])
                 e0, e1, e2 = _cross(w0, w1, w2, p0, p1, p2)
-                a0, a1, a2 = dp[m, 0], dp[m, 1], dp[m, 2]
-                dp[m, 0] = Q[0, 0] * a0 + Q[1, 0] * a1 + Q[2, 0] * a2 - e0
-                dp[m, 1] = Q[0, 1] * a0 + Q[1, 1] * a1 + Q[2, 1] * a2 - e1
-                dp[m, 2] = Q[0, 2] * a0 + Q[1, 2] * a1 + Q[2, 2] * a2 - e2
+                a0, a1, a2 = rotate_back(Q, dp[m, 0], dp[m, 1], dp[m, 2])
+                dp[m, 0], dp[m, 1], dp[m, 2] = a0 - e0, a1 - e1, a2 - e2
         K[i, 0], K[i, 1], K[i, 2] = Iinv[0] * p0, Iinv[1] * p1, Iinv[2] * p2
         for m in range(k):
             dK[m, i, 0], dK[m, i, 1], dK[m, i, 2] = Iinv[0] * dp[m, 0], Iinv[1] * dp[m, 1], Iinv[2] * dp[m, 2]
@@ -555,16 +549,9 @@ def form_products_tangent_step(fx, y, par, meth, h, y1, inc, aux, scr):
             o = 12 * (m + 1)
             w0, w1, w2 = _right_jacobian(u[0], u[1], u[2], du[m, 0], du[m, 1], du[m, 2])
             e0, e1, e2 = _cross(w0, w1, w2, pi[0], pi[1], pi[2])
-            a0, a1, a2 = y1[o], y1[o + 1], y1[o + 2]
-            y1[o] = Q[0, 0] * a0 + Q[1, 0] * a1 + Q[2, 0] * a2 - e0
-            y1[o + 1] = Q[0, 1] * a0 + Q[1, 1] * a1 + Q[2, 1] * a2 - e1
-            y1[o + 2] = Q[0, 2] * a0 + Q[1, 2] * a1 + Q[2, 2] * a2 - e2
-            for r in range(3):  # δR₁ = δR Q + R₁ ŵ
-                s0, s1, s2 = y1[o + 3 + 3 * r], y1[o + 4 + 3 * r], y1[o + 5 + 3 * r]
-                r0, r1, r2 = tR[r, 0], tR[r, 1], tR[r, 2]
-                y1[o + 3 + 3 * r] = (s0 * Q[0, 0] + s1 * Q[1, 0] + s2 * Q[2, 0]) + (r1 * w2 - r2 * w1)
-                y1[o + 4 + 3 * r] = (s0 * Q[0, 1] + s1 * Q[1, 1] + s2 * Q[2, 1]) + (r2 * w0 - r0 * w2)
-                y1[o + 5 + 3 * r] = (s0 * Q[0, 2] + s1 * Q[1, 2] + s2 * Q[2, 2]) + (r0 * w1 - r1 * w0)
+            a0, a1, a2 = rotate_back(Q, y1[o], y1[o + 1], y1[o + 2])
+            y1[o], y1[o + 1], y1[o + 2] = a0 - e0, a1 - e1, a2 - e2
+            tangent_attitude_turned(y1, o + 3, Q, tR, w0, w1, w2)  # δR₁ = δR Q + R₁ ŵ
         for r in range(3):
             for c2 in range(3):
                 y1[3 + 3 * r + c2] = tR[r, c2]
