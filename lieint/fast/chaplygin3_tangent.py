@@ -180,8 +180,6 @@ def form_rkmk_tangent_step(fx, y, par, meth, h, y1, inc, aux, scr):
             return -1
         _rodrigues(u, Q)
         beta, gamma, dbeta, dgamma = coefficients(t2)
-        pi0, pi1, pi2 = rotate_back(Q, p[0], p[1], p[2])
-        gi0, gi1, gi2 = rotate_back(Q, g[0], g[1], g[2])
         if i == s:  # the step's end: exp(u) turns the block and its tangent vectors
             _turn(y1, k, u, du, Q, beta, gamma, dbeta, dgamma, orient, track, newR)
             for c in range(6):
@@ -189,6 +187,8 @@ def form_rkmk_tangent_step(fx, y, par, meth, h, y1, inc, aux, scr):
                     inc[c] = u[c]
             aux[0] = K[0, 0] * K[0, 0] + K[0, 1] * K[0, 1] + K[0, 2] * K[0, 2]
             return s
+        pi0, pi1, pi2 = rotate_back(Q, p[0], p[1], p[2])
+        gi0, gi1, gi2 = rotate_back(Q, g[0], g[1], g[2])
         # a stage: ξ at the moved state and its truncated dexp⁻¹ series
         w0, w1, w2, v0, v1, v2, adj, det = _generator(par, track, pi0, pi1, pi2, gi0, gi1, gi2)
         for m in range(k):

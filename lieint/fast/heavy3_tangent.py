@@ -132,10 +132,6 @@ def form_rkmk_tangent_step(fx, y, par, meth, h, y1, inc, aux, scr):
             return -1
         _rodrigues(u, Q)
         beta, gamma, dbeta, dgamma = coefficients(t2)
-        b0, b1, b2 = u[3], u[4], u[5]
-        t0, t1, t2_ = phi1(u[0], u[1], u[2], b0, b1, b2, beta, gamma)
-        x0, x1, x2 = _cross(t0, t1, t2_, g[0], g[1], g[2])
-        pi0, pi1, pi2 = rotate_back(Q, p[0] + x0, p[1] + x1, p[2] + x2)
         if i == s:  # the step's end: exp(u) turns the block and its tangent vectors
             _turn(y1, BLOCK, k, u, du, Q, beta, gamma, dbeta, dgamma, orient, newR)
             for c in range(6):
@@ -143,6 +139,10 @@ def form_rkmk_tangent_step(fx, y, par, meth, h, y1, inc, aux, scr):
                     inc[c] = u[c]
             aux[0] = K[0, 0] * K[0, 0] + K[0, 1] * K[0, 1] + K[0, 2] * K[0, 2]
             return s
+        b0, b1, b2 = u[3], u[4], u[5]
+        t0, t1, t2_ = phi1(u[0], u[1], u[2], b0, b1, b2, beta, gamma)
+        x0, x1, x2 = _cross(t0, t1, t2_, g[0], g[1], g[2])
+        pi0, pi1, pi2 = rotate_back(Q, p[0] + x0, p[1] + x1, p[2] + x2)
         # a stage: ξ at the moved state and its truncated dexp⁻¹ series, K_i = Σ c_d T_d
         xw0, xw1, xw2 = Iinv[0] * pi0, Iinv[1] * pi1, Iinv[2] * pi2
         for m in range(k):
@@ -174,7 +174,7 @@ def form_products_scratch(fx, meth, par, d):
             np.zeros(6 * (k + 1)))  # fmt: skip
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)  # not inlined: inlined into the RKMK step it slowed the plain step by a third
 def _turn(arr, stride, k, u, du, Q, beta, gamma, dbeta, dgamma, attitude, newR):
     """The point ``(Π, Γ̃) = arr[0:6]`` and its k tangent vectors (``arr[stride (m + 1):]``) under the
     right action of ``exp(u)`` moved by ``δu`` (module docstring), in place, ``Q = exp(u_w)`` and the

@@ -234,11 +234,6 @@ def form_rkmk_tangent_step(fx, y, par, meth, h, y1, inc, aux, scr):
                 return -1
             _rodrigues(u, Q)
         beta, gamma, dbeta, dgamma = coefficients(u[0] * u[0] + u[1] * u[1] + u[2] * u[2])
-        wi0, wi1, wi2 = y1[0] + u[6], y1[1] + u[7], y1[2] + u[8]
-        gi0, gi1, gi2 = rotate_back(Q, y1[3], y1[4], y1[5])
-        Gi0, Gi1, Gi2 = 0.0, 0.0, 0.0
-        if tilted:
-            Gi0, Gi1, Gi2 = rotate_back(Q, y1[_G], y1[_G + 1], y1[_G + 2])
         if i == s:  # the step's end: ((exp û_w, t), δ) moves the block and its tangent vectors
             _turn(y1, k, u, du, Q, beta, gamma, dbeta, dgamma, tilted, orient, track, newR)
             for c in range(WIDTH):
@@ -246,6 +241,11 @@ def form_rkmk_tangent_step(fx, y, par, meth, h, y1, inc, aux, scr):
                     inc[c] = u[c]
             aux[0] = K[0, 0] * K[0, 0] + K[0, 1] * K[0, 1] + K[0, 2] * K[0, 2]
             return s
+        wi0, wi1, wi2 = y1[0] + u[6], y1[1] + u[7], y1[2] + u[8]
+        gi0, gi1, gi2 = rotate_back(Q, y1[3], y1[4], y1[5])
+        Gi0, Gi1, Gi2 = 0.0, 0.0, 0.0
+        if tilted:
+            Gi0, Gi1, Gi2 = rotate_back(Q, y1[_G], y1[_G + 1], y1[_G + 2])
         # a stage: ξ at the moved state; the pose's part through its truncated dexp⁻¹ series
         wd, kap, mk, adj, inv, a, n, f, v = _state_slope(par, rt, wi0, wi1, wi2, gi0, gi1, gi2, Gi0, Gi1, Gi2)
         for m in range(k):
@@ -294,7 +294,7 @@ def form_products_scratch(fx, meth, par, d):
             np.zeros((3, 3)), np.zeros(BLOCK * (k + 1)))  # fmt: skip
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)  # not inlined: inlined into the RKMK step it slowed the plain step by a third
 def _turn(arr, k, u, du, Q, beta, gamma, dbeta, dgamma, tilted, attitude, track, newR):
     """The block ``arr[0:21]`` and its k tangent vectors (blocks after it) under the right action of
     ``((exp û_w, t), δ)`` moved by ``δu`` (module docstring), in place, ``Q = exp(u_w)`` and the
