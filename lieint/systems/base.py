@@ -323,21 +323,23 @@ class LieGroupSystem(ABC):
         """
         return None
 
-    def _declared_once(self, params: np.ndarray, build: Callable[[np.ndarray], Any]) -> Any:
-        """``build(params)``, made once per parameter vector: the declaration of the last call
-        when ``params`` holds the same numbers (bit for bit), else a new one.
+    def _declared_once(self, key: tuple, build: Callable[[], Any]) -> Any:
+        """``build()``, made once per ``key``: the declaration of the last call when ``key`` is
+        equal, else a new one.
 
-        A compiled engine is reused only for the very same declaration object
-        (:func:`lieint.fast.engine.engine_for`), so a system whose declaration is rebuilt at every
-        call never reuses one; keying on the numbers rather than on the system's arrays keeps an
-        edited array (``top.gravity[:] = …``) from running with the old numbers.
+        ``key`` holds every number the declaration is made of — the arrays' bytes (``tobytes``),
+        the scalars and the field names — so that comparing keys costs a fraction of building the
+        declaration's parameter vector. A compiled engine is reused only for the very same
+        declaration object (:func:`lieint.fast.engine.engine_for`), so a system whose declaration
+        is rebuilt at every call never reuses one; keying on the numbers rather than on the
+        system's arrays keeps an edited array (``top.gravity[:] = …``) from running with the old
+        numbers.
         """
-        key = params.tobytes()
         own = self.__dict__
         cached = own.get("_declared_form")
         if cached is not None and cached[0] == key:
             return cached[1]
-        form = build(params)
+        form = build()
         own["_declared_form"] = (key, form)
         return form
 
@@ -374,6 +376,8 @@ class LieGroupSystem(ABC):
             True when none of ``names`` is overridden below ``cls`` or set on the instance.
         """
         own = getattr(self, "__dict__", {})
+        if type(self) is cls:  # the class itself: only the instance can set one (a tenth of the loop's time)
+            return own.keys().isdisjoint(names)
         return all(getattr(type(self), name) is getattr(cls, name) and name not in own for name in names)
 
     def batch_shape(self, y: State) -> tuple[int, ...]:

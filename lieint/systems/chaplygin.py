@@ -176,11 +176,13 @@ class ChaplyginBall(RollingPose, LieGroupSystem):
         """
         if self.n < 3 or not self.dynamics_as(ChaplyginBall, _DYNAMICS):
             return None
-        offset = self.field_offsets()
-        head = [self.n, offset.get("R", -1), offset.get("center", -1), self._Mr2, self.radius]
-        params = np.concatenate([head, self.B_C.ravel(), self.normal])
+        # every number of the declaration (comparing them is cheaper than building its parameters)
+        key = (tuple(self.fields), self.track_center, self._Mr2, self.radius, self.B_C.tobytes(), self.normal.tobytes())
 
-        def build(params):
+        def build():
+            offset = self.field_offsets()
+            head = [self.n, offset.get("R", -1), offset.get("center", -1), self._Mr2, self.radius]
+            params = np.concatenate([head, self.B_C.ravel(), self.normal])
             lanes = None
             if self.n == 3:  # ensembles of the 3D ball run in SIMD lanes
                 lanes = Chaplygin3Form(
@@ -188,7 +190,7 @@ class ChaplyginBall(RollingPose, LieGroupSystem):
                 )  # fmt: skip
             return PiecesForm(BUILTIN_PIECES.chaplygin, params, self.n, self.track_center, 0, self.fields, lanes=lanes)
 
-        return self._declared_once(params, build)
+        return self._declared_once(key, build)
 
     # -- the LieGroupSystem contract ---------------------------------------------------
     def generator(self, t: float | np.ndarray, y: State) -> np.ndarray:

@@ -128,14 +128,19 @@ class FreeBody(LieGroupSystem):
         """
         if self.n < 3 or not self.dynamics_as(FreeBody, _DYNAMICS) or not self.top.dynamics_as(EulerTop, _TOP):
             return None
-        inertia, n = self.inertia, self.n
-        offset = self.field_offsets()
-        g = np.zeros(n) if self.gravity is None else self.gravity
-        head = [n, offset.get("R", -1), float(inertia.diagonal)]
-        params = np.concatenate([head, inertia.kernel_params, [offset["center"]], g, [self.mass]])
-        return self._declared_once(
-            params, lambda params: PiecesForm(BUILTIN_PIECES.free_body, params, n, False, 2 * n, self.fields)
-        )
+        inertia, n, gravity = self.inertia, self.n, self.gravity
+        # every number of the declaration (comparing them is cheaper than building its parameters)
+        key = (tuple(self.fields), inertia.diagonal, inertia.kernel_params.tobytes(), self.mass)
+        key += (None if gravity is None else gravity.tobytes(),)
+
+        def build():
+            offset = self.field_offsets()
+            g = np.zeros(n) if gravity is None else gravity
+            head = [n, offset.get("R", -1), float(inertia.diagonal)]
+            params = np.concatenate([head, inertia.kernel_params, [offset["center"]], g, [self.mass]])
+            return PiecesForm(BUILTIN_PIECES.free_body, params, n, False, 2 * n, self.fields)
+
+        return self._declared_once(key, build)
 
     def energy(self, y: State) -> np.ndarray:
         """Total energy ``T_rot + ½M|v|² − M⟨g, q_G⟩``.

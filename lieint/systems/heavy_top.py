@@ -232,20 +232,22 @@ class HeavyTop(LieGroupSystem):
         """
         if self.n < 3 or not self.dynamics_as(HeavyTop, _DYNAMICS) or not self.top.dynamics_as(EulerTop, _TOP):
             return None
-        inertia, n = self.inertia, self.n
-        head = [n, self.field_offsets().get("R", -1), float(inertia.diagonal)]
-        gravity = self.gravity
-        g = math.sqrt(float(gravity @ gravity))  # np.linalg.norm's numbers, without its wrapper
-        params = np.concatenate([head, inertia.kernel_params, self._MXG, [g]])
+        inertia, n, gravity = self.inertia, self.n, self.gravity
+        # every number of the declaration (comparing them is cheaper than building its parameters)
+        key = (tuple(self.fields), inertia.diagonal, inertia.kernel_params.tobytes(), self._MXG.tobytes())
+        key += (gravity.tobytes(),)
 
-        def build(params):
+        def build():
+            head = [n, self.field_offsets().get("R", -1), float(inertia.diagonal)]
+            g = math.sqrt(float(gravity @ gravity))  # np.linalg.norm's numbers, without its wrapper
+            params = np.concatenate([head, inertia.kernel_params, self._MXG, [g]])
             lanes = None
             if n == 3:  # ensembles of the 3D heavy top run in SIMD lanes
                 top = self.top
                 lanes = HeavyTop3Form(top.principal_moments, top.P, self._MXG, g, self.orientation)
             return PiecesForm(BUILTIN_PIECES.heavy_top, params, n, True, 0, self.fields, lanes=lanes)
 
-        return self._declared_once(params, build)
+        return self._declared_once(key, build)
 
     # -- physics -----------------------------------------------------------------------
     def energy(self, A: np.ndarray, Gamma: np.ndarray) -> np.ndarray:

@@ -402,15 +402,20 @@ class RollingBall(RollingPose, LieGroupSystem):
         """
         if self.n < 3 or not self.dynamics_as(RollingBall, _DYNAMICS):
             return None
-        offset = self.field_offsets()
-        mode = 0 if self.gravity is None else (2 if self._tilted else 1)
-        gnorm = 0.0 if self.gravity is None else float(np.linalg.norm(self.gravity))
-        head = [self.n, offset.get("R", -1), offset.get("center", -1), offset.get("G", -1)]
-        head += [self.mass, self.radius, mode, self._g_normal, gnorm]
-        g = np.zeros(self.n) if self.gravity is None else self.gravity
-        params = np.concatenate([head, self.B_C.ravel(), self.center_of_mass, self.normal, g])
+        gravity = self.gravity
+        # every number of the declaration (comparing them is cheaper than building its parameters)
+        key = (tuple(self.fields), self.track_center, self.mass, self.radius, self._tilted, self._g_normal)
+        key += (None if gravity is None else gravity.tobytes(), self.B_C.tobytes(), self.center_of_mass.tobytes())
+        key += (self.normal.tobytes(),)
 
-        def build(params):
+        def build():
+            offset = self.field_offsets()
+            mode = 0 if gravity is None else (2 if self._tilted else 1)
+            gnorm = 0.0 if gravity is None else float(np.linalg.norm(gravity))
+            head = [self.n, offset.get("R", -1), offset.get("center", -1), offset.get("G", -1)]
+            head += [self.mass, self.radius, mode, self._g_normal, gnorm]
+            g = np.zeros(self.n) if gravity is None else gravity
+            params = np.concatenate([head, self.B_C.ravel(), self.center_of_mass, self.normal, g])
             lanes = None
             if self.n == 3:  # ensembles of the 3D ball run in SIMD lanes
                 lanes = RollingBall3Form(
@@ -422,7 +427,7 @@ class RollingBall(RollingPose, LieGroupSystem):
                 lanes=lanes,
             )  # fmt: skip
 
-        return self._declared_once(params, build)
+        return self._declared_once(key, build)
 
     # -- the LieGroupSystem contract ---------------------------------------------------
     def generator(self, t: float | np.ndarray, y: State) -> np.ndarray | tuple[np.ndarray, ...]:

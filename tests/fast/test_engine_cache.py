@@ -176,3 +176,38 @@ def test_a_pieces_system_with_edited_numbers_declares_a_new_form_with_them():
     assert after is not before
     assert not np.array_equal(after.params, before.params) and after.params[-1] == 19.62
     assert system.compiled() is after
+
+
+def _numbers(system) -> list[str]:
+    """The system's float arrays and numbers, by attribute name (what a user might edit)."""
+    return sorted(
+        name
+        for name, value in vars(system).items()
+        if (isinstance(value, np.ndarray) and value.dtype == float and value.size)
+        or (isinstance(value, float) and not isinstance(value, bool))
+    )
+
+
+@pytest.mark.parametrize("label", sorted(_pieces_bodies()))
+def test_a_pieces_declaration_reused_holds_the_numbers_of_every_array_and_number_of_the_system(label):
+    # the declaration is reused while a key of the system's numbers is unchanged: whatever array
+    # is edited in place, or number set, the declaration the next call returns must be the one
+    # made afresh from the system as it now is (the key must hold every number the form is made of)
+    system = _pieces_bodies()[label]
+    names = _numbers(system)
+    assert {"gravity", "B_C", "mass", "radius"} & set(names), names
+    for name in names:
+        system.compiled()
+        value = getattr(system, name)
+        if isinstance(value, np.ndarray):
+            value.ravel()[0] += 0.125  # in place: the same array object
+        else:
+            setattr(system, name, value * 1.25)
+        reused = system.compiled()
+        vars(system).pop("_declared_form")
+        fresh = system.compiled()
+        np.testing.assert_array_equal(reused.params, fresh.params, err_msg=name)
+        assert (reused.lanes is None) == (fresh.lanes is None), name
+        if fresh.lanes is not None:
+            for field, number in vars(fresh.lanes).items():
+                np.testing.assert_array_equal(getattr(reused.lanes, field), number, err_msg=f"{name}: {field}")
