@@ -50,7 +50,7 @@ from .se3_tangent import (
 from .tangent_sums import MEGNO_SLOTS, keep_row, lyapunov_update, megno_update, prepare_nothing
 from .top3 import _cross, _rodrigues
 
-__all__ = ["BLOCK", "FLAT", "MEGNO_SLOTS", "NAMESPACES"]
+__all__ = ["BLOCK", "FLAT", "MEGNO_SLOTS", "NAMESPACES", "rows_to_user", "user_to_rows"]
 
 #: numbers of one block of a row: Π (3), Γ (3), the centre (3), R (9)
 BLOCK = 18
@@ -60,6 +60,47 @@ FLAT = 9
 # (Lyapunov) every, total
 _MR2, _RADIUS, _ORIENT, _TRACK, _EVERY, _TOTAL = 9, 10, 11, 12, 13, 14
 _RADIUS2 = (2.0 * np.pi) ** 2
+
+
+@njit(cache=True)
+def user_to_rows(A, G, c, R, center, orientation, tangent, Y):
+    """The blocks ``Y`` (M, 18) of the user's ``A`` (M, 3, 3), ``Γ`` (M, 3), centre ``c`` (M, 3;
+    read only with ``center``) and ``R`` (M, 3, 3; read only with ``orientation``): ``Π = −vee A``
+    (its skew part's, as :func:`lieint.fast.top3.minus_vee`), the centre zero when it is not
+    tracked, and without attitude R = I for a state and 0 for a tangent vector (``tangent``)."""
+    for m in range(Y.shape[0]):
+        Y[m, 0] = -0.5 * (A[m, 2, 1] - A[m, 1, 2])
+        Y[m, 1] = -0.5 * (A[m, 0, 2] - A[m, 2, 0])
+        Y[m, 2] = -0.5 * (A[m, 1, 0] - A[m, 0, 1])
+        for i in range(3):
+            Y[m, 3 + i] = G[m, i]
+            Y[m, 6 + i] = c[m, i] if center else 0.0
+        for r in range(3):
+            for j in range(3):
+                if orientation:
+                    Y[m, 9 + 3 * r + j] = R[m, r, j]
+                else:
+                    Y[m, 9 + 3 * r + j] = 1.0 if (r == j and not tangent) else 0.0
+
+
+@njit(cache=True)
+def rows_to_user(Y, center, orientation, A, G, c, R):
+    """:func:`user_to_rows`' inverse: ``A = −Π̂`` (``+0.0`` on the diagonal, as
+    :func:`lieint.fast.top3.minus_hat`), Γ, and the centre and R where the ball carries them,
+    of the blocks ``Y`` (M, ≥ 18)."""
+    for m in range(Y.shape[0]):
+        x, y, z = Y[m, 0], Y[m, 1], Y[m, 2]
+        A[m, 0, 0], A[m, 0, 1], A[m, 0, 2] = 0.0, z, -y
+        A[m, 1, 0], A[m, 1, 1], A[m, 1, 2] = -z, 0.0, x
+        A[m, 2, 0], A[m, 2, 1], A[m, 2, 2] = y, -x, 0.0
+        for i in range(3):
+            G[m, i] = Y[m, 3 + i]
+            if center:
+                c[m, i] = Y[m, 6 + i]
+        if orientation:
+            for r in range(3):
+                for j in range(3):
+                    R[m, r, j] = Y[m, 9 + 3 * r + j]
 
 
 @njit(cache=True, inline="always")

@@ -12,12 +12,27 @@ chosen by :func:`lieint.fast.engine.engine_for`). The other layouts are in :mod:
 
 from __future__ import annotations
 
+import functools
+import importlib
 import math
 
 import numpy as np
 
 from .forms import Chaplygin3Form, HeavyTop3Form, RollingBall3Form, Top3Form, TopNForm
 from .layouts import Layout, Top3Layout, rolling_ball_increments, rolling_ball_numbers
+
+#: the attitude argument of a body without one: no 3 × 3 matrices (never written, shared)
+_NO_MATRICES = np.empty((0, 3, 3))
+#: the centre argument of a ball that does not track it: no vectors (never written, shared)
+_NO_VECTORS = np.empty((0, 3))
+
+
+@functools.cache
+def _module(name: str):
+    """The tangent module ``lieint.fast.<name>`` of a layout's compiled conversions, imported on
+    first use and once (an ``import`` statement in a function costs 0.6 µs a call)."""
+    return importlib.import_module(f"{__package__}.{name}")
+
 
 __all__ = [
     "Chaplygin3Layout",
@@ -235,25 +250,21 @@ class HeavyTop3TangentLayout(_TangentRows):
         super().__init__(k)
 
     def _block(self, y: dict, N: int, tangent: bool) -> np.ndarray:
-        from .heavy3_tangent import user_to_rows
-
-        def rows(name, shape):
-            return np.ascontiguousarray(y[name], dtype=float).reshape((N, *shape))
-
-        R = rows("R", (3, 3)) if self.orientation else np.empty((0, 3, 3))
+        A = np.ascontiguousarray(y["A"], dtype=float).reshape(N, 3, 3)
+        G = np.ascontiguousarray(y["Gamma"], dtype=float).reshape(N, 3)
+        R = np.ascontiguousarray(y["R"], dtype=float).reshape(N, 3, 3) if self.orientation else _NO_MATRICES
         Y = np.empty((N, self.block))
-        A, G = rows("A", (3, 3)), rows("Gamma", (3,))
-        user_to_rows(A, G, R, self.P, self.identity_frame, self.orientation, tangent, Y)
+        _module("heavy3_tangent").user_to_rows(A, G, R, self.P, self.identity_frame, self.orientation, tangent, Y)
         return Y
 
     def _fields(self, Y: np.ndarray, batch: tuple) -> dict:
-        from .heavy3_tangent import rows_to_user
-
         lead = Y.shape[:-2] + batch
         M = math.prod(Y.shape[:-1])
         A, G = np.empty((M, 3, 3)), np.empty((M, 3))
-        R = np.empty((M if self.orientation else 0, 3, 3))
-        rows_to_user(Y.reshape(M, Y.shape[-1]), self.P, self.identity_frame, self.orientation, A, G, R)
+        R = np.empty((M, 3, 3)) if self.orientation else _NO_MATRICES
+        _module("heavy3_tangent").rows_to_user(
+            Y.reshape(M, Y.shape[-1]), self.P, self.identity_frame, self.orientation, A, G, R
+        )
         states = {"A": A.reshape(lead + (3, 3)), "Gamma": G.reshape(lead + (3,))}
         if self.orientation:
             states["R"] = R.reshape(lead + (3, 3))
@@ -295,30 +306,27 @@ class Chaplygin3TangentLayout(_TangentRows):
         super().__init__(k)
 
     def _block(self, y: dict, N: int, tangent: bool) -> np.ndarray:
-        from .top3 import minus_vee
-
-        Y = np.zeros((N, self.block))
-        Y[:, :3], Y[:, 3:6] = minus_vee(y["A"].reshape(N, 3, 3)), y["Gamma"].reshape(N, 3)
-        if self.center:
-            Y[:, 6:9] = y["center"].reshape(N, 3)
-        if self.orientation:
-            Y[:, 9:] = y["R"].reshape(N, 9)
-        elif not tangent:
-            Y[:, 9:] = np.eye(3).ravel()
+        A = np.ascontiguousarray(y["A"], dtype=float).reshape(N, 3, 3)
+        G = np.ascontiguousarray(y["Gamma"], dtype=float).reshape(N, 3)
+        c = np.ascontiguousarray(y["center"], dtype=float).reshape(N, 3) if self.center else _NO_VECTORS
+        R = np.ascontiguousarray(y["R"], dtype=float).reshape(N, 3, 3) if self.orientation else _NO_MATRICES
+        Y = np.empty((N, self.block))
+        _module("chaplygin3_tangent").user_to_rows(A, G, c, R, self.center, self.orientation, tangent, Y)
         return Y
 
     def _fields(self, Y: np.ndarray, batch: tuple) -> dict:
-        from .top3 import minus_hat
-
         lead = Y.shape[:-2] + batch
-        states = {
-            "A": minus_hat(np.ascontiguousarray(Y[..., :3])).reshape(lead + (3, 3)),
-            "Gamma": np.ascontiguousarray(Y[..., 3:6]).reshape(lead + (3,)),
-        }
+        M = math.prod(Y.shape[:-1])
+        A, G = np.empty((M, 3, 3)), np.empty((M, 3))
+        c = np.empty((M, 3)) if self.center else _NO_VECTORS
+        R = np.empty((M, 3, 3)) if self.orientation else _NO_MATRICES
+        rows = np.ascontiguousarray(Y).reshape(M, Y.shape[-1])
+        _module("chaplygin3_tangent").rows_to_user(rows, self.center, self.orientation, A, G, c, R)
+        states = {"A": A.reshape(lead + (3, 3)), "Gamma": G.reshape(lead + (3,))}
         if self.orientation:
-            states["R"] = np.ascontiguousarray(Y[..., 9:18]).reshape(lead + (3, 3))
+            states["R"] = R.reshape(lead + (3, 3))
         if self.center:
-            states["center"] = np.ascontiguousarray(Y[..., 6:9]).reshape(lead + (3,))
+            states["center"] = c.reshape(lead + (3,))
         return states
 
 
