@@ -13,6 +13,9 @@ from functools import lru_cache
 
 import numpy as np
 
+#: numpy's float64 dtype (an array's ``dtype is`` it: the usual native float64)
+_FLOAT64 = np.dtype(np.float64)
+
 __all__ = [
     "as_float_array",
     "check_finite_positive",
@@ -96,6 +99,13 @@ def as_float_array(value, name: str, *, allow_nonfinite: bool = False) -> np.nda
     ValueError
         If it holds NaN or inf (unless ``allow_nonfinite``).
     """
+    if type(value) is np.ndarray and value.dtype is _FLOAT64 and value.size <= 64:
+        # a small float64 array (one body's field): finite when the sum of its entries as Python
+        # floats is (0.3 µs against numpy's isfinite and reduction, 1.2 µs); a sum that
+        # overflows takes the exact check below
+        total = sum(value.ravel().tolist())
+        if total - total == 0.0:
+            return value
     if value is None:
         raise TypeError(f"`{name}` must be an array of real numbers; got None.")
     try:

@@ -67,8 +67,17 @@ class Plan:
             steps = np.append(steps, np.int64(self.nsteps))
         return steps
 
-    def times(self, steps: np.ndarray) -> np.ndarray:
-        """``t_k`` of an array of steps (:meth:`time` elementwise, the same floating-point result)."""
+    def times(self, steps: np.ndarray, first: float | None = None) -> np.ndarray:
+        """``t_k`` of an array of steps (:meth:`time` elementwise, the same floating-point result),
+        after ``first`` when it is given (a segment's starting time, before its saved rows)."""
+        if type(steps) is np.ndarray and steps.ndim == 1 and steps.size <= 16:
+            # a few saved steps (a short run's): Python floats, the same products and sums as
+            # numpy's, in a third of its calls' time
+            t0, h, t1, last = self.t0, self.h, self.t1, self.nsteps
+            times = [t1 if k == last else t0 + k * h for k in steps.tolist()]
+            return np.array(times if first is None else [first, *times], dtype=float)
+        if first is not None:
+            return np.concatenate([[first], self.times(steps)])
         steps = np.asarray(steps, dtype=np.int64)
         # int64 · float converts the steps to float64 first: the products of astype(float64) · h
         t = self.t0 + steps * self.h

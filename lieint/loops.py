@@ -19,7 +19,9 @@ is not.
 
 from __future__ import annotations
 
+import functools
 import math
+import types
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, Protocol
@@ -97,14 +99,24 @@ class Segment:
         return int(self.t.size)
 
 
+@functools.cache
+def _fast() -> types.SimpleNamespace:
+    """The compiled engine's modules the loops call, imported on first use — numba loads with
+    them, and a run on the generic path never needs them — and once (an ``import`` statement in
+    a function costs 0.6 µs a call; this cached call a tenth of that)."""
+    from .fast import engine, finite
+
+    return types.SimpleNamespace(engine=engine, finite=finite)
+
+
 def fixed_loop(driver: LoopHost, y0: dict):
     """The compiled engine where it covers system and method, else the generic loop (dense
     output, events and ``t_eval`` are served from the engine's steps too)."""
     if driver.backend_request == "numpy":
         return _FixedLoop(driver, "backend='numpy' asked for the generic path")
-    from .fast.engine import engine_for
-
-    kernel, reason = engine_for(driver.system, driver.method, y0, project=driver.project, h=driver.plan.h)
+    kernel, reason = _fast().engine.engine_for(
+        driver.system, driver.method, y0, project=driver.project, h=driver.plan.h
+    )
     if kernel is not None:
         return _KernelLoop(driver, kernel)
     if driver.backend_request == "numba":
@@ -231,9 +243,7 @@ class _KernelLoop(_CompiledRows):
         s = int(with_start)
         rows = saves.size + s
         failure = None
-        from .fast.finite import all_finite  # numba is loaded: a kernel just ran
-
-        if all_finite([*states.values(), *new.values()]):
+        if _fast().finite.all_finite([*states.values(), *new.values()]):
             carry.state, done = new, k_to
         else:
             finite = np.ones(rows, dtype=bool)
@@ -246,11 +256,10 @@ class _KernelLoop(_CompiledRows):
             # the run stops here (a failed run is not resumed: the failure would recur)
             failure = _nonfinite(done, plan.time(done), f"Reduce the step `h` = {abs(plan.h):g}", until=k_to)
         carry.nfev += _evaluations(self.kernel, done - carry.k, k_to - carry.k)
-        t_start = carry.t
+        t = plan.times(saves, first=carry.t if s else None)
+        if failure:  # the rows kept before the first non-finite one
+            t = t[: next(iter(states.values())).shape[0]]
         carry.k, carry.t = done, plan.time(done)
-        t = plan.times(saves)
-        if s:
-            t = np.concatenate([[t_start], t])[: next(iter(states.values())).shape[0]]
         return Segment(t, states, failure)
 
     def advance_from_start(self, carry: Carry) -> Segment:
@@ -403,9 +412,7 @@ def adaptive_loop(driver: LoopHost, y0: dict):
     loop (dense output, events and ``t_eval`` are served from the engine's steps too)."""
     if driver.backend_request == "numpy":
         return _AdaptiveLoop(driver, "backend='numpy' asked for the generic path")
-    from .fast.engine import engine_for
-
-    kernel, reason = engine_for(driver.system, driver.method, y0, adaptive=True, project=driver.project)
+    kernel, reason = _fast().engine.engine_for(driver.system, driver.method, y0, adaptive=True, project=driver.project)
     if kernel is not None:
         return _AdaptiveKernelLoop(driver, kernel)
     if driver.backend_request == "numba":
@@ -679,9 +686,7 @@ def _joined(times: list, parts: list[dict], failure, like: Callable[[], dict]) -
 
 def _finite_rows(rows: dict) -> int:
     """How many leading rows of ``rows`` (a dict of ``(m, ...)`` arrays) are finite."""
-    from .fast.finite import all_finite  # numba is loaded: a kernel just ran
-
-    if all_finite(list(rows.values())):  # the usual case, in one compiled pass
+    if _fast().finite.all_finite(list(rows.values())):  # the usual case, in one pass
         return int(next(iter(rows.values())).shape[0])
     finite = None
     for v in rows.values():

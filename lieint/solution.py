@@ -23,11 +23,10 @@ class Invariants(Mapping):
     pays only for the invariants it looks at.
     """
 
-    def __init__(self, system, t: np.ndarray, states: dict, batch_ndim: int):
+    def __init__(self, system, t: np.ndarray, states: dict):
         self._system = system
         self._t = t
         self._states = states
-        self._batch_ndim = batch_ndim
         self._cache: dict[str, np.ndarray] = {}
 
     def __getitem__(self, name: str) -> np.ndarray:
@@ -35,7 +34,8 @@ class Invariants(Mapping):
             declared = self._system.invariants
             if name not in declared:
                 raise KeyError(f"Unknown invariant {name!r}; this system provides {list(declared)}.")
-            t = self._t.reshape(self._t.shape + (1,) * self._batch_ndim)
+            batch_ndim = len(_batch_shape(self._system, self._states))
+            t = self._t.reshape(self._t.shape + (1,) * batch_ndim)
             self._cache[name] = declared[name](t, self._states)
         return self._cache[name]
 
@@ -116,7 +116,7 @@ class Solution:
     status: int | None = field(default=None)
 
     def __post_init__(self) -> None:
-        self.invariants = Invariants(self.system, self.t, self.states, len(self.batch_shape))
+        self.invariants = Invariants(self.system, self.t, self.states)
         if self.status is None:  # a terminal event sets 1 (lieint.observe)
             self.status = 0 if self.success else -1
 
@@ -152,7 +152,7 @@ class Solution:
     @property
     def batch_shape(self) -> tuple[int, ...]:
         """Leading batch shape of the ensemble (``()`` for one body)."""
-        return self.system.batch_shape({k: v[0] for k, v in self.states.items()})
+        return _batch_shape(self.system, self.states)
 
     @property
     def nsteps(self) -> int:
@@ -279,3 +279,9 @@ class Solution:
             f"Solution(method={self.method!r}, saved={self.t.size}, batch={self.batch_shape}, nsteps={self.nsteps}, "
             f"nfev={self.nfev}, status={self.status}, success={self.success}, fields={list(self.states)})"
         )
+
+
+def _batch_shape(system, states: dict) -> tuple[int, ...]:
+    """The batch shape of saved rows ``states`` (``(m, *batch, ...)`` per field): the system's of
+    their first row."""
+    return system.batch_shape({k: v[0] for k, v in states.items()})

@@ -390,22 +390,23 @@ class Engine:
         Y0 = internal["Y"]
         N, d = Y0.shape
         save_steps = np.ascontiguousarray(save_steps, dtype=np.int64)
-        s = int(bool(with_start))
+        s = 1 if with_start else 0
         out = np.empty((save_steps.size + s, N, d))
         if s:
             out[0] = Y0
-        fin = np.empty((N, d))
-        status = np.empty(N, dtype=np.int64)
-        norm2 = np.empty(N)
-        evals = np.zeros(N, dtype=np.int64)  # every unit's count written, and none read unset
-        steps = k_to - k_from if keep else 0
-        # the kept states with the starting one first (row 0): the observer's table of steps
-        # needs both ends of every step, and gets them in one conversion, without a copy
-        kept_Y = np.empty((steps + 1, N, d))
-        kept_Y[0] = Y0
-        kept_U = np.empty((steps, N, self.du))  # the steps write their increments: its length always
+        fin, norm2 = np.empty((N, d)), np.empty(N)
+        status, evals = np.empty(N, dtype=np.int64), np.zeros(N, dtype=np.int64)  # every count written
+        if keep:
+            # the kept states with the starting one first (row 0): the observer's table of steps
+            # needs both ends of every step, and gets them in one conversion, without a copy
+            kept_Y = np.empty((k_to - k_from + 1, N, d))
+            kept_Y[0] = Y0
+            kept_U = np.empty((k_to - k_from, N, self.du))  # the steps write their increments
+            kept = (kept_Y[1:], kept_U)
+        else:  # none kept: arrays of no rows (the kernel's types), shared by the runs of this engine
+            kept = self._nothing_kept(N, d)
         grid = (float(plan.h), float(plan.last_step), int(k_from), int(k_to), int(plan.nsteps), bool(project))
-        outs = (out[s:], fin, status, norm2, evals, kept_Y[1:], kept_U)
+        outs = (out[s:], fin, status, norm2, evals, *kept)
         ctx, par, tab = self.context, self.layout.params, self.tableau
         fixed = self.loops.fixed
         threads = min(self.threads, N)
@@ -448,6 +449,16 @@ class Engine:
         if keep:
             return (*result, (kept_Y, kept_U))
         return result
+
+    def _nothing_kept(self, N: int, d: int) -> tuple[np.ndarray, np.ndarray]:
+        """The kept states and increments of a call that keeps none: ``(0, N, d)``, ``(0, N, du)``
+        (made once per shape; having no entries, they are never written)."""
+        key = (N, d)
+        cached = self.__dict__.get("_no_rows")
+        if cached is None or cached[0] != key:
+            cached = (key, (np.empty((0, N, d)), np.empty((0, N, self.du))))
+            self._no_rows = cached
+        return cached[1]
 
     def fresh(self) -> Engine:
         """A copy for another run: the layout, numbers and bound loops shared (read-only), the

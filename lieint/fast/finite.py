@@ -40,6 +40,23 @@ def _all_finite(arrays):
     return True
 
 
+#: up to this many entries in all, the check sums them as Python floats instead
+_SMALL = 256
+
+
 def all_finite(arrays) -> bool:
-    """True when every entry of every array in ``arrays`` (float64, as the kernels write them) is finite."""
+    """True when every entry of every array in ``arrays`` (float64, as the kernels write them) is finite.
+
+    A few entries in all (one body's saved rows, up to :data:`_SMALL`): finite when the sum of
+    them as Python floats is (1 µs against 3 µs for the compiled call's arguments); a sum that
+    overflows, or any larger output, takes the compiled pass."""
+    total, size = 0.0, 0
+    for a in arrays:
+        size += a.size
+        if size > _SMALL:
+            break
+        total += sum(a.ravel().tolist())
+    else:
+        if total - total == 0.0:
+            return True
     return bool(_all_finite(tuple(np.ascontiguousarray(a).ravel() for a in arrays)))

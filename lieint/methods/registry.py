@@ -135,6 +135,10 @@ def get_method(method: str | Method = "rkmk4", coordinates: str | None = None, *
     >>> lieint.get_method("RK45").name  # scipy's solver, named bare
     'scipy:RK45'
     """
+    if not options and coordinates is None and type(method) is str:  # a name alone: built already?
+        cached = _BUILT.get((method, None, ()))
+        if cached is not None and _SPECS.get(method) is cached[0]:
+            return cached[1]
     options = {k: v for k, v in options.items() if not (v is AUTO or (isinstance(v, str) and v == "auto"))}
     if isinstance(method, Method):
         if coordinates is not None and method.coordinates != coordinates:

@@ -131,6 +131,41 @@ def test_the_compiled_finiteness_check_finds_every_nan_and_inf():
             assert not all_finite(damaged)
 
 
+def test_the_finiteness_check_of_a_few_entries_finds_every_nan_and_inf_and_survives_overflow():
+    # up to 256 entries in all the check sums them as Python floats; a sum that overflows to
+    # infinity (finite entries) must still pass, through the compiled pass
+    from lieint.fast.finite import all_finite
+
+    arrays = [np.array([[1.7e308, 1.7e308], [-0.0, 5e-324]]), np.array([1.7e308]), np.zeros(0), np.ones((3, 3))[:, ::2]]
+    assert all_finite(arrays)
+    assert all_finite([np.full(256, 1.7e308)]) and all_finite([np.full(257, 1.7e308)])
+    for bad in (np.nan, -np.nan, np.inf, -np.inf):
+        for a in range(3):
+            for where in range(arrays[a].size):
+                damaged = [x.copy() for x in arrays]
+                damaged[a].ravel()[where] = bad
+                assert not all_finite(damaged), (a, where, bad)
+        base = np.ones((3, 3))
+        base[1, 1] = bad  # outside the strided view
+        assert all_finite([base[:, ::2]])
+        base[1, 2] = bad
+        assert not all_finite([base[:, ::2]])
+        assert not all_finite([np.ones(200), np.full(100, bad)])  # over the limit, in the compiled pass
+
+
+def test_a_small_float_array_is_taken_as_it_is_and_a_non_finite_entry_named():
+    from lieint._validation import as_float_array
+
+    big = np.array([1.7e308, 1.7e308, -1.7e308])  # finite, though its sum overflows
+    assert as_float_array(big, "x") is big
+    for bad in (np.nan, np.inf, -np.inf):
+        arr = np.zeros((3, 3))
+        arr[1, 2] = bad
+        with pytest.raises(ValueError, match=rf"`y0\['A'\]` must be finite; got {bad} at index \(1, 2\)"):
+            as_float_array(arr, "y0['A']")
+    assert as_float_array(np.arange(3), "x").dtype == np.float64
+
+
 @pytest.mark.parametrize(
     ("kwargs", "exc", "match"),
     [

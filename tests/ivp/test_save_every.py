@@ -141,3 +141,15 @@ def test_saves_between_is_save_steps_cut_into_segments():
         cuts = [0, 1, 5, 99, 100, 101, 555, 1036, 1037]
         parts = [plan.saves_between(every, a, b) for a, b in itertools.pairwise(cuts)]
         assert np.array_equal(np.concatenate(parts), whole), every
+
+
+def test_the_times_of_a_few_steps_and_of_many_are_each_steps_time_bit_for_bit():
+    # a few steps are computed in Python floats, many in numpy: both must be Plan.time's values
+    for t0, t1, h in ((0.0, 10.37, 0.01), (0.3, -7.1, -0.07), (1e6, 1e6 + 1.0, 1e-3)):
+        plan = Plan.make(t0, t1, h)
+        for steps in (np.array([plan.nsteps]), np.arange(0, plan.nsteps + 1, 7), np.arange(5), np.arange(16),
+                      np.arange(17), np.zeros(0, dtype=np.int64)):  # fmt: skip
+            expected = np.array([plan.time(int(k)) for k in steps], dtype=float)
+            got = plan.times(steps)
+            assert got.dtype == np.float64 and np.array_equal(got, expected), (t0, steps.size)
+            np.testing.assert_array_equal(plan.times(steps, first=-2.5), np.concatenate([[-2.5], expected]))
