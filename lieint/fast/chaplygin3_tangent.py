@@ -35,7 +35,6 @@ from numba import njit
 
 from .se3_tangent import (
     attitude_turned_into,
-    coefficients,
     combine_stage,
     dexpinv_series,
     dexpinv_series_tangent,
@@ -48,7 +47,7 @@ from .se3_tangent import (
     translation,
 )
 from .tangent_sums import MEGNO_SLOTS, keep_row, lyapunov_update, megno_update, prepare_nothing
-from .top3 import _cross, _rodrigues
+from .top3 import _cross
 
 __all__ = ["BLOCK", "FLAT", "MEGNO_SLOTS", "NAMESPACES", "rows_to_user", "user_to_rows"]
 
@@ -219,8 +218,7 @@ def form_rkmk_tangent_step(fx, y, par, meth, h, y1, inc, aux, scr):
         t2 = u[0] * u[0] + u[1] * u[1] + u[2] * u[2]
         if i < s and t2 >= _RADIUS2:
             return -1
-        _rodrigues(u, Q)
-        beta, gamma, dbeta, dgamma = coefficients(t2)
+        beta, gamma, dbeta, dgamma = exponential(u, Q)  # one sine and cosine for Q and the coefficients
         if i == s:  # the step's end: exp(u) turns the block and its tangent vectors
             _turn(y1, k, u, du, Q, beta, gamma, dbeta, dgamma, orient, track, newR)
             for c in range(6):

@@ -58,7 +58,7 @@ from .se3_tangent import (
     translation,
 )
 from .tangent_sums import MEGNO_SLOTS, keep_row, lyapunov_update, megno_update, prepare_nothing
-from .top3 import _RADIUS2, _cross, _rodrigues
+from .top3 import _RADIUS2, _cross
 
 __all__ = ["BLOCK", "FLAT", "MEGNO_SLOTS", "NAMESPACES"]
 
@@ -228,12 +228,12 @@ def form_rkmk_tangent_step(fx, y, par, meth, h, y1, inc, aux, scr):
             Q[0, 0], Q[0, 1], Q[0, 2] = 1.0, 0.0, 0.0
             Q[1, 0], Q[1, 1], Q[1, 2] = 0.0, 1.0, 0.0
             Q[2, 0], Q[2, 1], Q[2, 2] = 0.0, 0.0, 1.0
+            beta, gamma, dbeta, dgamma = coefficients(u[0] * u[0] + u[1] * u[1] + u[2] * u[2])
         else:
             t2 = u[0] * u[0] + u[1] * u[1] + u[2] * u[2]
             if i < s and t2 >= _RADIUS2:
                 return -1
-            _rodrigues(u, Q)
-        beta, gamma, dbeta, dgamma = coefficients(u[0] * u[0] + u[1] * u[1] + u[2] * u[2])
+            beta, gamma, dbeta, dgamma = exponential(u, Q)  # one sine and cosine for Q and the coefficients
         if i == s:  # the step's end: ((exp û_w, t), δ) moves the block and its tangent vectors
             _turn(y1, k, u, du, Q, beta, gamma, dbeta, dgamma, tilted, orient, track, newR)
             for c in range(WIDTH):

@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .top3 import _cross, _rodrigues
+from .top3 import _cross, _rodrigues, rotation_into
 
 __all__ = [
     "ad_minus",
@@ -42,8 +42,13 @@ def coefficients(t2):
         dgamma = -1.0 / 120 + t2 * (2.0 / 5040 + t2 * (-3.0 / 362880 + t2 * (4.0 / 39916800 - t2 * 5.0 / 6227020800)))
         return beta, gamma, dbeta, dgamma
     th = np.sqrt(t2)
-    s = np.sin(th)
-    beta = (1.0 - np.cos(th)) / t2
+    return _large_angle(t2, th, np.sin(th), np.cos(th))
+
+
+@njit(cache=True, inline="always")
+def _large_angle(t2, th, s, c):
+    """:func:`coefficients` from ``θ² = t2``, θ, ``sin θ`` and ``cos θ`` (θ ≥ 0.1)."""
+    beta = (1.0 - c) / t2
     gamma = (th - s) / (t2 * th)
     return beta, gamma, (0.5 * s / th - beta) / t2, (beta - 3.0 * gamma) / (2.0 * t2)
 
@@ -226,6 +231,15 @@ def product_exponent(u, du, K, dK, weights, row, upto, h, k):
 @njit(cache=True, inline="always")
 def exponential(u, Q):
     """``Q = exp(û_w)`` (written into Q, Rodrigues) and the coefficients of u (:func:`coefficients`):
-    what turning a block by ``exp(u)`` needs."""
-    _rodrigues(u, Q)
-    return coefficients(u[0] * u[0] + u[1] * u[1] + u[2] * u[2])
+    what turning a block by ``exp(u)`` needs. Above θ = 0.1 one sine and one cosine serve both
+    (Rodrigues' ``(1 − cos θ)/θ²`` is β); the numbers are :func:`lieint.fast.top3._rodrigues`' and
+    :func:`coefficients`' bit for bit."""
+    t2 = u[0] * u[0] + u[1] * u[1] + u[2] * u[2]
+    if t2 < 1e-2:
+        _rodrigues(u, Q)
+        return coefficients(t2)
+    th = np.sqrt(t2)
+    s = np.sin(th)
+    beta, gamma, dbeta, dgamma = _large_angle(t2, th, s, np.cos(th))
+    rotation_into(u, s / th, beta, Q)
+    return beta, gamma, dbeta, dgamma

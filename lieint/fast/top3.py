@@ -54,6 +54,13 @@ def _rodrigues(u, Q):
         th = np.sqrt(t2)
         a = np.sin(th) / th
         b = (1.0 - np.cos(th)) / t2
+    rotation_into(u, a, b, Q)
+
+
+@njit(cache=True, inline="always")
+def rotation_into(u, a, b, Q):
+    """``Q = I + a û + b û²`` written into Q: Rodrigues' formula for ``exp(û)`` with its coefficients
+    ``a = sin θ/θ`` and ``b = (1 − cos θ)/θ²`` given (:func:`_rodrigues` computes them)."""
     x, y, z = u[0], u[1], u[2]
     Q[0, 0] = 1.0 - b * (y * y + z * z)
     Q[1, 1] = 1.0 - b * (x * x + z * z)

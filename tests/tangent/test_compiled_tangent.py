@@ -332,3 +332,20 @@ def test_a_body_s_non_finite_tangent_vector_is_refused_on_the_compiled_path_too(
     assert not compiled_reason(body, get_method("rkmk4"))
     with pytest.raises(FloatingPointError, match="non-finite"):
         lieint.megno(body, _start(body), (0.0, 1.0), h=0.05, method="rkmk4", vector=np.zeros(dim) * np.nan)
+
+
+def test_one_sine_and_cosine_for_a_turn_give_rodrigues_and_the_coefficients_bit_for_bit():
+    # se3_tangent.exponential shares one sine and cosine between exp(û) and β, γ and their
+    # derivatives (θ ≥ 0.1): the numbers must be those of _rodrigues and coefficients computed apart
+    from lieint.fast.se3_tangent import coefficients, exponential
+    from lieint.fast.top3 import _rodrigues
+
+    rng = np.random.default_rng(5)
+    for theta in (0.0, 1e-9, 0.05, 0.0999, 0.1, 0.1001, 0.3, 1.0, 2.5, 3.1):
+        axis = rng.normal(size=3)
+        u = np.concatenate([theta * axis / np.linalg.norm(axis), rng.normal(size=3)])
+        Q, Q_apart = np.empty((3, 3)), np.empty((3, 3))
+        shared = exponential(u, Q)
+        _rodrigues(u, Q_apart)
+        apart = coefficients(u[0] * u[0] + u[1] * u[1] + u[2] * u[2])
+        assert np.array_equal(Q, Q_apart) and shared == apart, theta
