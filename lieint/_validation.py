@@ -89,8 +89,9 @@ def as_rotation_array(value, name: str) -> np.ndarray:
     return as_float_array(value, name)
 
 
-def as_float_array(value, name: str, *, allow_nonfinite: bool = False) -> np.ndarray:
-    """Convert ``value`` to a float64 array, or raise naming ``name``.
+def as_float_array(value, name: str, *, allow_nonfinite: bool = False, field: str | None = None) -> np.ndarray:
+    """Convert ``value`` to a float64 array, or raise naming ``name`` (``name['field']`` with
+    ``field``, the label made only for a message).
 
     Raises
     ------
@@ -106,6 +107,8 @@ def as_float_array(value, name: str, *, allow_nonfinite: bool = False) -> np.nda
         total = sum(value.ravel().tolist())
         if total - total == 0.0:
             return value
+    if field is not None:
+        name = f"{name}['{field}']"
     if value is None:
         raise TypeError(f"`{name}` must be an array of real numbers; got None.")
     try:
@@ -269,7 +272,7 @@ def check_finite_positive(value, name: str) -> float:
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
         raise TypeError(f"`{name}` must be a positive finite number; got {value!r}.")
     v = float(value)
-    if not np.isfinite(v) or v <= 0:
+    if not math.isfinite(v) or v <= 0:
         raise ValueError(f"`{name}` must be a positive finite number; got {v!r}.")
     return v
 

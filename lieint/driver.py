@@ -269,7 +269,10 @@ class Driver:
         """Integrate over the whole span; returns the :class:`~lieint.Solution`."""
         if self.kind == "fixed":  # every saved row is held in memory: refuse what cannot fit
             rows = self.plan.nsteps // self.save_every + 2
-            size = rows * sum(np.asarray(v).nbytes for v in y0.values())
+            size = 0
+            for v in y0.values():  # a loop, not a generator: no frame resumed per field
+                size += np.asarray(v).nbytes
+            size *= rows
             check_limit(
                 "LIEINT_MAX_MEMORY",
                 float(size),

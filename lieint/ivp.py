@@ -217,7 +217,9 @@ def integrate(
     >>> float(back.t[-1]), bool(abs(back.t[1] - back.t[0]) <= 0.1)
     (0.0, True)
     """
-    if not isinstance(system, LieGroupSystem):
+    # a built-in system's class has LieGroupSystem in its MRO: found without the ABC's Python-level
+    # instance check (which still answers for any other class)
+    if LieGroupSystem not in type(system).__mro__ and not isinstance(system, LieGroupSystem):
         raise TypeError(_not_a_system(system))
     _refuse_scipy_order(y0, t_span)
     if isinstance(h, str) and _names_a_method(h):
@@ -318,7 +320,7 @@ def _not_a_system(system) -> str:
 
 def _refuse_scipy_order(y0, t_span) -> None:
     """Refuse ``integrate(system, t_span, y0)`` (scipy's positional order) with a message."""
-    if not isinstance(y0, Mapping) and (isinstance(t_span, Mapping) or _looks_like_a_span(y0)):
+    if type(y0) is not dict and not isinstance(y0, Mapping) and (isinstance(t_span, Mapping) or _looks_like_a_span(y0)):
         raise TypeError(
             "lieint.integrate takes (system, y0, t_span): the initial state second, the time span third; "
             f"got the time span {y0!r} second and the state third, which is scipy's order "
@@ -530,7 +532,7 @@ def _finite_max(rho) -> float:
 def check_t_span(t_span, backward: bool = False) -> tuple[float, float]:
     """``(t0, t1)`` as floats: finite, ``t1 != t0``; ``t1 > t0`` unless ``backward`` allows either way."""
     try:
-        t0, t1 = (float(v) for v in t_span)
+        t0, t1 = map(float, t_span)
     except (TypeError, ValueError):
         raise ValueError(f"`t_span` must be a pair (t0, t1) of numbers; got {t_span!r}.") from None
     if not (math.isfinite(t0) and math.isfinite(t1)):

@@ -419,21 +419,21 @@ class LieGroupSystem(ABC):
         TypeError, ValueError
             Naming the field, what was expected and what was received.
         """
-        if not isinstance(y, Mapping):
+        if type(y) is not dict and not isinstance(y, Mapping):
             raise TypeError(
                 f"`{name}` must be a state dict with keys {list(self.fields)} "
                 f"(use `system.initial_state(...)`); got {type(y).__name__}."
             )
-        missing = [k for k in self.fields if k not in y]
-        extra = [k for k in y if k not in self.fields]
-        if missing or extra:
+        if y.keys() != self.fields.keys():  # the keys as sets (one comparison, no lists made)
+            missing = [k for k in self.fields if k not in y]
+            extra = [k for k in y if k not in self.fields]
             raise ValueError(
                 f"`{name}` must have exactly the keys {list(self.fields)}; missing {missing}, unexpected {extra}."
             )
         out: State = {}
         batch: tuple[int, ...] | None = None
         for key, shape in self.fields.items():
-            arr = as_float_array(y[key], f"{name}['{key}']")
+            arr = as_float_array(y[key], name, field=key)
             if arr.shape[arr.ndim - len(shape) :] != shape or arr.ndim < len(shape):
                 raise ValueError(
                     f"`{name}['{key}']` must have shape (..., {', '.join(map(str, shape))}); got shape {arr.shape}."
