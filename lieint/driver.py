@@ -245,25 +245,14 @@ class Driver:
 
     # -- the result ----------------------------------------------------------------------------
     def stats(self, carry: Carry, cpu: float = 0.0, wall: float = 0.0) -> Stats:
-        m = self.method
+        m, fixed = self.method, self.kind == "fixed"
+        # by position, in the order of Stats' fields (sixteen keywords cost 0.6 µs a call)
         return Stats(
-            method=m.name,
-            order=m.order,
-            coordinates=m.coordinates,
-            backend=self.backend,
-            backend_reason=self.backend_reason,
-            nsteps=carry.k,
-            nrejected=carry.nrejected,
-            nfev=carry.nfev,
-            cpu_time=cpu,
-            wall_time=wall,
-            h=self.h if self.kind == "fixed" else None,
-            rtol=self.rtol if self.kind != "fixed" else None,
-            atol=self.atol if self.kind != "fixed" else None,
-            project=self.project,
-            save_every=self.save_every,
-            threads=getattr(self.loop, "threads", 1),
-        )
+            m.name, m.order, m.coordinates, self.backend, self.backend_reason,  # method … backend_reason
+            carry.k, carry.nrejected, carry.nfev, cpu, wall,  # nsteps … wall_time
+            self.h if fixed else None, None if fixed else self.rtol, None if fixed else self.atol,  # h, rtol, atol
+            self.project, self.save_every, getattr(self.loop, "threads", 1),  # project, save_every, threads
+        )  # fmt: skip
 
     def run(self, y0: dict):
         """Integrate over the whole span; returns the :class:`~lieint.Solution`."""
@@ -305,7 +294,10 @@ class Driver:
         else:
             t = np.concatenate([p.t for p in parts])
             states = {name: np.concatenate([p.states[name] for p in parts]) for name in first.states}
-        failure = next((s.failure for s in parts if s.failure), None)
+        if segments:
+            failure = next((s.failure for s in parts if s.failure), None)
+        else:  # one part (a compiled whole run): its failure, or None
+            failure = first.failure or None
         stats = self.stats(carry, cpu, wall)
         stop = self.observer.stop if self.observer is not None else None
         if failure:

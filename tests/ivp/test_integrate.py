@@ -126,3 +126,31 @@ def test_top_without_orientation_steps_only_A(top3):
     assert "momentum" not in sol.invariants
     full = lieint.integrate(top3, top3.initial_state(angular_velocity=[0.3, 1.0, 0.4]), (0, 1), h=0.1)
     np.testing.assert_allclose(sol.states["A"], full.states["A"], atol=1e-15)
+
+
+def test_the_stats_name_every_field_of_the_run_fixed_and_adaptive():
+    # the driver builds Stats by position: every field must hold what its name says
+    top = lieint.EulerTop.from_principal_moments([1.0, 2.0, 3.0])
+    y0 = top.initial_state(angular_velocity=[0.3, 1.0, 0.4])
+    fixed = lieint.integrate(top, y0, (0.0, 1.0), h=0.1, method="rkmk4", save_every=3, project=True).stats
+    assert (fixed.method, fixed.order, fixed.coordinates, fixed.backend) == ("rkmk4", 4, "exp", "numba")
+    assert fixed.backend_reason.startswith("compiled engine") and (fixed.nsteps, fixed.nrejected) == (10, 0)
+    assert fixed.nfev == 40 and fixed.cpu_time >= 0.0 and fixed.wall_time >= 0.0
+    assert (fixed.h, fixed.rtol, fixed.atol, fixed.project, fixed.save_every, fixed.threads) == (
+        0.1,
+        None,
+        None,
+        True,
+        3,
+        1,
+    )
+    adaptive = lieint.integrate(top, y0, (0.0, 1.0), method="rkmk45", rtol=1e-7, atol=1e-9).stats
+    assert (adaptive.method, adaptive.order, adaptive.h, adaptive.rtol, adaptive.atol) == (
+        "rkmk45",
+        5,
+        None,
+        1e-7,
+        1e-9,
+    )
+    assert (adaptive.project, adaptive.save_every, adaptive.threads) == (False, 1, 1)
+    assert adaptive.nsteps > 0 and adaptive.nfev >= 6 * adaptive.nsteps
