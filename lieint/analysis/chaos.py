@@ -230,11 +230,8 @@ def lyapunov(
     V = _initial_vectors(chart, batch, k, vectors, seed)
     z = stepper.seed(y, V)
     state = stepper.init(t0, z, float(sizes[0]))
-    compiled = None
     if not stepper.compiled_reason and state is None:
-        compiled = _lyapunov_compiled(stepper, z, starts, sizes, every, t0, t1, float(h))
-    if compiled is not None:
-        times, history_arr, y = compiled
+        times, history_arr, y = _lyapunov_compiled(stepper, z, starts, sizes, every, t0, t1, float(h))
     else:
         times, history_arr, y = _lyapunov_steps(stepper, z, state, starts, sizes, every, t0, t1, h, batch, k)
     order = np.argsort(-history_arr[-1], axis=-1)
@@ -276,8 +273,7 @@ def _lyapunov_steps(stepper, z, state, starts, sizes, every, t0, t1, h, batch, k
 
 def _lyapunov_compiled(stepper, z, starts, sizes, every: int, t0: float, t1: float, h: float):
     """:func:`lyapunov` on the compiled engine (:class:`lieint.tangent.compiled.CompiledLyapunov`:
-    the steps and the re-orthonormalisations in one call of the loop); None when the steps are
-    not one grid."""
+    the steps and the re-orthonormalisations in one call of the loop)."""
     from ..tangent.compiled import COMPILED_REASON, CompiledLyapunov
     from ..tangent.flow import COMPLEX_STEP
 
@@ -287,10 +283,9 @@ def _lyapunov_compiled(stepper, z, starts, sizes, every: int, t0: float, t1: flo
     batch = first.shape[1 : first.ndim - len(stepper.system.fields[names[0]])]
     y = {name: np.ascontiguousarray(z[name][0].real) for name in names}
     dy = [{name: z[name][m].imag / COMPLEX_STEP for name in names} for m in range(k)]
-    done = CompiledLyapunov(stepper.system, stepper.method, k, batch, every, len(sizes)).run(y, dy, sizes, every)
-    if done is None:
-        return None
-    y1, sums, saves = done
+    y1, sums, saves = CompiledLyapunov(stepper.system, stepper.method, k, batch, every, len(sizes)).run(
+        y, dy, sizes, every
+    )
     if not (np.all(np.isfinite(sums)) and all(np.all(np.isfinite(v)) for v in y1.values())):
         raise FloatingPointError(
             f"the tangent vectors became non-finite or degenerate before t = {t1:g}; reduce `h` = {h:g}."
@@ -367,9 +362,7 @@ def megno(
     z = stepper.seed(y, V)
     state = stepper.init(t0, z, float(sizes[0]))
     if not stepper.compiled_reason and state is None:
-        compiled = _megno_compiled(stepper, z, starts, sizes, save_every, t0, t1, float(h))
-        if compiled is not None:
-            return compiled
+        return _megno_compiled(stepper, z, starts, sizes, save_every, t0, t1, float(h))
     log_norm = np.zeros(batch)  # log|δ(t)|, renormalisations added back
     weighted = np.zeros(batch)  # ∫ s d log|δ|
     y_sum = np.zeros(batch)  # ∫ Y dt, by the trapezoidal rule (Y(t0) = 0)
@@ -413,9 +406,9 @@ def megno(
     )
 
 
-def _megno_compiled(stepper, z, starts, sizes, save_every: int, t0: float, t1: float, h: float) -> Megno | None:
+def _megno_compiled(stepper, z, starts, sizes, save_every: int, t0: float, t1: float, h: float) -> Megno:
     """:func:`megno` on the compiled engine (:class:`lieint.tangent.compiled.CompiledMegno`: the
-    steps and the sums after each in one call of the loop); None when the steps are not one grid."""
+    steps and the sums after each in one call of the loop)."""
     from ..tangent.compiled import COMPILED_REASON, CompiledMegno
     from ..tangent.flow import COMPLEX_STEP
 
@@ -424,10 +417,7 @@ def _megno_compiled(stepper, z, starts, sizes, save_every: int, t0: float, t1: f
     batch = first.shape[1 : first.ndim - len(stepper.system.fields[names[0]])]
     y = {name: np.ascontiguousarray(z[name][0].real) for name in names}
     dy = {name: z[name][0].imag / COMPLEX_STEP for name in names}
-    done = CompiledMegno(stepper.system, stepper.method, batch).run(y, dy, sizes, save_every)
-    if done is None:
-        return None
-    y1, sums, saves = done
+    y1, sums, saves = CompiledMegno(stepper.system, stepper.method, batch).run(y, dy, sizes, save_every)
     if not (np.all(np.isfinite(sums)) and all(np.all(np.isfinite(v)) for v in y1.values())):
         raise FloatingPointError(f"the tangent vector became non-finite before t = {t1:g}; reduce `h` = {h:g}.")
     times = starts[saves - 1] + sizes[saves - 1]

@@ -64,6 +64,8 @@ __all__ = [
 
 #: a method's numbers as the compiled steps read them (one numba type for every tableau form)
 Tableau = namedtuple("Tableau", "A b c coeffs cayley")
+#: the step sizes the loop reads on a grid (no entries: h, and the grid's last step its own)
+_GRID_STEPS = np.empty(0)
 #: a product of exponentials' numbers (:class:`lieint.fast.forms.ExpProductForm`; ``cayley`` is
 #: False: the observer reads it as a tableau's)
 Products = namedtuple("Products", "weights bounds c cayley")
@@ -405,7 +407,11 @@ class Engine:
             kept = (kept_Y[1:], kept_U)
         else:  # none kept: arrays of no rows (the kernel's types), shared by the runs of this engine
             kept = self._nothing_kept(N, d)
-        grid = (float(plan.h), float(plan.last_step), int(k_from), int(k_to), int(plan.nsteps), bool(project))
+        # a schedule's own step sizes (``plan.sizes``, :class:`lieint.tangent.compiled`'s steps held
+        # fixed), else none: the grid's
+        sizes = getattr(plan, "sizes", None)
+        sizes = _GRID_STEPS if sizes is None else np.ascontiguousarray(sizes, dtype=float)
+        grid = (float(plan.h), float(plan.last_step), int(k_from), int(k_to), int(plan.nsteps), bool(project), sizes)
         outs = (out[s:], fin, status, norm2, evals, *kept)
         ctx, par, tab = self.context, self.layout.params, self.tableau
         fixed = self.loops.fixed

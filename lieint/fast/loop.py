@@ -91,19 +91,22 @@ def _copy(src, dst):
 def fixed(ctx, bodies, Y0, par, meth, grid, save_steps, outs):
     """Steps ``k_from < k ≤ k_to`` of the bodies ``lo ≤ m < hi`` (``bodies``) on the global grid.
 
-    ``grid`` is ``(h, h_last, k_from, k_to, nsteps, project)`` (the grid's last step has size
-    ``h_last``); ``outs`` is ``(out, fin, status, norm2, evals, kept_Y, kept_U)``. The state
-    after each step of ``save_steps`` goes to ``out[slot, m]``, the state after ``k_to`` to
-    ``fin[m]``; ``status[m]`` is −1, or the step at which a stage of body m left the dexp⁻¹
-    radius (the body stops there); ``norm2[m]`` the largest ``‖ξ‖_F²`` over body m's starting
-    state and saved rows (the step check's bound); ``evals[m]`` the evaluations spent. When
-    ``kept_Y`` has rows, every step's state and increment go to ``kept_Y[k − k_from, m]`` and
-    ``kept_U[k − k_from, m]`` (dense output and events). Releases the GIL (compiled with
-    ``nogil``): threads run disjoint ranges of bodies.
+    ``grid`` is ``(h, h_last, k_from, k_to, nsteps, project, sizes)``: the grid's steps have size
+    h, its last ``h_last`` — or, when ``sizes`` has entries, step k has size ``sizes[k]`` (a
+    schedule of steps, such as an adaptive run's accepted steps held fixed). ``outs`` is
+    ``(out, fin, status, norm2, evals, kept_Y, kept_U)``. The state after each step of
+    ``save_steps`` goes to ``out[slot, m]``, the state after ``k_to`` to ``fin[m]``;
+    ``status[m]`` is −1, or the step at which a stage of body m left the dexp⁻¹ radius (the body
+    stops there); ``norm2[m]`` the largest ``‖ξ‖_F²`` over body m's starting state and saved rows
+    (the step check's bound); ``evals[m]`` the evaluations spent. When ``kept_Y`` has rows, every
+    step's state and increment go to ``kept_Y[k − k_from, m]`` and ``kept_U[k − k_from, m]``
+    (dense output and events). Releases the GIL (compiled with ``nogil``): threads run disjoint
+    ranges of bodies.
     """
     lo, hi = bodies
     out, fin, status, norm2, evals, kept_Y, kept_U = outs
-    h, h_last, k_from, k_to, nsteps, projecting = grid
+    h, h_last, k_from, k_to, nsteps, projecting, sizes = grid
+    scheduled = sizes.shape[0] > 0
     fx = prepare(ctx)
     d = Y0.shape[1]
     scr = scratch(fx, meth, par, d)
@@ -124,7 +127,10 @@ def fixed(ctx, bodies, Y0, par, meth, grid, save_steps, outs):
         evals[body] = 0
         pending = True
         for k in range(k_from, k_to):
-            hk = h if k < nsteps - 1 else h_last
+            if scheduled:
+                hk = sizes[k]
+            else:
+                hk = h if k < nsteps - 1 else h_last
             aux[0] = -1.0
             spent = step(fx, y, par, meth, hk, y1, inc, aux, scr)
             if spent < 0:

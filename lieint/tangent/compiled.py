@@ -14,10 +14,15 @@ costs about one step per tangent vector instead of a complex run each. Compiled 
 * the n-dimensional top, n ≥ 4 (:mod:`lieint.fast.topn_tangent`), the 3D heavy top
   (:mod:`lieint.fast.heavy3_tangent`), the 3D Chaplygin ball (:mod:`lieint.fast.chaplygin3_tangent`)
   and the 3D rolling ball with an offset centre of mass, gravity or an incline
-  (:mod:`lieint.fast.rolling3_tangent`): their RKMK methods in exponential coordinates.
+  (:mod:`lieint.fast.rolling3_tangent`): their RKMK methods in exponential coordinates (and, on
+  the 3D bodies, the commutator-free and Crouch–Grossman methods).
 
-Everything else — other systems and methods, steps that are not one grid of equal steps with a
-shorter last one — runs on the generic path, and says so (:func:`compiled_reason`).
+Every RKMK method's embedded pair (``rkmk23``, ``rkmk45``, ``rkmk853``; not the energy-keeping
+ones) has its propagated solution's tangent steps there too: with its controller held fixed, a
+pair's step is the RKMK step of its weights b. The steps may be a grid (h, a last step of its own)
+or a schedule of any sizes (``steps``: an adaptive run's accepted steps), which the loop reads
+step by step. Everything else — other systems and methods — runs on the generic path, and says so
+(:func:`compiled_reason`).
 """
 
 from __future__ import annotations
@@ -43,9 +48,11 @@ _FAMILIES = ("splitting", "moser_veselov")
 
 @dataclass(frozen=True)
 class _Steps(Plan):
-    """A grid of equal steps h and a last one of its own size, as the engine's loop reads it."""
+    """A run's steps as the engine's loop reads them: equal steps h and a last one of its own size,
+    or (``sizes``) a schedule of steps of any sizes — an adaptive run's accepted steps held fixed."""
 
     last: float = 0.0
+    sizes: np.ndarray | None = None
 
     @property
     def last_step(self) -> float:
@@ -75,7 +82,9 @@ def compiled_reason(system, method) -> str:
             "rotations and the Moser–Veselov maps of the 3D top)"
         )
     if isinstance(meth, RKMKForm):
-        plain = meth.coordinates == "exp" and meth.degree is not None and not meth.pair and not meth.keeps_energy
+        # an embedded pair steps its propagated solution (its controller held fixed): RKMK with the
+        # pair's weights b; the energy-keeping pairs project onto the energy level (not RKMK)
+        plain = meth.coordinates == "exp" and meth.degree is not None and not meth.keeps_energy
         return "" if plain else what
     if isinstance(meth, ExpProductForm):  # the commutator-free and Crouch–Grossman methods
         return "" if body is None or body in _PRODUCTS else what
@@ -119,14 +128,13 @@ def _layouts(system):
     return form, tuple(getattr(tangent_layouts, f"{prefix}{kind}Layout") for kind in kinds)
 
 
-def _grid(sizes: np.ndarray) -> _Steps | None:
-    """The steps ``sizes`` as the engine's grid: equal steps and a last of its own size, or None
-    (steps of other sizes: the generic path takes them)."""
+def _grid(sizes: np.ndarray) -> _Steps:
+    """The steps ``sizes`` as the engine's loop takes them: equal steps and a last of its own
+    size as a grid, steps of other sizes as a schedule."""
     sizes = np.asarray(sizes, dtype=float)
     n = int(sizes.size)
-    if n == 0 or (n > 1 and not np.all(sizes[:-1] == sizes[0])):
-        return None
-    return _Steps(0.0, float(sizes.sum()), float(sizes[0]), n, float(sizes[-1]))
+    schedule = None if n == 1 or np.all(sizes[:-1] == sizes[0]) else np.ascontiguousarray(sizes)
+    return _Steps(0.0, float(sizes.sum()), float(sizes[0]), n, float(sizes[-1]), schedule)
 
 
 class _CompiledRun:
@@ -148,10 +156,8 @@ class _CompiledRun:
 
     def _sums(self, y, dy, sizes, every: int, name: str):
         """The final state and the layout's sums ``name`` after every ``every``-th step and the
-        last, with those steps' numbers (1-based); None off a grid."""
+        last, with those steps' numbers (1-based)."""
         steps = _grid(sizes)
-        if steps is None:
-            return None
         saves = steps.saves_between(every, 0, steps.nsteps)
         Y, rows = self._steps(y, dy, steps, saves)
         final = self.layout.user(Y[None], self.batch)
@@ -178,13 +184,10 @@ class CompiledTangent(_CompiledRun):
         form, (tangent, _, _) = _layouts(system)
         super().__init__(system, method, batch, tangent(form, k))
 
-    def advance(self, y: dict, dy: list[dict], sizes: np.ndarray) -> tuple[dict, list[dict]] | None:
+    def advance(self, y: dict, dy: list[dict], sizes: np.ndarray) -> tuple[dict, list[dict]]:
         """``y`` and its tangent vectors ``dy`` (k dicts of the fields' derivatives) after the
-        steps ``sizes``; None when the steps are not equal ones with a last of its own size
-        (the generic path takes those)."""
+        steps ``sizes`` (equal ones with a last of its own size, or any schedule of sizes)."""
         steps = _grid(sizes)
-        if steps is None:
-            return None
         Y, _ = self._steps(y, dy, steps, np.empty(0, dtype=np.int64))
         return self.layout.unpack(Y, self.batch)
 
@@ -212,8 +215,7 @@ class CompiledMegno(_CompiledRun):
     def run(self, y: dict, dy: dict, sizes: np.ndarray, save_every: int):
         """The final state and the sums ``(elapsed, log|δ|, ∫ s dlog|δ|, ∫ Y dt, Y)`` (last axis)
         after the steps that a run saving every ``save_every``-th step and the last keeps,
-        ``(m, *batch, 5)``, with those steps' numbers (1-based); None when the steps are not
-        equal ones with a last of its own size."""
+        ``(m, *batch, 5)``, with those steps' numbers (1-based)."""
         return self._sums(y, [dy], sizes, save_every, "megno")
 
 
@@ -243,6 +245,5 @@ class CompiledLyapunov(_CompiledRun):
 
     def run(self, y: dict, dy: list[dict], sizes: np.ndarray, every: int):
         """The final state and the k sums of ``log |diag R|`` at every re-orthonormalisation,
-        ``(m, *batch, k)``, with those steps' numbers (1-based); None when the steps are not
-        equal ones with a last of its own size."""
+        ``(m, *batch, k)``, with those steps' numbers (1-based)."""
         return self._sums(y, dy, sizes, every, "lyapunov")

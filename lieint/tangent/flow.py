@@ -273,8 +273,8 @@ class TangentStepper:
 
         On the compiled engine where the method's tangent steps are compiled
         (:mod:`lieint.tangent.compiled`: the 3D top's RKMK methods, splittings and Moser–Veselov
-        maps, the RKMK methods of the n-D top, the 3D heavy top, Chaplygin ball and rolling ball;
-        steps of one size with a last of its own), else step by step on the generic path
+        maps, the RKMK methods and embedded pairs of the n-D top, the 3D heavy top, Chaplygin ball and
+        rolling ball; steps of any sizes), else step by step on the generic path
         (:meth:`step`);
         :attr:`backend_reason` says which.
 
@@ -295,17 +295,15 @@ class TangentStepper:
             The method's state after them.
         """
         if not self.compiled_reason and state is None and len(sizes):
-            moved = self._advance_compiled(z, sizes)
-            if moved is not None:
-                self.backend_reason = COMPILED_REASON
-                return moved, state
+            self.backend_reason = COMPILED_REASON
+            return self._advance_compiled(z, sizes), state
         self.backend_reason = BACKEND_REASON
         with np.errstate(over="ignore", invalid="ignore"):
             for tk, hk in zip(starts, sizes, strict=True):
                 z, state = self.step(float(tk), z, float(hk), state)
         return z, state
 
-    def _advance_compiled(self, z: dict, sizes: np.ndarray) -> dict | None:
+    def _advance_compiled(self, z: dict, sizes: np.ndarray) -> dict:
         """:meth:`advance` on the compiled engine: the copies read as the real state and its
         derivatives ``Im z / ε``, stepped in forward mode, written back as copies."""
         from .compiled import CompiledTangent
@@ -320,10 +318,7 @@ class TangentStepper:
             engine = self._compiled[key] = CompiledTangent(self.system, self.method, k, batch)
         y = {name: np.ascontiguousarray(z[name][0].real) for name in names}
         dy = [{name: z[name][m].imag / COMPLEX_STEP for name in names} for m in range(k)]
-        moved = engine.advance(y, dy, sizes)
-        if moved is None:
-            return None
-        y1, dy1 = moved
+        y1, dy1 = engine.advance(y, dy, sizes)
         return {name: y1[name][None] + (1j * COMPLEX_STEP) * np.stack([v[name] for v in dy1]) for name in names}
 
     def step(self, t: float, z: dict, h: float, state: Any = None) -> tuple[dict, Any]:

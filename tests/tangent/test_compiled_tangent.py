@@ -73,7 +73,8 @@ def test_the_registry_s_rkmk_methods_splittings_and_moser_veselov_maps_have_comp
     heavy = lieint.HeavyTop(np.diag([1.0, 2.0, 3.0]), 1.0, [0.1, 0.0, 0.2], [0.0, 0.0, -9.81])
     assert not compiled_reason(heavy, get_method("rkmk4"))
     assert not compiled_reason(heavy, get_method("cf4")) and not compiled_reason(heavy, get_method("cg4a"))
-    for refused in (get_method("rkmk4", coordinates="cayley"), get_method("lie_midpoint"), get_method("rkmk45")):
+    assert not compiled_reason(heavy, get_method("rkmk45")) and not compiled_reason(heavy, get_method("rkmk853"))
+    for refused in (get_method("rkmk4", coordinates="cayley"), get_method("lie_midpoint"), get_method("rkmk45+energy")):
         assert "no compiled tangent steps on the 3D heavy top" in compiled_reason(heavy, refused)
     ball = lieint.RollingBall(np.diag([0.1, 0.15, 0.2]), 1.0, 1.0, [0.0, 0.1, -0.2])
     assert not compiled_reason(ball, get_method("rkmk4"))
@@ -97,6 +98,10 @@ def test_compiled_tangent_map_is_the_complex_step_s_and_its_state_the_plain_run_
     runs_apart = max(np.max(np.abs(compiled.y[k] - generic.y[k])) for k in compiled.y)
     scale = np.max(np.abs(generic.vectors))
     assert np.max(np.abs(compiled.vectors - generic.vectors)) <= (1e-14 + 3 * runs_apart) * scale, method
+    if get_method(method).adaptive:  # an embedded pair: its propagated solution, the generic path's
+        for name in compiled.y:
+            np.testing.assert_allclose(compiled.y[name], generic.y[name], rtol=0, atol=1e-12, err_msg=method)
+        return
     plain = lieint.integrate(top, y0, (0.0, 3.0), h=0.03, method=method)
     assert plain.stats.backend == "numba"
     for name in compiled.y:  # the same operations in the same order as the plain compiled step
@@ -126,10 +131,27 @@ def test_a_batch_of_tops_steps_each_as_alone():
         np.testing.assert_allclose(both.vectors[:, b], alone.vectors, rtol=0, atol=1e-13 * np.abs(alone.vectors).max())
 
 
-def test_steps_that_are_not_one_grid_and_other_methods_take_the_generic_path_and_say_so():
+@pytest.mark.parametrize("method", _compiled_methods())
+def test_steps_of_any_sizes_run_compiled_and_give_the_complex_step_s_tangent_map(method):
+    # a schedule of steps (an adaptive run's accepted steps held fixed): the loop reads each step's
+    # size; the map and its derivative are the generic path's on the same steps
+    top = _tops()["tilted frame"]
+    y0 = top.initial_state(angular_velocity=[0.3, 1.0, 0.4])
+    steps = 0.01 * (1.0 + 0.5 * np.sin(np.arange(40)))  # 40 steps, every size its own
+    span = (0.0, float(steps.sum()))
+    compiled = lieint.tangent_flow(top, y0, span, steps=steps, method=method)
+    generic = lieint.tangent_flow(top, y0, span, steps=steps, method=method, backend="numpy")
+    assert compiled.backend_reason == COMPILED_REASON and generic.backend_reason == BACKEND_REASON
+    # the paths step in different frames: their runs differ by round-off (the splittings' generic
+    # path turns the frame at every rotation), and their tangent maps as much, not more
+    runs_apart = max(np.max(np.abs(compiled.y[k] - generic.y[k])) for k in compiled.y)
+    scale = np.max(np.abs(generic.vectors))
+    assert runs_apart < 1e-11, method  # up to 5e-12 on the grid (the test above)
+    assert np.max(np.abs(compiled.vectors - generic.vectors)) <= (1e-14 + 3 * runs_apart) * scale, method
+
+
+def test_methods_without_compiled_tangent_steps_take_the_generic_path_and_say_so():
     y0 = TOP.initial_state(angular_velocity=[0.3, 1.0, 0.4])
-    uneven = lieint.tangent_flow(TOP, y0, (0.0, 1.0), steps=[0.25, 0.5, 0.25], method="splitting2")
-    assert uneven.backend_reason == BACKEND_REASON
     assert lieint.tangent_flow(TOP, y0, (0.0, 0.1), h=0.01, method="lie_midpoint").backend_reason == BACKEND_REASON
     assert "no compiled tangent steps" in tangent_backend(TOP, "lie_midpoint")
     assert tangent_backend(TOP, "splitting2") == tangent_backend(TOP, "rkmk4") == tangent_backend(TOP, "cf4")
@@ -224,6 +246,17 @@ def _start(body, second=False):
     return body.initial_state(angular_velocity=spin)
 
 
+def _plain_run(body, y0, method: str, generic) -> dict:
+    """The final state of the run whose tangent map is taken (0 → 3, h = 0.03): the plain compiled
+    run of a fixed-step method; an embedded pair's propagated solution on those steps (which
+    ``integrate`` does not take: it runs the pair adaptively) from the generic path's real part."""
+    if get_method(method).adaptive:
+        return generic.y
+    plain = lieint.integrate(body, y0, (0.0, 3.0), h=0.03, method=method)
+    assert plain.stats.backend == "numba"
+    return {k: v[-1] for k, v in plain.states.items()}
+
+
 def _body_methods(body) -> list[str]:
     """Every method of the registry with compiled tangent steps on ``body``."""
     names = []
@@ -253,7 +286,8 @@ def test_the_rkmk_methods_of_the_n_d_top_the_heavy_top_and_the_balls_have_compil
         assert expected in names
     # the 3D bodies' products of exponentials too (commutator-free, Crouch–Grossman); not the n-D tops'
     assert ("cf4" in names) == ("cg4a" in names) == (_bodies()[label].n == 3)
-    assert "rkmk45" not in names and "lie_midpoint" not in names
+    # the embedded pairs (their propagated solution on the steps given); not the energy pairs
+    assert "rkmk45" in names and "rkmk853" in names and "rkmk45+energy" not in names and "lie_midpoint" not in names
 
 
 @pytest.mark.parametrize(("label", "method"), _body_cases())
@@ -267,9 +301,8 @@ def test_body_compiled_tangent_map_is_the_complex_step_s_and_its_state_the_plain
     assert compiled.vectors.shape == generic.vectors.shape == (dim, dim)
     # vectors against matrices (and the principal frame against the user's): round-off apart
     # (5e-14 after 100 steps of rkmk6), and the tangent maps as much, entry by entry
-    plain = lieint.integrate(body, y0, (0.0, 3.0), h=0.03, method=method)
-    assert plain.stats.backend == "numba"
-    runs_apart = max(np.max(np.abs(compiled.y[k] - plain.states[k][-1])) for k in compiled.y)
+    plain = _plain_run(body, y0, method, generic)
+    runs_apart = max(np.max(np.abs(compiled.y[k] - plain[k])) for k in compiled.y)
     assert runs_apart < 1e-12, runs_apart
     scale = np.max(np.abs(generic.vectors))
     np.testing.assert_allclose(compiled.vectors, generic.vectors, rtol=1e-10, atol=1e-13 * scale, err_msg=method)

@@ -107,6 +107,7 @@ def test_embedded_pair_with_its_accepted_steps_held_fixed():
         return y
 
     run = lieint.tangent_flow(system, y0, (0.0, 3.0), method="rkmk45", steps=steps)
+    assert run.backend_reason.startswith("compiled engine")  # the steps' schedule, in the loop
     assert np.allclose(run.y["A"], sol.states["A"][-1], rtol=0, atol=1e-12)
     J = run.jacobian
     scale = np.max(np.abs(J))
