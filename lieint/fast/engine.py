@@ -31,6 +31,7 @@ from .forms import (
     HeavyTop3Form,
     MapForm,
     PiecesForm,
+    PrescribedForm,
     RKMKForm,
     RollingBall3Form,
     Top3Form,
@@ -42,6 +43,7 @@ from .layouts import (
     Layout,
     PiecesEnergyLayout,
     PiecesLayout,
+    PrescribedLayout,
     RollingBall3LanesLayout,
     Top3EnergyLayout,
     Top3LanesLayout,
@@ -336,6 +338,7 @@ class Engine:
                 "splitting": "splitting into exact rotations",
                 "exact_flow": "exact flow (double-double short steps)",
                 "midpoint": "implicit midpoint (fixed-point iteration)",
+                "magnus": "Magnus method (the rates sampled at its nodes)",
             }.get(m.family, m.family)
         else:
             kind = "classical RK"
@@ -413,7 +416,11 @@ class Engine:
         sizes = _GRID_STEPS if sizes is None else np.ascontiguousarray(sizes, dtype=float)
         grid = (float(plan.h), float(plan.last_step), int(k_from), int(k_to), int(plan.nsteps), bool(project), sizes)
         outs = (out[s:], fin, status, norm2, evals, *kept)
-        ctx, par, tab = self.context, self.layout.params, self.tableau
+        ctx, tab = self.context, self.tableau
+        # a generator of t alone (the Magnus methods' prescribed rates): its values at this call's
+        # nodes in the call's parameters; else the layout's
+        timed = getattr(self.layout, "call_params", None)
+        par = self.layout.params if timed is None else timed(plan, k_from, k_to, tab)
         fixed = self.loops.fixed
         threads = min(self.threads, N)
         if threads > 1:
@@ -690,6 +697,13 @@ def _select(system, method, y0, form, adaptive: bool, project: bool, h) -> tuple
             # the vector field compiles only for the runs that call it: classical RK, the midpoint,
             # an adaptive run's first trial step
             layout = PiecesLayout(form, system, adaptive or meth.family in ("rk", "midpoint"), project)
+    elif isinstance(form, PrescribedForm):
+        if not (isinstance(meth, MapForm) and meth.family == "magnus"):
+            return None, (
+                f"{method.name!r} has no compiled form for a prescribed rotation (compiled there: the Magnus "
+                "methods, whose steps read the rates at their nodes; the others evaluate them at their stages)"
+            )
+        layout = PrescribedLayout(form)
     else:
         return None, f"no engine for the compiled form {type(form).__name__}"
     if isinstance(meth, MapForm) and not meth.covers(form):

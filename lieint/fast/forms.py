@@ -42,6 +42,7 @@ __all__ = [
     "LazyPieces",
     "MapForm",
     "PiecesForm",
+    "PrescribedForm",
     "RKMKForm",
     "Top3Form",
     "TopNForm",
@@ -288,6 +289,17 @@ class RollingBall3Form:
     g_norm: float
     orientation: bool
     center: bool
+
+
+@dataclass(frozen=True, eq=False)
+class PrescribedForm:
+    """A rotation moved by prescribed body rates, ``Ṙ = R Ω(t)`` (:class:`lieint.PrescribedRotation`):
+    the dimension n and ``rates(times) -> (m, n, n)``, Ω at an array of times (with the system's
+    own checks and messages: sampled rates are refused outside their samples). The Magnus
+    methods step it (:mod:`lieint.fast.magnus`)."""
+
+    n: int
+    rates: Any = field(repr=False)
 
 
 @dataclass(frozen=True, eq=False)

@@ -22,6 +22,7 @@ from .forms import (
     HeavyTop3Form,
     MapForm,
     PiecesForm,
+    PrescribedForm,
     RollingBall3Form,
     Top3Form,
     TopNForm,
@@ -33,6 +34,7 @@ __all__ = [
     "Layout",
     "PiecesEnergyLayout",
     "PiecesLayout",
+    "PrescribedLayout",
     "RollingBall3LanesLayout",
     "Top3EnergyLayout",
     "Top3LanesLayout",
@@ -800,3 +802,56 @@ def rolling_ball_increments(w, v, delta, lead: tuple, center: bool):
     W, D = hat(w).reshape(lead + (3, 3)), hat(delta).reshape(lead + (3, 3))
     pose = se_join(W, np.reshape(v, lead + (3,)), algebra=True) if center else W
     return pose, D
+
+
+class PrescribedLayout(Layout):
+    """A rotation moved by prescribed body rates (:class:`lieint.fast.forms.PrescribedForm`),
+    stepped by the Magnus methods (:mod:`lieint.fast.magnus`): a body's state is R row-major (n²),
+    a step's increment u (n²). The rates at the Gauss nodes of a call's steps go into that call's
+    parameters (:meth:`call_params`)."""
+
+    module = "lieint.fast.magnus"
+
+    def __init__(self, form: PrescribedForm):
+        self.n, self.rates = int(form.n), form.rates
+        self.d = self.count = self.n * self.n
+        self.group = f"so({self.n})"
+        self.label = f"prescribed rotation (n = {self.n})"
+        self.params = np.array([float(self.n), 0.0, 0.0])
+
+    def increments_size(self, method) -> int:
+        return self.n * self.n
+
+    def start(self, y: dict, N: int) -> np.ndarray:
+        return np.ascontiguousarray(y["R"], dtype=float).reshape(N, self.d)
+
+    def user(self, Y: np.ndarray, batch: tuple) -> dict:
+        return {"R": Y.reshape(Y.shape[:-2] + batch + (self.n, self.n))}
+
+    def increments(self, U: np.ndarray, batch: tuple):
+        """The steps' increments u, skew ``(…, n, n)`` in the user's so(n)."""
+        return U.reshape(U.shape[:-2] + batch + (self.n, self.n))
+
+    def call_params(self, plan, k_from: int, k_to: int, numbers) -> np.ndarray:
+        """The parameters of a call stepping ``k_from ≤ k < k_to``: n, the nodes per step, k_from,
+        then Ω at the nodes ``t_k + c_i h_k`` of each step (``(steps, nodes, n, n)`` row-major) —
+        refused beyond ``LIEINT_MAX_MEMORY`` (they are held for the call)."""
+        from ..limits import check
+
+        nodes = np.asarray(numbers.nodes, dtype=float)
+        steps = k_to - k_from
+        size = 8.0 * steps * nodes.size * self.d
+        check(
+            "LIEINT_MAX_MEMORY",
+            size,
+            lambda: f"the prescribed rates at the {nodes.size} Gauss nodes of {steps} steps (bytes)",
+            "stream the run (lieint.runs.run), which steps it in segments",
+        )
+        k = np.arange(k_from, k_to, dtype=np.int64)
+        starts = plan.times(k)
+        sizes = np.full(steps, float(plan.h))
+        if steps and k_to == plan.nsteps:
+            sizes[-1] = plan.last_step
+        times = (starts[:, None] + nodes[None, :] * sizes[:, None]).ravel()
+        rates = np.asarray(self.rates(times), dtype=float).reshape(-1)
+        return np.concatenate([[float(self.n), float(nodes.size), float(k_from)], rates])

@@ -13,8 +13,9 @@ the copy's own name. A form supplies:
 * ``step(fx, y, par, meth, h, y1, inc, aux, scr) -> int`` — one step from ``y`` into ``y1``;
   ``inc`` receives the step's increment in the algebra (what dense output interpolates),
   ``aux[0]`` the squared bound ``‖ξ(y)‖_F²`` of the step's first stage (or −1 when the step
-  does not evaluate ξ); returns the evaluations it spent, or :data:`OUT_OF_RANGE` (−1) when a
-  stage left the dexp⁻¹ radius;
+  does not evaluate ξ); on fixed steps ``aux[1]`` holds the step's index k on the global grid
+  (a generator of t alone, the Magnus methods', reads its samples by it); returns the
+  evaluations it spent, or :data:`OUT_OF_RANGE` (−1) when a stage left the dexp⁻¹ radius;
 * ``embedded(fx, y, par, meth, weights, h, yh, scr)`` — an embedded solution from the stages
   the last ``step`` left in ``scr`` (adaptive pairs);
 * ``error_sum(fx, y0, y1, yh, par, rtol, atol, scr) -> float`` — ``Σ r_i²`` of the scaled
@@ -115,7 +116,7 @@ def fixed(ctx, bodies, Y0, par, meth, grid, save_steps, outs):
     # the step always writes its increment (kept_U has the form's increment length, 0 rows
     # when the run keeps no steps)
     inc = np.empty(max(kept_U.shape[2], 1))
-    aux = np.empty(1)
+    aux = np.empty(2)  # the step's bound of ξ, and its index k
     keep = kept_Y.shape[0] > 0
     for body in range(lo, hi):
         _copy(Y0[body], y)
@@ -132,6 +133,7 @@ def fixed(ctx, bodies, Y0, par, meth, grid, save_steps, outs):
             else:
                 hk = h if k < nsteps - 1 else h_last
             aux[0] = -1.0
+            aux[1] = k
             spent = step(fx, y, par, meth, hk, y1, inc, aux, scr)
             if spent < 0:
                 status[body] = k

@@ -96,6 +96,16 @@ class Magnus(Method):
                 "has a state-dependent generator: use an RKMK, commutator-free or Crouch–Grossman method."
             )
 
+    def compiled(self):
+        """The compiled engine's form: a map with stage code for prescribed rotations
+        (:mod:`lieint.fast.magnus`: the rates sampled at the nodes, the steps in machine code); its
+        ``substeps`` are the rule's Gauss nodes. None for a subclass with a step of its own."""
+        if not self.steps_as(Magnus, ("step", "check_system")):
+            return None
+        from ..fast.forms import MapForm
+
+        return MapForm("magnus", {"PrescribedForm": "lieint.fast.magnus"}, tuple(float(c) for c in self.nodes))
+
     def step(self, system, t: float, y: dict, h: float, state=None) -> StepResult:
         group = system.group
         # the right equation ġ = gξ is the left one for g⁻¹ with A = −ξ: Ω = −Ω_left[−ξ]

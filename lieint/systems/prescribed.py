@@ -14,6 +14,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from .._validation import as_float_array, as_rotation_array, check_rotation, describe
+from ..fast.forms import PrescribedForm
 from ..groups.bivectors import hat
 from ..groups.so import SO, project_to_so
 from .base import Invariant, LieGroupSystem, Output, State
@@ -23,6 +24,9 @@ if TYPE_CHECKING:
     from scipy.spatial.transform import Rotation
 
 __all__ = ["PrescribedRotation"]
+
+#: what the compiled declaration stands for (see :meth:`LieGroupSystem.dynamics_as`)
+_DYNAMICS = ("generator", "act", "infinitesimal_action", "project", "body_rate", "body_rates")
 
 
 class PrescribedRotation(LieGroupSystem):
@@ -63,6 +67,7 @@ class PrescribedRotation(LieGroupSystem):
         if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 2:
             raise ValueError(f"`n` must be an integer >= 2; got {n!r}.")
         self.n = int(n)
+        self._spline = None  # sampled rates: their cubic spline
         if callable(rates):
             if times is not None:
                 raise ValueError("`times` applies to sampled `rates` only; got a function and times.")
@@ -108,7 +113,7 @@ class PrescribedRotation(LieGroupSystem):
                 f"{t.size} = len(times); got shape {w.shape}."
             )
         self.times = t
-        spline = CubicSpline(t, w, axis=0)
+        spline = self._spline = CubicSpline(t, w, axis=0)
 
         def omega(s):
             s = float(s)
@@ -125,6 +130,47 @@ class PrescribedRotation(LieGroupSystem):
         X = self._omega(float(np.asarray(t).reshape(-1)[0]))  # ξ depends on one time only
         batch = self.batch_shape(y)
         return np.broadcast_to(X, (*batch, self.n, self.n)).copy() if batch else X
+
+    def body_rates(self, times: ArrayLike) -> np.ndarray:
+        """Ω at each of ``times`` (what :meth:`body_rate` gives at one): sampled rates' spline
+        evaluated at all of them at once, a rates function called at each.
+
+        Parameters
+        ----------
+        times : array_like, shape (m,)
+            Times (inside the samples' range for sampled rates).
+
+        Returns
+        -------
+        ndarray, shape (m, n, n)
+            Ω at each time, skew.
+        """
+        t = np.asarray(times, dtype=float).reshape(-1)
+        if self._spline is None or t.size == 0:
+            return np.array([self._omega(s) for s in t]).reshape(t.size, self.n, self.n)
+        lo, hi = self.times[0], self.times[-1]
+        outside = (t < lo - 1e-12 * max(1.0, abs(lo))) | (t > hi + 1e-12 * max(1.0, abs(hi)))
+        if outside.any():
+            raise ValueError(f"the body rates are sampled on [{lo}, {hi}]; asked for t = {t[np.argmax(outside)]}.")
+        X = self._spline(t)
+        return 0.5 * (X - np.swapaxes(X, -1, -2))
+
+    def compiled(self) -> PrescribedForm | None:
+        """The compiled engine's form (:class:`lieint.fast.forms.PrescribedForm`): n and
+        :meth:`body_rates`, which the Magnus methods' steps read at their nodes; None for a
+        subclass with other dynamics.
+
+        Returns
+        -------
+        PrescribedForm or None
+            The form (one object per system), or None.
+        """
+        if not self.dynamics_as(PrescribedRotation, _DYNAMICS):
+            return None
+        form = self.__dict__.get("_form")
+        if form is None:
+            form = self.__dict__["_form"] = PrescribedForm(self.n, self.body_rates)
+        return form
 
     def body_rate(self, t: float) -> np.ndarray:
         """Ω(t), the prescribed body angular velocity.
