@@ -12,7 +12,7 @@ import pytest
 from bodies import applies, coverage_systems, initial, initial_batch, registered_methods, variants
 
 import lieint
-from lieint.fast.forms import MapForm
+from lieint.fast.forms import MapForm, PrescribedForm
 from lieint.methods.registry import get_method
 
 #: why a run leaves the compiled engine: the only reasons there may be
@@ -24,26 +24,46 @@ DECLARED = (
 )
 
 
-SYSTEMS = coverage_systems()
+def _rates4(t):
+    X = np.array([[0.0, np.sin(t), 0.3, 0.1], [0.0, 0.0, np.cos(t), 0.2], [0.0, 0.0, 0.0, 0.4], [0.0] * 4])
+    return X - X.T
+
+
+#: the prescribed rotations (generators of t alone, the Magnus methods' systems), 3D and 4D
+PRESCRIBED = {
+    "prescribed_rotation n=3": lieint.PrescribedRotation(lambda t: np.array([np.sin(t), 0.5, np.cos(t)])),
+    "prescribed_rotation n=4": lieint.PrescribedRotation(_rates4, n=4),
+}
+SYSTEMS = {**coverage_systems(), **PRESCRIBED}
+
+
+def _initial(system, rng, bodies: int | None = None):
+    """A start of ``system`` (``bodies`` of them in a batch): a random attitude for a prescribed
+    rotation, a random momentum for the bodies (tests/bodies.py)."""
+    if isinstance(system, lieint.PrescribedRotation):
+        Q, _ = np.linalg.qr(rng.normal(size=(*(() if bodies is None else (bodies,)), system.n, system.n)))
+        Q[..., :, 0] *= np.sign(np.linalg.det(Q))[..., None]  # det +1
+        return system.initial_state(R=Q)
+    return initial(system, rng) if bodies is None else initial_batch(system, rng, bodies)
 
 
 def _front_ends(system, y0, t1):
     def flip(t, y):
-        return np.asarray(y["A"])[..., 0, 1] - 0.12345
+        return np.asarray(y["A"] if "A" in y else y["R"])[..., 0, 1] - 0.12345
 
     flip.terminal = False
     yield "plain", y0, {}
     yield "events", y0, {"events": flip}
     yield "dense output", y0, {"dense_output": True}
     yield "t_eval", y0, {"t_eval": np.linspace(0.0, t1, 5)}
-    yield "batch", initial_batch(system, np.random.default_rng(3), 2), {}
+    yield "batch", _initial(system, np.random.default_rng(3), 2), {}
 
 
 @pytest.mark.parametrize("label", sorted(SYSTEMS))
 @pytest.mark.slow
 def test_every_method_and_front_end_runs_compiled_or_says_why(label):
     system = SYSTEMS[label]
-    y0 = initial(system, np.random.default_rng(2))
+    y0 = _initial(system, np.random.default_rng(2))
     h, t1 = 0.01, 0.03
     for name, coordinates in registered_methods():
         method = get_method(name, coordinates=coordinates)
@@ -57,6 +77,8 @@ def test_every_method_and_front_end_runs_compiled_or_says_why(label):
             not isinstance(meth, MapForm)
             or (form is not None and (meth.covers(form) or (pieces is not None and meth.covers(pieces))))
         )
+        if isinstance(form, PrescribedForm):  # a generator of t alone: only the Magnus methods read it by step
+            covered = isinstance(meth, MapForm) and meth.covers(form)
         expected = form is not None and covered and not method.self_controlled
         for front, state, keywords in _front_ends(system, y0, t1):
             kw = dict(keywords)
