@@ -78,6 +78,19 @@ def test_every_embedded_scene_runs():
         assert set(result.outputs) == set(scene.outputs)
 
 
+def test_every_whole_scene_the_guide_shows_runs():
+    # a TOML block of docs/guide.md with a [body] table is a scene a user may copy: it must read and run
+    import re
+    from pathlib import Path
+
+    guide = (Path(__file__).resolve().parents[2] / "docs" / "guide.md").read_text()
+    scenes = [block for block in re.findall(r"```toml\n(.*?)```", guide, re.S) if "[body]" in block]
+    assert len(scenes) >= 2
+    for block in scenes:
+        result = run_scene(parse_scene(block, "docs/guide.md"))
+        assert result.solution.success and set(result.outputs) == set(result.scene.outputs)
+
+
 def test_a_scene_without_orientation_output_steps_a_smaller_state():
     lean, _ = build_system(top_scene('["energy", "casimirs"]'))
     full, _ = build_system(top_scene('["energy", "orientation"]'))
