@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import math
 import sys
+import warnings
 
 from ._arguments import positive_float, positive_int
 
@@ -536,6 +537,11 @@ def _sweep(args) -> int:
         _error("sweep", exc)
         return 4
     except KeyboardInterrupt:
+        # an interrupt in the middle of zarr's asynchronous writes leaves coroutines that were never
+        # awaited, and Python warns of each as it is freed (when this handler returns, or at exit);
+        # the committed chunks are kept and the sweep resumes, so they tell the user nothing: the
+        # one line below is what happened
+        warnings.filterwarnings("ignore", message="coroutine .* was never awaited", category=RuntimeWarning)
         _error("sweep", "interrupted; the committed chunks are kept: continue with --resume")
         return 130
     except (SceneError, SweepError, LimitError) as exc:
